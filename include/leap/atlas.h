@@ -1,0 +1,52 @@
+/* The GPU volume representation, built on the host: a brick atlas (R16 UNORM texels) and
+ * a two-level page table (layout in shaders/shared.h). Memory follows the bricks that hold
+ * data: cells whose interpolation footprint is one constant value (background, inside
+ * tiles) take no atlas space, and page blocks exist only where such cells are mixed. */
+#ifndef LEAP_ATLAS_H
+#define LEAP_ATLAS_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "leap/error.h"
+#include "leap/march.h"
+#include "leap/vdb.h"
+
+typedef struct leap_atlas_desc {
+    const leap_grid *grid;
+    int dense;            /* 1 = every cell next to data gets a slot, even where its footprint
+                             is one constant (a second brick layout for tests); default 0 */
+    uint32_t shuffle_seed; /* != 0: slots placed in a pseudo-random order (tests); default 0 */
+} leap_atlas_desc;
+
+/* Read-only for other modules. */
+typedef struct leap_atlas {
+    int empty;                 /* 1 when the grid has no active voxels */
+    int32_t origin[3];         /* absolute index coordinate of relative (0,0,0), multiple of 8 */
+    uint32_t cells[3];         /* cells per axis */
+    uint32_t top_dims[3];      /* page blocks per axis */
+    uint32_t top_count;        /* top_dims product */
+    uint32_t block_count;      /* allocated page blocks */
+    uint32_t *pages;           /* page table words (see shaders/shared.h) */
+    size_t page_words;
+    uint32_t slot_count;
+    uint32_t slot_dims[3];     /* slots per atlas axis */
+    uint32_t texel_dims[3];    /* atlas texels per axis = slot_dims * LEAP_SLOT */
+    uint16_t *texels;          /* texel_dims product, x fastest */
+    double value_min, value_max; /* texel 0 and 65535 stand for these values */
+    double domain_min[3], domain_max[3]; /* marching box, relative index space */
+    double build_ms;
+} leap_atlas;
+
+/* Builds the atlas of a loaded grid. Errors: LEAP_ERR_OOM, LEAP_ERR_UNSUPPORTED (active
+ * region too large for the page table or the atlas texture limits). */
+leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, leap_error *err);
+void leap_atlas_destroy(leap_atlas *atlas); /* accepts NULL */
+
+/* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
+void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);
+
+/* Bytes the atlas needs on the GPU (texels + page table). */
+uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas);
+
+#endif

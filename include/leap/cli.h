@@ -1,0 +1,8 @@
+/* The `leap` command line. Exit codes: 0 success, 1 runtime failure (message names the
+ * file and the problem), 2 usage error (one-line reason). */
+#ifndef LEAP_CLI_H
+#define LEAP_CLI_H
+
+int leap_cli_main(int argc, char **argv);
+
+#endif

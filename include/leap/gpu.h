@@ -1,0 +1,89 @@
+/* Vulkan context and resource helpers. One context per process; every object made here
+ * is destroyed by its matching destroy call, in reverse order of creation. Headless: no
+ * window system is needed. */
+#ifndef LEAP_GPU_H
+#define LEAP_GPU_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <vulkan/vulkan.h>
+
+#include "leap/error.h"
+
+typedef struct leap_gpu_desc {
+    const char *device_name; /* substring of the device name to pick; NULL = env
+                                LEAP_DEVICE, else the first hardware GPU, else lavapipe */
+    int validation;          /* 1 = enable VK_LAYER_KHRONOS_validation if installed */
+} leap_gpu_desc;
+
+typedef struct leap_gpu {
+    VkInstance instance;
+    VkPhysicalDevice physical;
+    VkPhysicalDeviceProperties props;
+    char driver_name[VK_MAX_DRIVER_NAME_SIZE];
+    char driver_info[VK_MAX_DRIVER_INFO_SIZE];
+    VkDevice device;
+    uint32_t queue_family;
+    VkQueue queue;
+    VkCommandPool command_pool;
+    VkCommandBuffer cmd;
+    VkFence fence;
+    VkQueryPool timestamps;
+    uint32_t timestamp_count;
+    double timestamp_ns; /* nanoseconds per timestamp tick; 0 = no timestamps */
+    VkPhysicalDeviceMemoryProperties memory;
+    uint64_t allocated_bytes; /* live device memory made through this context */
+} leap_gpu;
+
+#define LEAP_GPU_MAX_TIMESTAMPS 32
+
+typedef struct leap_buffer {
+    VkBuffer buffer;
+    VkDeviceMemory memory;
+    VkDeviceSize size;
+    void *mapped; /* host-visible buffers stay mapped */
+} leap_buffer;
+
+typedef struct leap_image {
+    VkImage image;
+    VkDeviceMemory memory;
+    VkImageView view;
+    VkFormat format;
+    uint32_t extent[3];
+} leap_image;
+
+/* Creates the context. Errors: LEAP_ERR_VULKAN naming the failing call and VkResult, or
+ * LEAP_ERR_UNSUPPORTED when no device (or none matching device_name) exists. */
+leap_result leap_gpu_create(const leap_gpu_desc *desc, leap_gpu **out, leap_error *err);
+void leap_gpu_destroy(leap_gpu *gpu); /* accepts NULL */
+
+const char *leap_vk_result_name(VkResult r);
+
+/* Host-visible, coherent, persistently mapped buffer. */
+leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsageFlags usage,
+                                   leap_buffer *out, leap_error *err);
+void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf); /* accepts zeroed */
+
+/* Sampled image (1D or 3D by extent; 1D when extent[1] == 0) filled from `data`
+ * (tightly packed, `bytes` long) through a staging buffer. */
+leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
+                                  const void *data, size_t bytes, leap_image *out, leap_error *err);
+void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img); /* accepts zeroed */
+
+/* Starts recording the context's command buffer / submits it and waits. */
+leap_result leap_gpu_begin(leap_gpu *gpu, leap_error *err);
+leap_result leap_gpu_submit_wait(leap_gpu *gpu, leap_error *err);
+
+/* Reads `count` timestamps written in the last submission, in milliseconds relative to
+ * the first one. Returns LEAP_ERR_UNSUPPORTED if the queue has no timestamps. */
+leap_result leap_gpu_read_timestamps(leap_gpu *gpu, uint32_t count, double *ms, leap_error *err);
+
+/* Compute pipeline from SPIR-V words with one descriptor set layout. */
+leap_result leap_gpu_compute_pipeline(leap_gpu *gpu, const uint32_t *code, size_t code_bytes,
+                                      VkDescriptorSetLayout set_layout, VkPipelineLayout *layout,
+                                      VkPipeline *pipeline, leap_error *err);
+
+/* Total bytes of device memory allocated by this context so far (for stats). */
+uint64_t leap_gpu_allocated_bytes(const leap_gpu *gpu);
+
+#endif

@@ -1,0 +1,35 @@
+/* Independent CPU reference renderer: double precision, exact trilinear interpolation of
+ * the original voxel values (through leap_grid_reader), the same camera, transfer
+ * function and sample lattice as the GPU (leap/march.h). It is the oracle for tests and
+ * for error figures; it shares no code with the GPU path beyond those inputs. */
+#ifndef LEAP_REFERENCE_H
+#define LEAP_REFERENCE_H
+
+#include "leap/camera.h"
+#include "leap/error.h"
+#include "leap/march.h"
+#include "leap/tf.h"
+#include "leap/vdb.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct leap_reference_desc {
+    const leap_grid *grid;
+    const leap_tf *tf;
+    const leap_view *view;   /* rays; its index_origin must equal march->index_origin */
+    const leap_march *march;
+    int threads;             /* 0 = one per online core */
+} leap_reference_desc;
+
+/* Renders view->width * view->height pixels. Caller-owned outputs (any may be NULL):
+ * rgba: 4 floats per pixel, row 0 at the top; depth, samples: 1 float per pixel.
+ * Errors: LEAP_ERR_USAGE (bad desc), LEAP_ERR_OOM. */
+leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, float *depth,
+                                  float *samples, leap_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,88 @@
+/* The render core: one Vulkan context, one uploaded volume and transfer function, and the
+ * passes that turn a view into pixels. Every mode shares the camera, the sample lattice and
+ * the compositing code (shaders/march.glsl); modes differ only in the samples they skip. */
+#ifndef LEAP_RENDERER_H
+#define LEAP_RENDERER_H
+
+#include <stdint.h>
+
+#include "leap/atlas.h"
+#include "leap/camera.h"
+#include "leap/error.h"
+#include "leap/march.h"
+#include "leap/occupancy.h"
+#include "leap/tf.h"
+
+typedef enum leap_mode {
+    LEAP_RENDER_NAIVE = LEAP_MODE_NAIVE,           /* every lattice sample in the domain box */
+    LEAP_RENDER_BBOX = LEAP_MODE_BBOX,             /* only inside the non-empty cells' bounds */
+    LEAP_RENDER_SPARSELEAP = LEAP_MODE_SPARSELEAP, /* only inside per-pixel non-empty segments */
+    LEAP_RENDER_MODE_COUNT
+} leap_mode;
+
+/* Name of a mode ("naive", ...) and the reverse lookup (-1 if unknown). */
+const char *leap_mode_name(leap_mode mode);
+int leap_mode_from_name(const char *name);
+
+typedef struct leap_renderer_desc {
+    const char *device_name; /* NULL = LEAP_DEVICE env, else first hardware GPU, else lavapipe */
+    uint32_t event_pool;     /* events the pool holds per frame; 0 = as many as fit in 128 MiB */
+    uint32_t max_segments;   /* stored segments per pixel, 1..LEAP_MAX_SEGMENTS; 0 = maximum.
+                                A pixel with more falls back to marching its whole ray. */
+} leap_renderer_desc;
+
+typedef struct leap_renderer leap_renderer;
+
+/* Per-frame figures. Times in milliseconds. */
+typedef struct leap_frame_stats {
+    double upload_ms;         /* frame parameters, box order and output buffers */
+    double order_ms;          /* view DFS order of the boxes (CPU) */
+    double render_ms;         /* wall time of the submitted GPU work */
+    double gpu_raster_ms;     /* from timestamp queries: ray events */
+    double gpu_resolve_ms;    /* segment lists */
+    double gpu_composite_ms;  /* marching */
+    double readback_ms;
+    uint64_t total_samples;
+    uint64_t naive_samples;   /* what naive marching takes for the same pixels */
+    double samples_mean;
+    uint32_t samples_max;
+    uint32_t boxes;
+    double events_mean, segments_mean;
+    uint32_t events_max, segments_max;
+    uint32_t overflow_pixels;
+    uint32_t width, height;
+} leap_frame_stats;
+
+leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer **out, leap_error *err);
+void leap_renderer_destroy(leap_renderer *r); /* accepts NULL */
+
+/* Device and driver, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" / "llvmpipe Mesa 22.3.6". */
+const char *leap_renderer_device_name(const leap_renderer *r);
+const char *leap_renderer_driver_name(const leap_renderer *r);
+
+/* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after). */
+leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
+
+/* Uploads the transfer-function table. */
+leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err);
+
+/* Occupancy for the bbox and sparseleap modes. Not owned: both must outlive their use and
+ * be set again after re-classification (the renderer re-reads them every frame). */
+void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes);
+
+/* Bytes of device memory held for the volume (atlas texture + page table). */
+uint64_t leap_renderer_volume_bytes(const leap_renderer *r);
+
+/* Per-pixel list facts of the last sparseleap frame (for dumps): events, segment count and
+ * overflow flag per pixel, as in shaders/shared.h LEAP_PIXEL_*. NULL before any frame. */
+const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r);
+
+/* Renders one frame. march: step and value range (index origin and domain must come from
+ * the uploaded atlas). Outputs are caller-owned, view->width * view->height pixels, any
+ * may be NULL: rgba 4 floats per pixel (premultiplied), depth and samples 1 float each.
+ * Errors: LEAP_ERR_USAGE (no volume / tf, bad sizes), LEAP_ERR_OOM, LEAP_ERR_VULKAN. */
+leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const leap_march *march,
+                                 leap_mode mode, float *rgba, float *depth, float *samples,
+                                 leap_frame_stats *stats, leap_error *err);
+
+#endif

@@ -1,0 +1,56 @@
+/* Transfer functions: a 1D table of colour and opacity over the normalised value
+ * u = (value - lo) / (hi - lo), u clamped to [0, 1].
+ *
+ * The table is what both renderers use: the GPU samples it with linear filtering
+ * (texel centres at (i + 0.5) / N, so u maps to texel coordinate u * (N - 1) + 0.5) and
+ * the CPU reference interpolates it the same way in double (leap_tf_eval).
+ * Opacity is per unit step (one voxel); renderers correct it for the step size:
+ * alpha = 1 - (1 - a)^(dt / LEAP_TF_STEP_REF). */
+#ifndef LEAP_TF_H
+#define LEAP_TF_H
+
+#include "leap/error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define LEAP_TF_TABLE_SIZE 1024
+#define LEAP_TF_STEP_REF 1.0
+
+typedef struct leap_tf {
+    char name[64];
+    float rgba[LEAP_TF_TABLE_SIZE][4]; /* display RGB in [0,1], opacity in [0,1] */
+} leap_tf;
+
+/* Names of the built-in presets, NULL-terminated. At least "grey" (grey ramp, linear
+ * opacity), "viridis" (perceptual colour map with an opacity ramp), "labels" (distinct
+ * colours per integer label, label 0 transparent). */
+const char *const *leap_tf_preset_names(void);
+
+/* Fills *out from a preset. `label_count` (>= 1) is used by "labels" only: the number of
+ * integer values spanned by the range, so that each integer gets its own colour.
+ * Errors: LEAP_ERR_USAGE for an unknown name (message lists the presets). */
+leap_result leap_tf_preset(const char *name, int label_count, leap_tf *out, leap_error *err);
+
+/* Reads a ParaView colour-map preset JSON (an object or an array whose first element is
+ * used): "RGBPoints" [x, r, g, b, ...] required, "Points" [x, opacity, midpoint,
+ * sharpness, ...] optional (default: opacity ramp 0..1 over the RGB x range). The RGB
+ * points' x range maps onto [0, 1]. Errors: LEAP_ERR_IO (unreadable), LEAP_ERR_FORMAT
+ * (syntax, missing keys, wrong lengths, non-monotonic x, values outside [0,1], NaN);
+ * the message names the file and the problem. */
+leap_result leap_tf_load_json(const char *path, leap_tf *out, leap_error *err);
+
+/* `arg` is a preset name or a path ending in .json. */
+leap_result leap_tf_from_arg(const char *arg, int label_count, leap_tf *out, leap_error *err);
+
+/* Table lookup with linear interpolation in double, u clamped to [0, 1]. */
+void leap_tf_eval(const leap_tf *tf, double u, double rgba[4]);
+
+/* Opacity corrected for step dt (in voxels). */
+double leap_tf_alpha_for_step(double alpha_tf, double dt);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,145 @@
+/* OpenVDB input, behind a C API (implemented in src/vdb_shim.cpp; no C++ exception
+ * crosses this boundary).
+ *
+ * Conventions
+ * - Index space: voxel (i,j,k) has its centre at integer coordinates (i,j,k), as in
+ *   OpenVDB. world = index_to_world * (i, j, k, 1).
+ * - Every scalar value type is presented as float: float, half (float grids saved as
+ *   half), double (rounded), int32 (converted).
+ * - Non-finite voxel values have one defined meaning everywhere (reader, bricks,
+ *   min/max, info): NaN reads as the grid's background; +Inf / -Inf read as the
+ *   grid's largest / smallest finite value. They are counted in info.nonfinite_values.
+ */
+#ifndef LEAP_VDB_H
+#define LEAP_VDB_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "leap/error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct leap_vdb_file leap_vdb_file;
+typedef struct leap_grid leap_grid;
+typedef struct leap_grid_reader leap_grid_reader;
+
+/* Levels of active tiles, by the edge length in voxels of one tile (OpenVDB 5-4-3 tree):
+ * [0] internal-node-1 tiles (8^3), [1] internal-node-2 tiles (128^3), [2] root tiles (4096^3). */
+#define LEAP_TILE_LEVELS 3
+
+typedef struct leap_grid_info {
+    char name[128];
+    char value_type[32];         /* OpenVDB type name: "float", "double", "int32", "vec3s", ... */
+    char grid_class[32];         /* "fog volume", "level set", "unknown", ... */
+    int scalar;                  /* 1 if the grid can be rendered (float/half/double/int32) */
+    int saved_as_half;           /* 1 if the file stores the float grid as half */
+    double index_to_world[4][4]; /* row-major affine: world = M * (i,j,k,1) */
+    double voxel_size[3];        /* length of each index axis in world units */
+    double background;
+    /* Filled by leap_vdb_load_grid (zero / empty after leap_vdb_grid_info alone): */
+    int32_t bbox_min[3], bbox_max[3]; /* active index bbox, inclusive; min > max when empty */
+    uint64_t active_voxels;      /* includes voxels covered by active tiles */
+    uint64_t leaf_count;
+    uint64_t active_tiles[LEAP_TILE_LEVELS];
+    double value_min, value_max; /* finite min/max over active voxels and tiles (background if none) */
+    uint64_t nonfinite_values;   /* NaN/Inf found in leaf buffers and tiles */
+    uint64_t memory_bytes;       /* OpenVDB's memUsage() of the loaded tree */
+} leap_grid_info;
+
+/* Opens a .vdb file and reads the grid descriptors (not the voxel data).
+ * Errors: LEAP_ERR_IO (missing, a directory, unreadable), LEAP_ERR_FORMAT (not a VDB
+ * file, truncated, corrupt). *out is NULL on failure. Close with leap_vdb_close. */
+leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err);
+void leap_vdb_close(leap_vdb_file *file); /* accepts NULL */
+
+int leap_vdb_grid_count(const leap_vdb_file *file);
+
+/* Metadata of grid `index` (0-based): name, type, class, transform, background. */
+leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out,
+                               leap_error *err);
+
+/* Index of the grid called `name`, or of the first scalar grid when name is NULL.
+ * Returns -1 when there is none (the caller words the error: it knows the context). */
+int leap_vdb_find_grid(const leap_vdb_file *file, const char *name);
+
+/* Reads grid `index` fully (voxels, tiles) and computes the complete info.
+ * Errors: LEAP_ERR_UNSUPPORTED for a non-scalar grid, LEAP_ERR_FORMAT for corrupt data,
+ * LEAP_ERR_OOM. The grid stays valid after the file is closed. */
+leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err);
+void leap_grid_destroy(leap_grid *grid); /* accepts NULL */
+
+const leap_grid_info *leap_grid_get_info(const leap_grid *grid);
+
+/* A brick: one leaf node (size 8, origin a multiple of 8) or one active tile (size 8,
+ * 128 or 4096). value_min/max cover every value that trilinear interpolation can read
+ * inside the brick: the brick's voxels plus a one-voxel apron on every side (apron voxels
+ * outside any active data hold the background). For a leaf, inactive voxels inside the
+ * leaf count too (they hold values the renderer reads). Non-finite values as above. */
+typedef struct leap_brick {
+    int32_t origin[3]; /* index coordinate of the brick's minimum voxel */
+    int32_t size;      /* edge length in voxels */
+    int32_t is_tile;   /* 0 = leaf node, 1 = active tile */
+    float value_min, value_max;
+    float tile_value;  /* the tile's value (is_tile only) */
+} leap_brick;
+
+/* Number of bricks: leaf nodes plus active tiles at every level. */
+size_t leap_grid_brick_count(const leap_grid *grid);
+
+/* Writes all bricks into out[0 .. leap_grid_brick_count()-1], leaves first, each group
+ * sorted by origin (z, then y, then x). */
+leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err);
+
+/* Per-thread voxel reader (an OpenVDB value accessor): one reader per thread. */
+leap_result leap_grid_reader_create(const leap_grid *grid, leap_grid_reader **out, leap_error *err);
+void leap_grid_reader_destroy(leap_grid_reader *reader); /* accepts NULL */
+
+/* Value of voxel (i,j,k): the stored value (active or not), background where there is
+ * no data, non-finite values mapped as above. */
+float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int32_t k);
+
+/* Reads the box [min, min+dim) into out (x fastest, then y, then z); out holds
+ * dim[0]*dim[1]*dim[2] floats. Same value rules as leap_grid_reader_value. */
+void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3],
+                          float *out);
+
+/* ---- Writing (volume generator and tests) ---------------------------------------- */
+
+typedef enum leap_vdb_type {
+    LEAP_VDB_FLOAT = 0,
+    LEAP_VDB_HALF,   /* float grid saved as half */
+    LEAP_VDB_DOUBLE,
+    LEAP_VDB_INT32,
+    LEAP_VDB_VEC3F   /* not renderable; for tests of grid selection and errors */
+} leap_vdb_type;
+
+typedef struct leap_vdb_writer leap_vdb_writer;
+
+leap_result leap_vdb_writer_create(leap_vdb_writer **out, leap_error *err);
+void leap_vdb_writer_destroy(leap_vdb_writer *writer); /* accepts NULL */
+
+/* Adds an empty grid and returns its handle (>= 0) or -1 on error (err set).
+ * index_to_world: row-major affine (NULL = identity). fog: 1 = GRID_FOG_VOLUME class. */
+int leap_vdb_writer_add_grid(leap_vdb_writer *writer, const char *name, leap_vdb_type type,
+                             double background, const double index_to_world[4][4], int fog,
+                             leap_error *err);
+
+/* Sets one voxel active with `value` (vec3 grids store (value, value, value)). */
+void leap_vdb_writer_set(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k,
+                         double value);
+
+/* Fills the inclusive box [min, max] with `value` (active or inactive); OpenVDB makes
+ * tiles wherever the box covers whole nodes, so this is how tests get tiles. */
+void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3],
+                          const int32_t max[3], double value, int active);
+
+/* Writes all grids to `path`. Errors: LEAP_ERR_IO. */
+leap_result leap_vdb_writer_save(leap_vdb_writer *writer, const char *path, leap_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,18 @@
+// Descriptor set 0, shared by every pass (one layout keeps pipelines few and cheap).
+#ifndef LEAP_BINDINGS_GLSL
+#define LEAP_BINDINGS_GLSL
+
+layout(std140, set = 0, binding = LEAP_BINDING_FRAME) uniform Frame { leap_frame_gpu frame; };
+layout(set = 0, binding = LEAP_BINDING_ATLAS) uniform sampler3D atlas;
+layout(set = 0, binding = LEAP_BINDING_TF) uniform sampler1D tf_table;
+layout(std430, set = 0, binding = LEAP_BINDING_PAGES) readonly buffer Pages { uint pages[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_OUT_RGBA) buffer OutRgba { vec4 out_rgba[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_OUT_AUX) buffer OutAux { vec4 out_aux[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_BOXES) readonly buffer Boxes { leap_box_gpu boxes[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_HEADS) buffer Heads { uint heads[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_EVENTS) buffer Events { leap_event_gpu events[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_COUNTERS) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_SEGMENTS) buffer Segments { vec2 segments[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_PIXELS) buffer Pixels { uvec4 pixel_lists[]; };
+
+#endif

@@ -1,0 +1,144 @@
+// Volume sampling and front-to-back compositing shared by every mode. The including
+// shader declares `frame` (leap_frame_gpu), `atlas`, `tf_table` and `pages[]`.
+#ifndef LEAP_MARCH_GLSL
+#define LEAP_MARCH_GLSL
+
+struct leap_ray {
+    vec3 origin;
+    vec3 dir;      // unit length in index space
+};
+
+struct leap_accum {
+    vec4 color;    // premultiplied
+    float transmittance;
+    float depth_t; // t of the first sample above the depth opacity, or -1
+    uint samples;
+};
+
+leap_ray leap_pixel_ray(vec2 pixel_centre)
+{
+    leap_ray r;
+    r.origin = frame.origin0.xyz + pixel_centre.x * frame.origin_dx.xyz + pixel_centre.y * frame.origin_dy.xyz;
+    r.dir = normalize(frame.dir0.xyz + pixel_centre.x * frame.dir_dx.xyz + pixel_centre.y * frame.dir_dy.xyz);
+    return r;
+}
+
+// Slab test against [lo, hi]. A zero direction component never multiplies an infinity:
+// a ray parallel to a slab is either inside it (no bound) or misses.
+bool leap_clip_box(leap_ray r, vec3 lo, vec3 hi, out float t0, out float t1)
+{
+    t0 = 0.0;
+    t1 = 3.0e38;
+    if (any(greaterThan(lo, hi))) return false; // empty domain (empty grid)
+    for (int a = 0; a < 3; ++a) {
+        float o = r.origin[a], d = r.dir[a];
+        if (d == 0.0) {
+            if (o < lo[a] || o > hi[a]) return false;
+        } else {
+            float inv = 1.0 / d;
+            float ta = (lo[a] - o) * inv, tb = (hi[a] - o) * inv;
+            t0 = max(t0, min(ta, tb));
+            t1 = min(t1, max(ta, tb));
+        }
+    }
+    return t0 <= t1;
+}
+
+// Where the samples of the current cell come from. Consecutive samples mostly stay in one
+// cell, so the page table is read only when a ray enters a new cell.
+struct leap_cell_cursor {
+    ivec3 cell;
+    ivec3 block;
+    uint block_entry;
+    bool constant;
+    float value;     // constant cells
+    vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q
+};
+
+leap_cell_cursor leap_cursor_init()
+{
+    leap_cell_cursor c;
+    c.cell = ivec3(-1);
+    c.block = ivec3(-1);
+    c.block_entry = 0u;
+    c.constant = true;
+    c.value = 0.0;
+    c.texel_base = vec3(0.0);
+    return c;
+}
+
+void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
+{
+    cur.cell = cell;
+    ivec3 block = cell >> LEAP_BLOCK_SHIFT;
+    if (any(notEqual(block, cur.block))) {
+        cur.block = block;
+        cur.block_entry = pages[block.x + frame.top_dims.x * (block.y + frame.top_dims.y * block.z)];
+    }
+    uint entry = cur.block_entry;
+    if ((entry & LEAP_PAGE_CONST) == 0u) {
+        ivec3 c = cell & (LEAP_BLOCK - 1);
+        entry = pages[frame.top_dims.w + entry * uint(LEAP_BLOCK * LEAP_BLOCK * LEAP_BLOCK)
+                      + uint(c.x + LEAP_BLOCK * (c.y + LEAP_BLOCK * c.z))];
+    }
+    cur.constant = (entry & LEAP_PAGE_CONST) != 0u;
+    if (cur.constant) {
+        cur.value = float(entry & 0xffffu) * (1.0 / 65535.0);
+    } else {
+        uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
+        cur.texel_base = vec3(slot * uint(LEAP_SLOT)) - vec3(cell * LEAP_CELL) + 0.5;
+    }
+}
+
+// Normalised voxel value s in [0, 1] at relative index position q (voxel centres at integers).
+float leap_sample(inout leap_cell_cursor cur, vec3 q)
+{
+    // The page grid covers the domain with at least one cell to spare on every side.
+    q = clamp(q, frame.domain_min.xyz - 1.0, frame.domain_max.xyz + 1.0);
+    ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+    if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
+    if (cur.constant) return cur.value;
+    return textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+}
+
+leap_accum leap_accum_init()
+{
+    leap_accum a;
+    a.color = vec4(0.0);
+    a.transmittance = 1.0;
+    a.depth_t = -1.0;
+    a.samples = 0u;
+    return a;
+}
+
+bool leap_accum_done(leap_accum a)
+{
+    return a.transmittance < frame.limits.x;
+}
+
+// Marches the lattice samples t_k = k * step that lie in [ta, tb], skipping indices below
+// k_next (so adjacent intervals never take a sample twice); k_next ends one past the last
+// index visited.
+void leap_march_interval(leap_ray r, float ta, float tb, inout float k_next, inout leap_accum acc)
+{
+    float dt = frame.march.x;
+    float k = max(ceil(max(ta, 0.0) / dt), k_next);
+    const float n = float(textureSize(tf_table, 0));
+    leap_cell_cursor cur = leap_cursor_init();
+    for (float t = k * dt; t <= tb; k += 1.0, t = k * dt) {
+        float s = leap_sample(cur, r.origin + t * r.dir);
+        float u = clamp(s * frame.march.z + frame.march.w, 0.0, 1.0);
+        vec4 c = textureLod(tf_table, (u * (n - 1.0) + 0.5) / n, 0.0);
+        acc.samples++;
+        // Branch-free: lavapipe runs all lanes through every branch any lane takes. A zero
+        // opacity gives alpha == 0 exactly (pow(1, x) == 1), leaving the sums untouched.
+        if (acc.depth_t < 0.0 && c.a > frame.limits.y) acc.depth_t = t;
+        float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
+        acc.color.rgb += acc.transmittance * alpha * c.rgb;
+        acc.transmittance *= 1.0 - alpha;
+        if (leap_accum_done(acc)) { k += 1.0; break; }
+    }
+    k_next = k;
+}
+
+#endif

@@ -1,0 +1,130 @@
+/* Structs and constants shared by the host (C11) and the shaders (GLSL 4.50).
+ * The includer defines LEAP_GLSL before including this file from GLSL. Layouts are std140
+ * (uniform) / std430 (storage) built only from 4-byte scalars, vec4 and uvec4, so both
+ * sides agree without padding rules; byte offsets are given per field and checked by
+ * tests/test_layout.c. */
+#ifndef LEAP_SHARED_H
+#define LEAP_SHARED_H
+
+#ifdef LEAP_GLSL
+#define LEAP_VEC4 vec4
+#define LEAP_UVEC4 uvec4
+#define LEAP_STRUCT(name) struct name
+#define uint32_t uint
+#define LEAP_STRUCT_END(name) ;
+#else
+#include <stdint.h>
+typedef struct leap_vec4 { float x, y, z, w; } leap_vec4;
+typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
+#define LEAP_VEC4 leap_vec4
+#define LEAP_UVEC4 leap_uvec4
+#define LEAP_STRUCT(name) typedef struct name
+#define LEAP_STRUCT_END(name) name;
+#endif
+
+/* Descriptor bindings of the composite pass (set 0). */
+#define LEAP_BINDING_FRAME 0      /* uniform leap_frame_gpu */
+#define LEAP_BINDING_ATLAS 1      /* sampler3D, R16_UNORM brick atlas, linear filtering */
+#define LEAP_BINDING_TF 2         /* sampler1D, RGBA32F transfer function table */
+#define LEAP_BINDING_PAGES 3      /* storage uint[]: page table (see below) */
+#define LEAP_BINDING_OUT_RGBA 4   /* storage vec4[] per pixel: premultiplied RGBA */
+#define LEAP_BINDING_OUT_AUX 5    /* storage vec4[] per pixel: depth, samples, naive samples, 0 */
+#define LEAP_BINDING_BOXES 6      /* storage leap_box_gpu[] in view DFS order */
+#define LEAP_BINDING_HEADS 7      /* storage uint[] per pixel: head of its event list + 1 (0 = empty) */
+#define LEAP_BINDING_EVENTS 8     /* storage leap_event_gpu[]: event pool */
+#define LEAP_BINDING_COUNTERS 9   /* storage uint[4]: x = event pool entries used */
+#define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel max_segments (t0, t1) */
+#define LEAP_BINDING_PIXELS 11    /* storage uvec4[] per pixel: see LEAP_PIXEL_* */
+
+#define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
+
+/* Bricks and pages. The volume is cut into cells of LEAP_CELL^3 voxels aligned with the
+ * grid's leaf nodes. A cell's data is either one constant or an atlas slot of
+ * LEAP_SLOT^3 texels holding the cell's voxels plus the next voxel on each + side, so
+ * trilinear filtering inside a slot never reads a neighbour (seamless bricks).
+ * Page table, one storage buffer of uints:
+ *   [0, top_count)           one entry per block of LEAP_BLOCK^3 cells
+ *   [top_count + b * LEAP_BLOCK^3 ...] the cell entries of block b
+ * An entry with LEAP_PAGE_CONST set holds a constant value in its low 16 bits (the same
+ * 16-bit quantisation as the atlas texels: value / 65535); otherwise it
+ * is a block index (top level) or a slot's atlas position (cell level), packed as
+ * x | y << LEAP_SLOT_BITS | z << 2 * LEAP_SLOT_BITS in slot units, so the shader needs no
+ * integer division (which lavapipe runs lane by lane). */
+#define LEAP_CELL 8
+#define LEAP_CELL_SHIFT 3
+#define LEAP_SLOT 9
+#define LEAP_BLOCK 16
+#define LEAP_BLOCK_SHIFT 4
+#define LEAP_PAGE_CONST 0x80000000u
+#define LEAP_SLOT_BITS 10
+#define LEAP_SLOT_MASK 1023u
+
+/* Render modes (the same renderer, the same samples; modes only skip). */
+#define LEAP_MODE_NAIVE 0      /* every lattice sample in the domain box */
+#define LEAP_MODE_BBOX 1       /* only inside the bounding box of non-empty cells */
+#define LEAP_MODE_SPARSELEAP 2 /* only inside each pixel's non-empty ray segments */
+
+/* Per-pixel list facts (binding LEAP_BINDING_PIXELS), x: segment count | flags;
+ * y: events; z: bit i set = segment i is UNKNOWN; w: 0. */
+#define LEAP_PIXEL_OVERFLOW 0x80000000u /* events or segments did not fit: march the whole ray */
+#define LEAP_PIXEL_COUNT_MASK 0xffffu
+
+/* Capacities of the per-pixel lists. */
+#define LEAP_MAX_EVENTS 64    /* events one pixel can sort in the resolve pass */
+#define LEAP_MAX_SEGMENTS 12  /* marched segments stored per pixel */
+
+/* Occupancy classes. */
+#define LEAP_CLASS_EMPTY 0u
+#define LEAP_CLASS_NONEMPTY 1u
+#define LEAP_CLASS_UNKNOWN 2u
+#define LEAP_CLASS_COUNT 3
+
+/* One class-change box of the occupancy geometry, in index space relative to the page
+ * grid origin (storage buffer / instance data, std430). */
+LEAP_STRUCT(leap_box_gpu) {
+    LEAP_VEC4 lo;   /*  0: xyz minimum corner, w = 0 */
+    LEAP_VEC4 hi;   /* 16: xyz maximum corner, w = 0 */
+    LEAP_UVEC4 info; /* 32: x = entry order, y = exit order, z = class, w = parent class */
+} LEAP_STRUCT_END(leap_box_gpu) /* 48 bytes */
+
+/* Per-frame parameters (uniform, std140). All positions are index space relative to the
+ * page grid's origin; rays as in leap_view: origin = origin0 + px*origin_dx + py*origin_dy,
+ * dir = normalize(dir0 + px*dir_dx + py*dir_dy), (px, py) the pixel centre. */
+LEAP_STRUCT(leap_frame_gpu) {
+    LEAP_VEC4 origin0;        /*   0: xyz */
+    LEAP_VEC4 origin_dx;      /*  16 */
+    LEAP_VEC4 origin_dy;      /*  32 */
+    LEAP_VEC4 dir0;           /*  48 */
+    LEAP_VEC4 dir_dx;         /*  64 */
+    LEAP_VEC4 dir_dy;         /*  80 */
+    LEAP_VEC4 world_row0;     /*  96: rows of the index-to-world linear map (depth in world units) */
+    LEAP_VEC4 world_row1;     /* 112 */
+    LEAP_VEC4 world_row2;     /* 128 */
+    LEAP_VEC4 domain_min;     /* 144: xyz, marching box */
+    LEAP_VEC4 domain_max;     /* 160 */
+    LEAP_VEC4 atlas_inv_size; /* 176: 1 / atlas texels per axis */
+    LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
+    LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity, 0, 0 */
+    LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
+    LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = 0 */
+    LEAP_UVEC4 image;         /* 256: width, height, mode, ortho */
+    LEAP_VEC4 clip_x;         /* 272: rows of the relative-index-space -> clip matrix */
+    LEAP_VEC4 clip_y;         /* 288 */
+    LEAP_VEC4 clip_z;         /* 304 */
+    LEAP_VEC4 clip_w;         /* 320 */
+    LEAP_VEC4 raster;         /* 336: x = pixel size per unit distance (perspective) or per
+                                 pixel (ortho), y = box growth in pixels for raster coverage */
+    LEAP_VEC4 bbox_min;       /* 352: xyz, non-empty bounds (bbox mode) */
+    LEAP_VEC4 bbox_max;       /* 368 */
+    LEAP_UVEC4 lists;         /* 384: x = event pool capacity, y = segments per pixel, z = box count */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 400 bytes */
+
+/* One ray event in the pool; a pixel's events form a linked list. */
+LEAP_STRUCT(leap_event_gpu) {
+    float t;       /* 0: ray parameter (index units) */
+    uint32_t key;  /* 4: order << 2 | class after the event */
+    uint32_t next; /* 8: next event index + 1 in this pixel's list (0 = end) */
+    uint32_t pad;  /* 12 */
+} LEAP_STRUCT_END(leap_event_gpu) /* 16 bytes */
+
+#endif

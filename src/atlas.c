@@ -1,0 +1,388 @@
+/* Host-side build of the brick atlas and its page table (see include/leap/atlas.h). */
+#include "leap/atlas.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "shared.h"
+
+#define BLOCK_CELLS (LEAP_BLOCK * LEAP_BLOCK * LEAP_BLOCK)
+#define SLOT_TEXELS (LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
+#define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT)
+#define MAX_PAGE_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
+
+typedef struct builder {
+    leap_atlas *a;
+    uint32_t **blocks;        /* cell entries per allocated block */
+    uint32_t blocks_cap;
+    uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
+    size_t slots_cap;
+} builder;
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static int32_t floor_div8(int32_t v) { return (int32_t)floor(v / 8.0); }
+
+static int grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return 1;
+    size_t n = *cap ? *cap : 64;
+    while (n < need) n *= 2;
+    void *q = realloc(*p, n * elem);
+    if (!q) return 0;
+    *p = q;
+    *cap = n;
+    return 1;
+}
+
+static uint16_t quantize(const leap_atlas *a, float v)
+{
+    double s = (v - a->value_min) / (a->value_max - a->value_min);
+    s = s < 0 ? 0 : s > 1 ? 1 : s;
+    return (uint16_t)lrint(s * 65535.0);
+}
+
+/* Constant cells carry their quantised value in the entry itself. */
+static uint32_t const_entry(uint16_t q)
+{
+    return LEAP_PAGE_CONST | q;
+}
+
+/* Sets the entry of cell c, splitting a constant page block into cells on first write. */
+static leap_result set_cell(builder *b, const uint32_t c[3], uint32_t entry, leap_error *err)
+{
+    leap_atlas *a = b->a;
+    uint32_t t = (c[0] >> LEAP_BLOCK_SHIFT) +
+                 a->top_dims[0] * ((c[1] >> LEAP_BLOCK_SHIFT) + a->top_dims[1] * (c[2] >> LEAP_BLOCK_SHIFT));
+    if (a->pages[t] & LEAP_PAGE_CONST) {
+        if (a->pages[t] == entry) return LEAP_OK;
+        size_t cap = b->blocks_cap;
+        if (!grow((void **)&b->blocks, &cap, a->block_count + 1, sizeof(uint32_t *)))
+            return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+        b->blocks_cap = (uint32_t)cap;
+        uint32_t *cells = malloc(BLOCK_CELLS * sizeof *cells);
+        if (!cells) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+        for (int i = 0; i < BLOCK_CELLS; ++i) cells[i] = a->pages[t];
+        b->blocks[a->block_count] = cells;
+        a->pages[t] = a->block_count++;
+    }
+    uint32_t m = LEAP_BLOCK - 1;
+    b->blocks[a->pages[t]][(c[0] & m) + LEAP_BLOCK * ((c[1] & m) + LEAP_BLOCK * (c[2] & m))] = entry;
+    return LEAP_OK;
+}
+
+static int cmp_u64(const void *x, const void *y)
+{
+    uint64_t a = *(const uint64_t *)x, b = *(const uint64_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+typedef struct key_list {
+    uint64_t *keys;
+    size_t count, cap;
+} key_list;
+
+/* Adds every cell in [lo, hi] (inclusive, clamped to the cell grid) to the list. */
+static int add_cells(key_list *l, const leap_atlas *a, const int64_t lo[3], const int64_t hi[3])
+{
+    int64_t l0[3], h0[3];
+    for (int i = 0; i < 3; ++i) {
+        l0[i] = lo[i] < 0 ? 0 : lo[i];
+        h0[i] = hi[i] >= a->cells[i] ? (int64_t)a->cells[i] - 1 : hi[i];
+        if (l0[i] > h0[i]) return 1;
+    }
+    for (int64_t z = l0[2]; z <= h0[2]; ++z)
+        for (int64_t y = l0[1]; y <= h0[1]; ++y)
+            for (int64_t x = l0[0]; x <= h0[0]; ++x) {
+                if (!grow((void **)&l->keys, &l->cap, l->count + 1, sizeof(uint64_t))) return 0;
+                l->keys[l->count++] = (uint64_t)x + a->cells[0] * ((uint64_t)y + (uint64_t)a->cells[1] * (uint64_t)z);
+            }
+    return 1;
+}
+
+/* Interior cells of a tile (footprint entirely inside it) get the tile's constant; whole
+ * page blocks inside the interior are set at the top level without allocating cells. */
+static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_error *err)
+{
+    leap_atlas *a = b->a;
+    int64_t lo[3], hi[3];
+    for (int i = 0; i < 3; ++i) {
+        lo[i] = ((int64_t)br->origin[i] - a->origin[i]) / LEAP_CELL;
+        hi[i] = ((int64_t)br->origin[i] + br->size - a->origin[i]) / LEAP_CELL - 2;
+        if (lo[i] < 0) lo[i] = 0;
+        if (hi[i] >= a->cells[i]) hi[i] = a->cells[i] - 1;
+        if (lo[i] > hi[i]) return LEAP_OK;
+    }
+    uint32_t entry = const_entry(quantize(a, br->tile_value));
+    leap_result r;
+    for (int64_t bz = lo[2] / LEAP_BLOCK; bz <= hi[2] / LEAP_BLOCK; ++bz)
+        for (int64_t by = lo[1] / LEAP_BLOCK; by <= hi[1] / LEAP_BLOCK; ++by)
+            for (int64_t bx = lo[0] / LEAP_BLOCK; bx <= hi[0] / LEAP_BLOCK; ++bx) {
+                int64_t bl[3] = {bx * LEAP_BLOCK, by * LEAP_BLOCK, bz * LEAP_BLOCK};
+                int whole = 1;
+                for (int i = 0; i < 3; ++i) whole &= bl[i] >= lo[i] && bl[i] + LEAP_BLOCK - 1 <= hi[i];
+                uint32_t t = (uint32_t)(bx + a->top_dims[0] * (by + a->top_dims[1] * bz));
+                if (whole && (a->pages[t] & LEAP_PAGE_CONST)) {
+                    a->pages[t] = entry;
+                    continue;
+                }
+                for (int64_t z = bl[2]; z < bl[2] + LEAP_BLOCK; ++z)
+                    for (int64_t y = bl[1]; y < bl[1] + LEAP_BLOCK; ++y)
+                        for (int64_t x = bl[0]; x < bl[0] + LEAP_BLOCK; ++x) {
+                            if (x < lo[0] || x > hi[0] || y < lo[1] || y > hi[1] || z < lo[2] || z > hi[2])
+                                continue;
+                            uint32_t c[3] = {(uint32_t)x, (uint32_t)y, (uint32_t)z};
+                            if ((r = set_cell(b, c, entry, err))) return r;
+                        }
+            }
+    return LEAP_OK;
+}
+
+/* Reads the footprint of each candidate cell; uniform footprints become constants, the
+ * rest atlas slots. */
+static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *grid, int dense,
+                                   leap_error *err)
+{
+    leap_atlas *a = b->a;
+    qsort(l->keys, l->count, sizeof(uint64_t), cmp_u64);
+    leap_grid_reader *reader;
+    leap_result r = leap_grid_reader_create(grid, &reader, err);
+    if (r) return r;
+    float vals[SLOT_TEXELS];
+    uint16_t q[SLOT_TEXELS];
+    for (size_t i = 0; i < l->count && !r; ++i) {
+        if (i > 0 && l->keys[i] == l->keys[i - 1]) continue;
+        uint64_t k = l->keys[i];
+        uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
+                         (uint32_t)(k / a->cells[0] / a->cells[1])};
+        int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
+        for (int j = 0; j < 3; ++j) min[j] = a->origin[j] + (int32_t)c[j] * LEAP_CELL;
+        leap_grid_reader_box(reader, min, dim, vals);
+        int uniform = 1;
+        for (int j = 0; j < SLOT_TEXELS; ++j) {
+            q[j] = quantize(a, vals[j]);
+            uniform &= q[j] == q[0];
+        }
+        uint32_t entry;
+        if (uniform && !dense) {
+            entry = const_entry(q[0]);
+        } else {
+            if (!grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t))) {
+                r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
+                break;
+            }
+            memcpy(b->slots + (size_t)a->slot_count * SLOT_TEXELS, q, sizeof q);
+            entry = a->slot_count++;
+        }
+        if (!r) r = set_cell(b, c, entry, err);
+    }
+    leap_grid_reader_destroy(reader);
+    return r;
+}
+
+static uint32_t xorshift(uint32_t *s)
+{
+    *s ^= *s << 13;
+    *s ^= *s >> 17;
+    *s ^= *s << 5;
+    return *s;
+}
+
+/* Places slots into the 3D atlas (optionally shuffled) and flattens the page table. */
+static leap_result finish(builder *b, uint32_t seed, leap_error *err)
+{
+    leap_atlas *a = b->a;
+    uint32_t n = a->slot_count ? a->slot_count : 1;
+    uint32_t *perm = malloc((size_t)n * sizeof *perm);
+    if (!perm) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    for (uint32_t i = 0; i < n; ++i) perm[i] = i;
+    if (seed)
+        for (uint32_t i = n - 1; i > 0; --i) {
+            uint32_t j = xorshift(&seed) % (i + 1), t = perm[i];
+            perm[i] = perm[j];
+            perm[j] = t;
+        }
+    uint32_t sx = (uint32_t)ceil(cbrt((double)n));
+    if (sx > MAX_SLOTS_PER_AXIS) sx = MAX_SLOTS_PER_AXIS;
+    uint32_t sy = (n + sx - 1) / sx;
+    if (sy > MAX_SLOTS_PER_AXIS) sy = MAX_SLOTS_PER_AXIS;
+    uint32_t sz = (n + sx * sy - 1) / (sx * sy);
+    if (sz > MAX_SLOTS_PER_AXIS) {
+        free(perm);
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: %u bricks exceed the 3D texture limit", n);
+    }
+    a->slot_dims[0] = sx, a->slot_dims[1] = sy, a->slot_dims[2] = sz;
+    for (int i = 0; i < 3; ++i) a->texel_dims[i] = a->slot_dims[i] * LEAP_SLOT;
+    size_t texel_count = (size_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2];
+    a->texels = calloc(texel_count, sizeof(uint16_t));
+    if (!a->texels) {
+        free(perm);
+        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %zu texels", texel_count);
+    }
+    for (uint32_t s = 0; s < a->slot_count; ++s) {
+        uint32_t d = perm[s];
+        size_t x0 = (size_t)(d % sx) * LEAP_SLOT, y0 = (size_t)(d / sx % sy) * LEAP_SLOT,
+               z0 = (size_t)(d / (sx * sy)) * LEAP_SLOT;
+        const uint16_t *src = b->slots + (size_t)s * SLOT_TEXELS;
+        for (int z = 0; z < LEAP_SLOT; ++z)
+            for (int y = 0; y < LEAP_SLOT; ++y)
+                memcpy(a->texels + x0 + a->texel_dims[0] * ((y0 + y) + a->texel_dims[1] * (z0 + z)),
+                       src + LEAP_SLOT * (y + LEAP_SLOT * z), LEAP_SLOT * sizeof(uint16_t));
+    }
+
+    a->page_words = (size_t)a->top_count + (size_t)a->block_count * BLOCK_CELLS;
+    if (a->page_words * 4 > MAX_PAGE_BYTES) {
+        free(perm);
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "atlas: page table of %.0f MiB exceeds the 128 MiB storage buffer limit",
+                         a->page_words * 4 / 1048576.0);
+    }
+    uint32_t *pages = realloc(a->pages, a->page_words * sizeof *pages);
+    if (!pages) {
+        free(perm);
+        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    }
+    a->pages = pages;
+    for (uint32_t k = 0; k < a->block_count; ++k) {
+        uint32_t *dst = pages + a->top_count + (size_t)k * BLOCK_CELLS;
+        for (int i = 0; i < BLOCK_CELLS; ++i) {
+            uint32_t e = b->blocks[k][i];
+            if (!(e & LEAP_PAGE_CONST)) {
+                uint32_t d = perm[e];
+                e = d % sx | (d / sx % sy) << LEAP_SLOT_BITS | (d / (sx * sy)) << (2 * LEAP_SLOT_BITS);
+            }
+            dst[i] = e;
+        }
+    }
+    free(perm);
+    return LEAP_OK;
+}
+
+static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *err)
+{
+    leap_atlas *a = b->a;
+    const leap_grid_info *info = leap_grid_get_info(desc->grid);
+    a->value_min = fmin(info->value_min, info->background);
+    a->value_max = fmax(info->value_max, info->background);
+    if (!(a->value_max > a->value_min)) a->value_max = a->value_min + 1.0;
+    a->empty = info->bbox_min[0] > info->bbox_max[0];
+    int32_t bmin[3] = {0, 0, 0}, bmax[3] = {0, 0, 0};
+    if (!a->empty)
+        for (int i = 0; i < 3; ++i) bmin[i] = info->bbox_min[i], bmax[i] = info->bbox_max[i];
+    uint64_t top_count = 1;
+    for (int i = 0; i < 3; ++i) {
+        a->origin[i] = (floor_div8(bmin[i]) - 1) * LEAP_CELL;
+        /* One spare cell on the + side keeps rounding at the domain's far face in range. */
+        int64_t cells = (((int64_t)bmax[i] + 1 - a->origin[i]) >> LEAP_CELL_SHIFT) + 1;
+        a->cells[i] = (uint32_t)cells;
+        a->top_dims[i] = (uint32_t)((cells + LEAP_BLOCK - 1) / LEAP_BLOCK);
+        top_count *= a->top_dims[i];
+        a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - a->origin[i];
+        a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - a->origin[i];
+    }
+    if (top_count * 4 > MAX_PAGE_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "atlas: active bounding box of %d x %d x %d voxels is too large for the page table",
+                         bmax[0] - bmin[0] + 1, bmax[1] - bmin[1] + 1, bmax[2] - bmin[2] + 1);
+    a->top_count = (uint32_t)top_count;
+    a->pages = malloc(top_count * sizeof *a->pages);
+    if (!a->pages) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    uint32_t background = const_entry(quantize(a, (float)info->background));
+    leap_result r = LEAP_OK;
+    for (uint64_t i = 0; i < top_count; ++i) a->pages[i] = background;
+    if (a->empty) return finish(b, desc->shuffle_seed, err);
+
+    size_t nbricks = leap_grid_brick_count(desc->grid);
+    leap_brick *bricks = malloc((nbricks ? nbricks : 1) * sizeof *bricks);
+    if (!bricks) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %zu bricks", nbricks);
+    r = leap_grid_bricks(desc->grid, bricks, err);
+    key_list keys = {0};
+    for (size_t i = 0; i < nbricks && !r; ++i)
+        if (bricks[i].is_tile) r = fill_tile_interior(b, &bricks[i], err);
+    /* Cells whose footprint [8c, 8c+8]^3 meets a brick but is not inside a tile interior. */
+    for (size_t i = 0; i < nbricks && !r; ++i) {
+        int64_t lo[3], hi[3];
+        for (int j = 0; j < 3; ++j) {
+            lo[j] = ((int64_t)bricks[i].origin[j] - a->origin[j]) / LEAP_CELL - 1;
+            hi[j] = ((int64_t)bricks[i].origin[j] + bricks[i].size - a->origin[j]) / LEAP_CELL - 1;
+        }
+        int64_t ilo[3], ihi[3];
+        for (int j = 0; j < 3; ++j) ilo[j] = lo[j] + 1, ihi[j] = hi[j] - 1;
+        int has_interior = ilo[0] <= ihi[0] && ilo[1] <= ihi[1] && ilo[2] <= ihi[2];
+        if (!has_interior) {
+            if (!add_cells(&keys, a, lo, hi)) r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+            continue;
+        }
+        /* Shell of the tile: six slabs, one cell thick (overlaps are removed later). */
+        for (int axis = 0; axis < 3 && !r; ++axis)
+            for (int side = 0; side < 2 && !r; ++side) {
+                int64_t sl[3], sh[3];
+                memcpy(sl, lo, sizeof sl);
+                memcpy(sh, hi, sizeof sh);
+                sl[axis] = sh[axis] = side ? hi[axis] : lo[axis];
+                if (!add_cells(&keys, a, sl, sh)) r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+            }
+    }
+    free(bricks);
+    if (!r) r = fill_candidates(b, &keys, desc->grid, desc->dense, err);
+    free(keys.keys);
+    if (r) return r;
+    return finish(b, desc->shuffle_seed, err);
+}
+
+leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, leap_error *err)
+{
+    *out = NULL;
+    if (!desc || !desc->grid) return leap_fail(err, LEAP_ERR_USAGE, "atlas: no grid given");
+    double t0 = now_ms();
+    builder *b = calloc(1, sizeof *b);
+    leap_atlas *a = calloc(1, sizeof *a);
+    if (!b || !a) {
+        free(b);
+        free(a);
+        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    }
+    b->a = a;
+    leap_result r = build(b, desc, err);
+    for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
+    free(b->blocks);
+    free(b->slots);
+    free(b);
+    if (r) {
+        leap_atlas_destroy(a);
+        return r;
+    }
+    a->build_ms = now_ms() - t0;
+    *out = a;
+    return LEAP_OK;
+}
+
+void leap_atlas_destroy(leap_atlas *atlas)
+{
+    if (!atlas) return;
+    free(atlas->pages);
+    free(atlas->texels);
+    free(atlas);
+}
+
+void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march)
+{
+    for (int i = 0; i < 3; ++i) {
+        march->index_origin[i] = atlas->origin[i];
+        march->domain_min[i] = atlas->domain_min[i];
+        march->domain_max[i] = atlas->domain_max[i];
+    }
+}
+
+uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas)
+{
+    return (uint64_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2] * 2 +
+           atlas->page_words * 4;
+}

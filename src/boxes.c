@@ -1,0 +1,348 @@
+/* Occupancy geometry: the class-change boxes of the occupancy tree and their view order
+ * (see include/leap/occupancy.h).
+ *
+ * Emitted boxes: the root's box (its parent class is EMPTY by convention: the class
+ * outside every box) and every node, stored or implicit, whose class differs from its
+ * parent's. An implicit octant has the background's class and emits nothing below it; a
+ * stored leaf has its range's class and emits nothing below it either.
+ *
+ * Compressed ("virtual") tree. Built once per classification: a vnode for every emitted box
+ * and for every non-emitted node where two or more octants lead to emitted boxes. A
+ * non-emitted node with a single such octant is skipped (its parent's slot points straight
+ * at the deeper vnode); subtrees without emitted boxes are dropped. leap_boxes_order walks
+ * only this tree: at each vnode the children are visited in the order child = i XOR octant,
+ * where octant is taken from the eye relative to the vnode's node centre (perspective,
+ * bit a = eye[a] >= centre[a]) or from the view direction (orthographic, bit a = dir[a] < 0).
+ * A skipped node does not matter for the order: it had one occupied octant only.
+ *
+ * Sibling merging (merge_siblings). Two sibling octants that are both emitted, have no
+ * emitted descendants and share a class are merged when they differ in the x bit only
+ * (octants 2j and 2j+1); two such merged x-pairs of one z half that share a class are merged
+ * again into a quarter (octants 4h..4h+3). Nothing else is merged. Why this keeps the order
+ * valid for every ray of every view: in the sequence i XOR octant, the octants 2j, 2j+1 are
+ * always adjacent (XOR maps pairs onto pairs) and so are 4h..4h+3 (quads onto quads). The
+ * merged box takes the place of that run, so its entry number sits where the first member's
+ * entry was and its exit number where the last member's exit was; no other box's number lies
+ * inside the run, since the members have no descendants. Along a ray the union is convex:
+ * the members' hits form one interval, and a ray that passes from one member into the next
+ * does so through their shared face, inside the union, where no other box of the tree can
+ * touch the ray (every other box is nested around the union or interior-disjoint from it).
+ * So the only events the merge removes are "exit member, enter next member" pairs at one t
+ * with nothing else at that t between them, which never change the class after that t.
+ * The all-eight merge cannot occur: eight children of one class would give their parent that
+ * class, and then none of them is emitted. tests/test_boxes.c checks the segment classes
+ * along random rays with and without merging. */
+#include "leap/occupancy.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+/* Internal interface of occupancy.c (child references: implicit, leaf | range, or node). */
+#define OCC_REF_IMPLICIT 0xFFFFFFFFu
+#define OCC_REF_LEAF 0x80000000u
+uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
+uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
+uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
+                                uint32_t *level, uint32_t child[8], uint64_t count[3]);
+
+#define NONE 0xFFFFFFFFu
+
+typedef struct vnode {
+    int64_t lo[3], hi[3];  /* box in cells */
+    uint32_t child[8];     /* vnode per octant of this node, or NONE */
+    uint32_t level;        /* tree level, 0 = root */
+    uint32_t cls, pcls;
+    uint32_t id;
+    uint8_t emitted;
+    uint8_t merged;        /* 0, 1 = x-pair, 2 = quarter */
+    uint8_t has_children;
+} vnode;
+
+struct leap_boxes {
+    vnode *v;
+    uint32_t count;
+    uint32_t root;
+    uint32_t boxes, boxes_unmerged, max_depth;
+    double build_ms;
+};
+
+typedef struct vbuilder {
+    const leap_occupancy *occ;
+    uint32_t depth;
+    vnode *v;
+    size_t count, cap;
+    int merge;
+    uint32_t unmerged;
+    int oom;
+} vbuilder;
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static uint32_t new_vnode(vbuilder *b)
+{
+    if (b->count >= NONE - 1) {
+        b->oom = 1;
+        return NONE;
+    }
+    if (b->count == b->cap) {
+        size_t n = b->cap ? b->cap * 2 : 256;
+        vnode *q = realloc(b->v, n * sizeof *q);
+        if (!q) {
+            b->oom = 1;
+            return NONE;
+        }
+        b->v = q;
+        b->cap = n;
+    }
+    vnode *v = &b->v[b->count];
+    memset(v, 0, sizeof *v);
+    for (int k = 0; k < 8; ++k) v->child[k] = NONE;
+    return (uint32_t)b->count++;
+}
+
+/* Is slot s a box that may be merged: a direct child (level), emitted, no descendants? */
+static int mergeable(const vbuilder *b, uint32_t s, uint32_t level, int merged)
+{
+    if (s == NONE) return 0;
+    const vnode *v = &b->v[s];
+    return v->emitted && !v->has_children && v->level == level && v->merged == merged;
+}
+
+static uint32_t merge_two(vbuilder *b, uint32_t s0, uint32_t s1, int merged)
+{
+    uint32_t m = new_vnode(b);
+    if (m == NONE) return NONE;
+    vnode *v = &b->v[m];
+    const vnode *a = &b->v[s0], *c = &b->v[s1];
+    for (int i = 0; i < 3; ++i) {
+        v->lo[i] = a->lo[i] < c->lo[i] ? a->lo[i] : c->lo[i];
+        v->hi[i] = a->hi[i] > c->hi[i] ? a->hi[i] : c->hi[i];
+    }
+    v->level = a->level;
+    v->cls = a->cls;
+    v->pcls = a->pcls;
+    v->emitted = 1;
+    v->merged = (uint8_t)merged;
+    return m;
+}
+
+static void merge_slots(vbuilder *b, uint32_t slot[8], uint32_t child_level)
+{
+    for (int j = 0; j < 4; ++j) {
+        uint32_t s0 = slot[2 * j], s1 = slot[2 * j + 1];
+        if (!mergeable(b, s0, child_level, 0) || !mergeable(b, s1, child_level, 0)) continue;
+        if (b->v[s0].cls != b->v[s1].cls) continue;
+        uint32_t m = merge_two(b, s0, s1, 1);
+        if (m == NONE) return;
+        slot[2 * j] = m;
+        slot[2 * j + 1] = NONE;
+    }
+    for (int h = 0; h < 2; ++h) {
+        uint32_t s0 = slot[4 * h], s1 = slot[4 * h + 2];
+        if (!mergeable(b, s0, child_level, 1) || !mergeable(b, s1, child_level, 1)) continue;
+        if (b->v[s0].cls != b->v[s1].cls) continue;
+        uint32_t m = merge_two(b, s0, s1, 2);
+        if (m == NONE) return;
+        slot[4 * h] = m;
+        slot[4 * h + 2] = NONE;
+    }
+}
+
+/* Builds the vnodes of the subtree of `ref` (a node of edge 2^height cells at org). Returns
+ * the vnode that stands for it, or NONE when it emits nothing. */
+static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const int64_t org[3],
+                       uint32_t pcls, int is_root)
+{
+    if (b->oom) return NONE;
+    const uint32_t cls = leap_occ_internal_ref_class(b->occ, ref);
+    const int emitted = is_root || cls != pcls;
+    const uint32_t level = b->depth - height;
+    uint32_t slot[8];
+    for (int k = 0; k < 8; ++k) slot[k] = NONE;
+    int used = 0;
+    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+        uint32_t child[8];
+        leap_occ_internal_node(b->occ, ref, NULL, NULL, child, NULL);
+        for (int k = 0; k < 8; ++k) {
+            int64_t corg[3];
+            for (int a = 0; a < 3; ++a)
+                corg[a] = org[a] + ((int64_t)(k >> a & 1) << (height - 1));
+            slot[k] = vbuild(b, child[k], height - 1, corg, cls, 0);
+            if (b->oom) return NONE;
+        }
+        if (b->merge) merge_slots(b, slot, level + 1);
+        if (b->oom) return NONE;
+        for (int k = 0; k < 8; ++k) used += slot[k] != NONE;
+    }
+    if (!emitted) {
+        if (used == 0) return NONE;
+        if (used == 1)
+            for (int k = 0; k < 8; ++k)
+                if (slot[k] != NONE) return slot[k];
+    } else {
+        ++b->unmerged;
+    }
+    uint32_t vi = new_vnode(b);
+    if (vi == NONE) return NONE;
+    vnode *v = &b->v[vi];
+    for (int a = 0; a < 3; ++a) {
+        v->lo[a] = org[a];
+        v->hi[a] = org[a] + ((int64_t)1 << height);
+    }
+    memcpy(v->child, slot, sizeof slot);
+    v->level = level;
+    v->cls = cls;
+    v->pcls = is_root ? LEAP_CLASS_EMPTY : pcls;
+    v->emitted = (uint8_t)emitted;
+    v->has_children = used > 0;
+    return vi;
+}
+
+/* Copies the vnodes reachable from `vi` into dst in pre-order (slots 0..7), numbering the
+ * emitted ones; returns the new index. */
+static uint32_t compact(const vnode *src, uint32_t vi, vnode *dst, uint32_t *n, uint32_t *ids,
+                        uint32_t *max_level)
+{
+    const uint32_t di = (*n)++;
+    dst[di] = src[vi];
+    if (dst[di].emitted) {
+        dst[di].id = (*ids)++;
+        if (dst[di].level > *max_level) *max_level = dst[di].level;
+    }
+    for (int k = 0; k < 8; ++k)
+        if (src[vi].child[k] != NONE)
+            dst[di].child[k] = compact(src, src[vi].child[k], dst, n, ids, max_level);
+    return di;
+}
+
+leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, leap_boxes **out,
+                              leap_error *err)
+{
+    if (out) *out = NULL;
+    if (!occ || !out) return leap_fail(err, LEAP_ERR_USAGE, "boxes: missing occupancy or output");
+    const double t0 = now_ms();
+    vbuilder b;
+    memset(&b, 0, sizeof b);
+    b.occ = occ;
+    b.merge = merge_siblings != 0;
+    const uint32_t root_ref = leap_occ_internal_root(occ, &b.depth);
+    const int64_t org[3] = {0, 0, 0};
+    const uint32_t root = vbuild(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY, 1);
+    leap_boxes *bx = NULL;
+    if (!b.oom && root != NONE) {
+        bx = calloc(1, sizeof *bx);
+        if (bx) bx->v = malloc(b.count * sizeof *bx->v);
+        if (!bx || !bx->v) b.oom = 1;
+    }
+    if (b.oom || root == NONE) {
+        free(b.v);
+        if (bx) free(bx->v);
+        free(bx);
+        return leap_fail(err, LEAP_ERR_OOM, "boxes: out of memory");
+    }
+    uint32_t n = 0, ids = 0, max_level = 0;
+    bx->root = compact(b.v, root, bx->v, &n, &ids, &max_level);
+    free(b.v);
+    bx->count = n;
+    bx->boxes = ids;
+    bx->boxes_unmerged = b.unmerged;
+    bx->max_depth = max_level;
+    bx->build_ms = now_ms() - t0;
+    *out = bx;
+    return LEAP_OK;
+}
+
+void leap_boxes_destroy(leap_boxes *boxes)
+{
+    if (!boxes) return;
+    free(boxes->v);
+    free(boxes);
+}
+
+uint32_t leap_boxes_count(const leap_boxes *boxes) { return boxes ? boxes->boxes : 0; }
+
+void leap_boxes_get_stats(const leap_boxes *boxes, leap_boxes_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!boxes) return;
+    out->boxes = boxes->boxes;
+    out->boxes_unmerged = boxes->boxes_unmerged;
+    out->max_depth = boxes->max_depth;
+    out->build_ms = boxes->build_ms;
+}
+
+typedef struct order_ctx {
+    const vnode *v;
+    double eye[3];
+    int ortho;
+    uint32_t ortho_oct;
+    leap_box_gpu *out;
+    leap_box_meta *meta;
+    uint32_t counter, pos;
+} order_ctx;
+
+static void visit(order_ctx *c, uint32_t vi)
+{
+    const vnode *v = &c->v[vi];
+    uint32_t my = 0;
+    if (v->emitted) {
+        my = c->pos++;
+        leap_box_gpu *g = &c->out[my];
+        g->lo.x = (float)((double)v->lo[0] * LEAP_CELL);
+        g->lo.y = (float)((double)v->lo[1] * LEAP_CELL);
+        g->lo.z = (float)((double)v->lo[2] * LEAP_CELL);
+        g->lo.w = 0.0f;
+        g->hi.x = (float)((double)v->hi[0] * LEAP_CELL);
+        g->hi.y = (float)((double)v->hi[1] * LEAP_CELL);
+        g->hi.z = (float)((double)v->hi[2] * LEAP_CELL);
+        g->hi.w = 0.0f;
+        g->info.x = c->counter++;
+        g->info.y = 0;
+        g->info.z = v->cls;
+        g->info.w = v->pcls;
+        if (c->meta) {
+            c->meta[my].level = v->level;
+            c->meta[my].id = v->id;
+        }
+    }
+    if (v->has_children) {
+        uint32_t oct = c->ortho_oct;
+        if (!c->ortho) {
+            oct = 0;
+            for (int a = 0; a < 3; ++a) {
+                const double centre = (double)(v->lo[a] + v->hi[a]) * (LEAP_CELL / 2);
+                if (c->eye[a] >= centre) oct |= 1u << a;
+            }
+        }
+        for (uint32_t i = 0; i < 8; ++i) {
+            const uint32_t ch = v->child[i ^ oct];
+            if (ch != NONE) visit(c, ch);
+        }
+    }
+    if (v->emitted) c->out[my].info.y = c->counter++;
+}
+
+double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int ortho,
+                        leap_box_gpu *out, leap_box_meta *meta)
+{
+    const double t0 = now_ms();
+    if (!boxes || !out) return 0.0;
+    order_ctx c;
+    memset(&c, 0, sizeof c);
+    c.v = boxes->v;
+    c.ortho = ortho != 0;
+    c.out = out;
+    c.meta = meta;
+    for (int a = 0; a < 3; ++a) {
+        c.eye[a] = eye_or_dir[a];
+        if (eye_or_dir[a] < 0.0) c.ortho_oct |= 1u << a;
+    }
+    visit(&c, boxes->root);
+    return now_ms() - t0;
+}

@@ -1,0 +1,458 @@
+/* Vulkan context: instance, device, one queue, one command buffer, a timestamp pool.
+ * Prepared in dependency order by leap_gpu_create, released in reverse by leap_gpu_destroy. */
+#include "leap/gpu.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define VK_CHECK(call)                                                                     \
+    do {                                                                                   \
+        VkResult vk_r_ = (call);                                                           \
+        if (vk_r_ != VK_SUCCESS)                                                           \
+            return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: %s failed: %s", #call,           \
+                             leap_vk_result_name(vk_r_));                                  \
+    } while (0)
+
+const char *leap_vk_result_name(VkResult r)
+{
+    switch (r) {
+#define NAME(x) case x: return #x;
+    NAME(VK_SUCCESS) NAME(VK_NOT_READY) NAME(VK_TIMEOUT) NAME(VK_INCOMPLETE)
+    NAME(VK_ERROR_OUT_OF_HOST_MEMORY) NAME(VK_ERROR_OUT_OF_DEVICE_MEMORY)
+    NAME(VK_ERROR_INITIALIZATION_FAILED) NAME(VK_ERROR_DEVICE_LOST)
+    NAME(VK_ERROR_MEMORY_MAP_FAILED) NAME(VK_ERROR_LAYER_NOT_PRESENT)
+    NAME(VK_ERROR_EXTENSION_NOT_PRESENT) NAME(VK_ERROR_FEATURE_NOT_PRESENT)
+    NAME(VK_ERROR_INCOMPATIBLE_DRIVER) NAME(VK_ERROR_TOO_MANY_OBJECTS)
+    NAME(VK_ERROR_FORMAT_NOT_SUPPORTED) NAME(VK_ERROR_FRAGMENTED_POOL)
+    NAME(VK_ERROR_OUT_OF_POOL_MEMORY) NAME(VK_ERROR_SURFACE_LOST_KHR)
+    NAME(VK_ERROR_NATIVE_WINDOW_IN_USE_KHR) NAME(VK_SUBOPTIMAL_KHR)
+    NAME(VK_ERROR_OUT_OF_DATE_KHR)
+#undef NAME
+    default: return "VK_ERROR_UNKNOWN";
+    }
+}
+
+static int device_rank(const VkPhysicalDeviceProperties *p)
+{
+    switch (p->deviceType) {
+    case VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU: return 4;
+    case VK_PHYSICAL_DEVICE_TYPE_INTEGRATED_GPU: return 3;
+    case VK_PHYSICAL_DEVICE_TYPE_VIRTUAL_GPU: return 2;
+    case VK_PHYSICAL_DEVICE_TYPE_CPU: return 1;
+    default: return 0;
+    }
+}
+
+static leap_result pick_device(leap_gpu *gpu, const char *want, leap_error *err)
+{
+    uint32_t count = 0;
+    VK_CHECK(vkEnumeratePhysicalDevices(gpu->instance, &count, NULL));
+    if (count == 0)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "Vulkan: no device found (install mesa-vulkan-drivers for lavapipe)");
+    VkPhysicalDevice devices[16];
+    if (count > 16) count = 16;
+    VK_CHECK(vkEnumeratePhysicalDevices(gpu->instance, &count, devices));
+    int best = -1, best_rank = -1;
+    for (uint32_t i = 0; i < count; ++i) {
+        VkPhysicalDeviceProperties p;
+        vkGetPhysicalDeviceProperties(devices[i], &p);
+        if (p.apiVersion < VK_API_VERSION_1_2) continue;
+        if (want && *want) {
+            if (strstr(p.deviceName, want)) { best = (int)i; break; }
+            continue;
+        }
+        if (device_rank(&p) > best_rank) { best = (int)i; best_rank = device_rank(&p); }
+    }
+    if (best < 0)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "Vulkan: no Vulkan 1.2 device%s%s%s found",
+                         want ? " matching '" : "", want ? want : "", want ? "'" : "");
+    gpu->physical = devices[best];
+    vkGetPhysicalDeviceProperties(gpu->physical, &gpu->props);
+    vkGetPhysicalDeviceMemoryProperties(gpu->physical, &gpu->memory);
+    VkPhysicalDeviceDriverProperties driver = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
+    VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
+                                          .pNext = &driver};
+    vkGetPhysicalDeviceProperties2(gpu->physical, &props2);
+    snprintf(gpu->driver_name, sizeof gpu->driver_name, "%s", driver.driverName);
+    snprintf(gpu->driver_info, sizeof gpu->driver_info, "%s", driver.driverInfo);
+    return LEAP_OK;
+}
+
+static int has_layer(const char *name)
+{
+    uint32_t n = 0;
+    if (vkEnumerateInstanceLayerProperties(&n, NULL) != VK_SUCCESS || n == 0) return 0;
+    VkLayerProperties *layers = calloc(n, sizeof *layers);
+    if (!layers) return 0;
+    int found = 0;
+    if (vkEnumerateInstanceLayerProperties(&n, layers) == VK_SUCCESS)
+        for (uint32_t i = 0; i < n; ++i) found |= strcmp(layers[i].layerName, name) == 0;
+    free(layers);
+    return found;
+}
+
+static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap_error *err)
+{
+    const char *validation = "VK_LAYER_KHRONOS_validation";
+    int use_validation = desc && desc->validation && has_layer(validation);
+    VkApplicationInfo app = {
+        .sType = VK_STRUCTURE_TYPE_APPLICATION_INFO,
+        .pApplicationName = "leap",
+        .apiVersion = VK_API_VERSION_1_2,
+    };
+    VkInstanceCreateInfo ici = {
+        .sType = VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO,
+        .pApplicationInfo = &app,
+        .enabledLayerCount = use_validation ? 1 : 0,
+        .ppEnabledLayerNames = &validation,
+    };
+    VkResult r = vkCreateInstance(&ici, NULL, &gpu->instance);
+    if (r != VK_SUCCESS)
+        return leap_fail(err, r == VK_ERROR_INCOMPATIBLE_DRIVER ? LEAP_ERR_UNSUPPORTED : LEAP_ERR_VULKAN,
+                         "Vulkan: cannot create an instance (%s); is a Vulkan driver installed "
+                         "(mesa-vulkan-drivers provides lavapipe)?", leap_vk_result_name(r));
+    const char *want = desc && desc->device_name ? desc->device_name : getenv("LEAP_DEVICE");
+    leap_result lr = pick_device(gpu, want, err);
+    if (lr) return lr;
+
+    uint32_t nfam = 0;
+    vkGetPhysicalDeviceQueueFamilyProperties(gpu->physical, &nfam, NULL);
+    VkQueueFamilyProperties fams[16];
+    if (nfam > 16) nfam = 16;
+    vkGetPhysicalDeviceQueueFamilyProperties(gpu->physical, &nfam, fams);
+    gpu->queue_family = UINT32_MAX;
+    for (uint32_t i = 0; i < nfam; ++i)
+        if ((fams[i].queueFlags & (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) ==
+            (VK_QUEUE_GRAPHICS_BIT | VK_QUEUE_COMPUTE_BIT)) {
+            gpu->queue_family = i;
+            break;
+        }
+    if (gpu->queue_family == UINT32_MAX)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "Vulkan: %s has no graphics+compute queue",
+                         gpu->props.deviceName);
+    if (fams[gpu->queue_family].timestampValidBits > 0)
+        gpu->timestamp_ns = gpu->props.limits.timestampPeriod;
+
+    float priority = 1.0f;
+    VkDeviceQueueCreateInfo qci = {
+        .sType = VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO,
+        .queueFamilyIndex = gpu->queue_family,
+        .queueCount = 1,
+        .pQueuePriorities = &priority,
+    };
+    VkPhysicalDeviceFeatures supported;
+    vkGetPhysicalDeviceFeatures(gpu->physical, &supported);
+    VkPhysicalDeviceFeatures features = {
+        .fragmentStoresAndAtomics = supported.fragmentStoresAndAtomics,
+        .depthClamp = supported.depthClamp,
+        .fillModeNonSolid = supported.fillModeNonSolid,
+    };
+    VkDeviceCreateInfo dci = {
+        .sType = VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO,
+        .queueCreateInfoCount = 1,
+        .pQueueCreateInfos = &qci,
+        .pEnabledFeatures = &features,
+    };
+    VK_CHECK(vkCreateDevice(gpu->physical, &dci, NULL, &gpu->device));
+    vkGetDeviceQueue(gpu->device, gpu->queue_family, 0, &gpu->queue);
+
+    VkCommandPoolCreateInfo pci = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO,
+        .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
+        .queueFamilyIndex = gpu->queue_family,
+    };
+    VK_CHECK(vkCreateCommandPool(gpu->device, &pci, NULL, &gpu->command_pool));
+    VkCommandBufferAllocateInfo cai = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
+        .commandPool = gpu->command_pool,
+        .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
+        .commandBufferCount = 1,
+    };
+    VK_CHECK(vkAllocateCommandBuffers(gpu->device, &cai, &gpu->cmd));
+    VkFenceCreateInfo fci = {.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    VK_CHECK(vkCreateFence(gpu->device, &fci, NULL, &gpu->fence));
+    if (gpu->timestamp_ns > 0) {
+        VkQueryPoolCreateInfo qpci = {
+            .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
+            .queryType = VK_QUERY_TYPE_TIMESTAMP,
+            .queryCount = LEAP_GPU_MAX_TIMESTAMPS,
+        };
+        VK_CHECK(vkCreateQueryPool(gpu->device, &qpci, NULL, &gpu->timestamps));
+        gpu->timestamp_count = LEAP_GPU_MAX_TIMESTAMPS;
+    }
+    return LEAP_OK;
+}
+
+leap_result leap_gpu_create(const leap_gpu_desc *desc, leap_gpu **out, leap_error *err)
+{
+    *out = NULL;
+    leap_gpu *gpu = calloc(1, sizeof *gpu);
+    if (!gpu) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
+    leap_result r = create_context(gpu, desc, err);
+    if (r) {
+        leap_gpu_destroy(gpu);
+        return r;
+    }
+    *out = gpu;
+    return LEAP_OK;
+}
+
+void leap_gpu_destroy(leap_gpu *gpu)
+{
+    if (!gpu) return;
+    if (gpu->device) {
+        vkDeviceWaitIdle(gpu->device);
+        if (gpu->timestamps) vkDestroyQueryPool(gpu->device, gpu->timestamps, NULL);
+        if (gpu->fence) vkDestroyFence(gpu->device, gpu->fence, NULL);
+        if (gpu->command_pool) vkDestroyCommandPool(gpu->device, gpu->command_pool, NULL);
+        vkDestroyDevice(gpu->device, NULL);
+    }
+    if (gpu->instance) vkDestroyInstance(gpu->instance, NULL);
+    free(gpu);
+}
+
+static leap_result allocate(leap_gpu *gpu, VkMemoryRequirements req, VkMemoryPropertyFlags want,
+                            VkDeviceMemory *mem, leap_error *err)
+{
+    uint32_t type = UINT32_MAX;
+    for (uint32_t i = 0; i < gpu->memory.memoryTypeCount; ++i)
+        if ((req.memoryTypeBits & (1u << i)) &&
+            (gpu->memory.memoryTypes[i].propertyFlags & want) == want) {
+            type = i;
+            break;
+        }
+    if (type == UINT32_MAX)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "Vulkan: no suitable memory type");
+    VkMemoryAllocateInfo mai = {
+        .sType = VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO,
+        .allocationSize = req.size,
+        .memoryTypeIndex = type,
+    };
+    VkResult r = vkAllocateMemory(gpu->device, &mai, NULL, mem);
+    if (r != VK_SUCCESS)
+        return leap_fail(err, r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY
+                                  ? LEAP_ERR_OOM : LEAP_ERR_VULKAN,
+                         "Vulkan: cannot allocate %.1f MiB of device memory: %s",
+                         req.size / 1048576.0, leap_vk_result_name(r));
+    gpu->allocated_bytes += req.size;
+    return LEAP_OK;
+}
+
+leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsageFlags usage,
+                                   leap_buffer *out, leap_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (size == 0) size = 16;
+    VkBufferCreateInfo bci = {
+        .sType = VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO,
+        .size = size,
+        .usage = usage,
+        .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+    };
+    VK_CHECK(vkCreateBuffer(gpu->device, &bci, NULL, &out->buffer));
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(gpu->device, out->buffer, &req);
+    leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                             &out->memory, err);
+    if (r) {
+        leap_gpu_buffer_destroy(gpu, out);
+        return r;
+    }
+    out->size = size;
+    VK_CHECK(vkBindBufferMemory(gpu->device, out->buffer, out->memory, 0));
+    VK_CHECK(vkMapMemory(gpu->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
+    return LEAP_OK;
+}
+
+void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf)
+{
+    if (!gpu || !buf) return;
+    if (buf->buffer) vkDestroyBuffer(gpu->device, buf->buffer, NULL);
+    if (buf->memory) {
+        VkMemoryRequirements dummy = {0};
+        (void)dummy;
+        vkFreeMemory(gpu->device, buf->memory, NULL);
+    }
+    memset(buf, 0, sizeof *buf);
+}
+
+leap_result leap_gpu_begin(leap_gpu *gpu, leap_error *err)
+{
+    VK_CHECK(vkResetCommandBuffer(gpu->cmd, 0));
+    VkCommandBufferBeginInfo bi = {
+        .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
+        .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
+    };
+    VK_CHECK(vkBeginCommandBuffer(gpu->cmd, &bi));
+    return LEAP_OK;
+}
+
+leap_result leap_gpu_submit_wait(leap_gpu *gpu, leap_error *err)
+{
+    VK_CHECK(vkEndCommandBuffer(gpu->cmd));
+    VkSubmitInfo si = {
+        .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
+        .commandBufferCount = 1,
+        .pCommandBuffers = &gpu->cmd,
+    };
+    VK_CHECK(vkResetFences(gpu->device, 1, &gpu->fence));
+    VK_CHECK(vkQueueSubmit(gpu->queue, 1, &si, gpu->fence));
+    VK_CHECK(vkWaitForFences(gpu->device, 1, &gpu->fence, VK_TRUE, UINT64_MAX));
+    return LEAP_OK;
+}
+
+leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
+                                  const void *data, size_t bytes, leap_image *out, leap_error *err)
+{
+    memset(out, 0, sizeof *out);
+    int is_1d = extent[1] == 0;
+    VkExtent3D ext = {extent[0], is_1d ? 1 : extent[1], is_1d ? 1 : extent[2]};
+    VkFormatProperties fp;
+    vkGetPhysicalDeviceFormatProperties(gpu->physical, format, &fp);
+    if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "Vulkan: %s cannot filter format %d linearly", gpu->props.deviceName, format);
+    VkImageCreateInfo ici = {
+        .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
+        .imageType = is_1d ? VK_IMAGE_TYPE_1D : VK_IMAGE_TYPE_3D,
+        .format = format,
+        .extent = ext,
+        .mipLevels = 1,
+        .arrayLayers = 1,
+        .samples = VK_SAMPLE_COUNT_1_BIT,
+        .tiling = VK_IMAGE_TILING_OPTIMAL,
+        .usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+        .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
+        .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+    };
+    VkImageFormatProperties ifp;
+    VkResult fr = vkGetPhysicalDeviceImageFormatProperties(gpu->physical, format, ici.imageType,
+                                                           ici.tiling, ici.usage, 0, &ifp);
+    if (fr != VK_SUCCESS || ext.width > ifp.maxExtent.width || ext.height > ifp.maxExtent.height ||
+        ext.depth > ifp.maxExtent.depth)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "Vulkan: a %ux%ux%u image exceeds what %s supports", ext.width, ext.height,
+                         ext.depth, gpu->props.deviceName);
+    VK_CHECK(vkCreateImage(gpu->device, &ici, NULL, &out->image));
+    VkMemoryRequirements req;
+    vkGetImageMemoryRequirements(gpu->device, out->image, &req);
+    leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &out->memory, err);
+    if (r) return r;
+    VK_CHECK(vkBindImageMemory(gpu->device, out->image, out->memory, 0));
+    out->format = format;
+    out->extent[0] = ext.width;
+    out->extent[1] = ext.height;
+    out->extent[2] = ext.depth;
+    VkImageViewCreateInfo vci = {
+        .sType = VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO,
+        .image = out->image,
+        .viewType = is_1d ? VK_IMAGE_VIEW_TYPE_1D : VK_IMAGE_VIEW_TYPE_3D,
+        .format = format,
+        .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
+    };
+    VK_CHECK(vkCreateImageView(gpu->device, &vci, NULL, &out->view));
+
+    leap_buffer staging;
+    r = leap_gpu_buffer_create(gpu, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err);
+    if (r) return r;
+    memcpy(staging.mapped, data, bytes);
+    r = leap_gpu_begin(gpu, err);
+    if (!r) {
+        VkImageMemoryBarrier to_dst = {
+            .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
+            .srcAccessMask = 0,
+            .dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
+            .oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+            .newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+            .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+            .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+            .image = out->image,
+            .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
+        };
+        vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             0, 0, NULL, 0, NULL, 1, &to_dst);
+        VkBufferImageCopy copy = {
+            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+            .imageExtent = ext,
+        };
+        vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, out->image,
+                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+        VkImageMemoryBarrier to_read = to_dst;
+        to_read.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        to_read.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+        to_read.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        to_read.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+        vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                             VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
+                             0, 0, NULL, 0, NULL, 1, &to_read);
+        r = leap_gpu_submit_wait(gpu, err);
+    }
+    leap_gpu_buffer_destroy(gpu, &staging);
+    gpu->allocated_bytes -= 0;
+    return r;
+}
+
+void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img)
+{
+    if (!gpu || !img) return;
+    if (img->view) vkDestroyImageView(gpu->device, img->view, NULL);
+    if (img->image) vkDestroyImage(gpu->device, img->image, NULL);
+    if (img->memory) vkFreeMemory(gpu->device, img->memory, NULL);
+    memset(img, 0, sizeof *img);
+}
+
+leap_result leap_gpu_read_timestamps(leap_gpu *gpu, uint32_t count, double *ms, leap_error *err)
+{
+    if (!gpu->timestamps || count == 0 || count > gpu->timestamp_count)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "Vulkan: timestamps unavailable");
+    uint64_t ticks[LEAP_GPU_MAX_TIMESTAMPS];
+    VK_CHECK(vkGetQueryPoolResults(gpu->device, gpu->timestamps, 0, count, sizeof ticks, ticks,
+                                   sizeof ticks[0], VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
+    for (uint32_t i = 0; i < count; ++i)
+        ms[i] = (double)(ticks[i] - ticks[0]) * gpu->timestamp_ns * 1e-6;
+    return LEAP_OK;
+}
+
+leap_result leap_gpu_compute_pipeline(leap_gpu *gpu, const uint32_t *code, size_t code_bytes,
+                                      VkDescriptorSetLayout set_layout, VkPipelineLayout *layout,
+                                      VkPipeline *pipeline, leap_error *err)
+{
+    VkShaderModuleCreateInfo smci = {
+        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+        .codeSize = code_bytes,
+        .pCode = code,
+    };
+    VkShaderModule module;
+    VK_CHECK(vkCreateShaderModule(gpu->device, &smci, NULL, &module));
+    VkPipelineLayoutCreateInfo plci = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+        .setLayoutCount = 1,
+        .pSetLayouts = &set_layout,
+    };
+    VkResult r = vkCreatePipelineLayout(gpu->device, &plci, NULL, layout);
+    if (r == VK_SUCCESS) {
+        VkComputePipelineCreateInfo cpci = {
+            .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+            .stage = {
+                .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                .stage = VK_SHADER_STAGE_COMPUTE_BIT,
+                .module = module,
+                .pName = "main",
+            },
+            .layout = *layout,
+        };
+        r = vkCreateComputePipelines(gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, pipeline);
+    }
+    vkDestroyShaderModule(gpu->device, module, NULL);
+    if (r != VK_SUCCESS)
+        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create compute pipeline: %s",
+                         leap_vk_result_name(r));
+    return LEAP_OK;
+}
+
+uint64_t leap_gpu_allocated_bytes(const leap_gpu *gpu)
+{
+    return gpu ? gpu->allocated_bytes : 0;
+}

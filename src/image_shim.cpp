@@ -1,0 +1,135 @@
+// OpenImageIO behind the C API of include/leap/image.h. No exception crosses the boundary.
+#include "leap/image.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <unistd.h>
+#include <vector>
+
+OIIO_NAMESPACE_USING
+
+namespace {
+
+std::string extension_of(const std::string &path)
+{
+    size_t slash = path.find_last_of('/');
+    size_t dot = path.find_last_of('.');
+    if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
+    return path.substr(dot);
+}
+
+// Temporary name in the same directory that keeps the extension, so OpenImageIO still
+// picks the right format, and rename() stays on one file system.
+std::string temp_path_for(const std::string &path)
+{
+    size_t slash = path.find_last_of('/');
+    std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
+    std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
+    return dir + ".leap-tmp-" + std::to_string(getpid()) + "-" + base;
+}
+
+} // namespace
+
+extern "C" int leap_image_can_write(const char *path)
+{
+    std::string ext = extension_of(path ? path : "");
+    if (ext.empty()) return 0;
+    try {
+        auto out = ImageOutput::create(ext.substr(1));
+        return out ? 1 : 0;
+    } catch (...) {
+        return 0;
+    }
+}
+
+extern "C" leap_result leap_image_write(const char *path, int width, int height, int channels,
+                                        const char *const *names, const float *pixels,
+                                        leap_error *err)
+{
+    if (!path || !pixels || width <= 0 || height <= 0 || channels <= 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "image: invalid arguments for '%s'", path ? path : "(null)");
+    try {
+        std::string target(path);
+        std::string ext = extension_of(target);
+        std::unique_ptr<ImageOutput> out = ext.empty() ? nullptr : ImageOutput::create(ext.substr(1));
+        if (!out)
+            return leap_fail(err, LEAP_ERR_USAGE,
+                             "%s: unknown image file extension '%s' (use .png, .exr or .tif)", path,
+                             ext.c_str());
+        TypeDesc format = TypeDesc::UINT8;
+        if (ext == ".exr" || ext == ".hdr") format = TypeDesc::FLOAT;
+        else if (ext == ".tif" || ext == ".tiff") format = TypeDesc::UINT16;
+        ImageSpec spec(width, height, channels, format);
+        spec.channelnames.clear();
+        for (int c = 0; c < channels; ++c) {
+            if (names && names[c]) spec.channelnames.emplace_back(names[c]);
+            else spec.channelnames.emplace_back(std::string(1, "RGBA"[c < 4 ? c : 3]) + (c < 4 ? "" : std::to_string(c)));
+        }
+        spec.alpha_channel = -1;
+        for (int c = 0; c < channels; ++c)
+            if (spec.channelnames[c] == "A") spec.alpha_channel = c;
+        if (spec.alpha_channel >= 0 && format != TypeDesc::FLOAT)
+            spec.attribute("oiio:UnassociatedAlpha", 1); // we pass straight colour for 8/16-bit files
+        std::string tmp = temp_path_for(target);
+        if (!out->open(tmp, spec)) {
+            std::string why = out->geterror();
+            std::remove(tmp.c_str());
+            return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, why.c_str());
+        }
+        bool ok = out->write_image(TypeDesc::FLOAT, pixels);
+        ok = out->close() && ok;
+        if (!ok) {
+            std::string why = out->geterror();
+            std::remove(tmp.c_str());
+            return leap_fail(err, LEAP_ERR_IO, "%s: write failed: %s", path, why.c_str());
+        }
+        if (std::rename(tmp.c_str(), path) != 0) {
+            std::remove(tmp.c_str());
+            return leap_fail(err, LEAP_ERR_IO, "%s: cannot rename the finished file into place: %s",
+                             path, std::strerror(errno));
+        }
+        return LEAP_OK;
+    } catch (const std::exception &e) {
+        return leap_fail(err, LEAP_ERR_IO, "%s: %s", path, e.what());
+    } catch (...) {
+        return leap_fail(err, LEAP_ERR_IO, "%s: unknown image library error", path);
+    }
+}
+
+extern "C" leap_result leap_image_read(const char *path, int *width, int *height, int *channels,
+                                       float **pixels, leap_error *err)
+{
+    if (!path || !width || !height || !channels || !pixels)
+        return leap_fail(err, LEAP_ERR_USAGE, "image: invalid arguments");
+    *pixels = nullptr;
+    try {
+        auto in = ImageInput::open(path);
+        if (!in)
+            return leap_fail(err, LEAP_ERR_IO, "%s: cannot read image: %s", path, OIIO::geterror().c_str());
+        const ImageSpec &spec = in->spec();
+        size_t count = (size_t)spec.width * spec.height * spec.nchannels;
+        if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || count > (size_t)1 << 31)
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: unsupported image size", path);
+        float *data = static_cast<float *>(std::malloc(count * sizeof(float)));
+        if (!data) return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+        if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, data)) {
+            std::free(data);
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s", path, in->geterror().c_str());
+        }
+        *width = spec.width;
+        *height = spec.height;
+        *channels = spec.nchannels;
+        *pixels = data;
+        return LEAP_OK;
+    } catch (const std::exception &e) {
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s", path, e.what());
+    } catch (...) {
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: unknown image library error", path);
+    }
+}

@@ -1,0 +1,712 @@
+/* Occupancy histogram tree over 8^3-voxel cells (see include/leap/occupancy.h).
+ *
+ * Build (from brick min/max only, never from voxels):
+ *   1. Range items. Every brick contributes [value_min, value_max] to each cell whose closed
+ *      footprint [8c, 8c+8]^3 meets the brick's voxels. The cells whose footprint lies inside
+ *      a tile ("tile interior") are not enumerated: they form one box item holding the tile
+ *      value alone. Items are clipped to the cell grid [0, cells).
+ *   2. Top-down octree over the items. Each node partitions its cell items by octant
+ *      (an MSD radix pass on the Morton bits of that level), so the item array ends up in
+ *      Morton order and duplicates of one cell meet at level 0, where their ranges are
+ *      united. A node holding no item is implicit (background). A node with no cell item
+ *      that is covered by every box item touching it is one leaf (the box ranges). A node
+ *      whose eight children are leaves or implicit with one identical range collapses into
+ *      a single leaf (or becomes implicit when that range is the background's).
+ *
+ * Representation. A child reference (uint32) is either OCC_REF_IMPLICIT (background), or
+ * OCC_REF_LEAF | range index (a uniform leaf of the child's size), or the index of a stored
+ * internal node. Internal nodes are stored in pre-order, so every child index is larger
+ * than its parent's and counts can be rebuilt by one reverse sweep.
+ *
+ * Counts are uint64 and saturate at UINT64_MAX. A root edge of 2^21 cells (16.7M voxels per
+ * axis) holds 2^63 cells and still counts exactly; only larger roots can saturate, and then
+ * only the majority choice between saturated classes (a box-count heuristic, never a
+ * correctness matter) is affected.
+ *
+ * A small internal interface (leap_occ_internal_*) exposes the tree to boxes.c and to the
+ * tests; it is not part of the public header. */
+#include "leap/occupancy.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define OCC_REF_IMPLICIT 0xFFFFFFFFu
+#define OCC_REF_LEAF 0x80000000u
+#define OCC_MAX_REFS 0x7FFFFFF0u
+#define N_TABLE LEAP_TF_TABLE_SIZE
+/* Extra widening of a u interval, on top of the 16-bit quantisation and one table entry. */
+#define U_EPSILON 1e-6
+
+typedef struct occ_node {
+    uint32_t origin[3];              /* minimum cell */
+    uint32_t level;                  /* edge = 2^level cells (>= 1 for internal nodes) */
+    uint32_t child[8];               /* child references, octant k = x | y << 1 | z << 2 */
+    uint64_t count[LEAP_CLASS_COUNT];
+    uint32_t cls;
+} occ_node;
+
+typedef struct occ_range {
+    float lo, hi;
+} occ_range;
+
+struct leap_occupancy {
+    uint32_t cells[3];
+    uint32_t depth;           /* root edge = 2^depth cells */
+    float background;
+    double value_min, value_max;
+    uint32_t root;            /* child reference of the root */
+    occ_node *nodes;
+    size_t node_count, node_cap;
+    occ_range *ranges;
+    uint8_t *range_cls;
+    size_t range_count, range_cap;
+    uint32_t bg_cls;
+    uint64_t root_count[LEAP_CLASS_COUNT];
+    uint32_t root_cls;
+    double build_ms, classify_ms;
+};
+
+/* Internal interface (defined at the end of this file; declared again in boxes.c). */
+uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
+uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
+uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
+                                uint32_t *level, uint32_t child[8], uint64_t count[3]);
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static uint64_t sat_add(uint64_t a, uint64_t b)
+{
+    uint64_t s = a + b;
+    return s < a ? UINT64_MAX : s;
+}
+
+/* Cells in a cube of edge 2^level, saturated. */
+static uint64_t cube_cells(uint32_t level)
+{
+    return 3u * level >= 64u ? UINT64_MAX : (uint64_t)1 << (3u * level);
+}
+
+/* Majority class, ties NONEMPTY > UNKNOWN > EMPTY. */
+static uint32_t majority(const uint64_t c[LEAP_CLASS_COUNT])
+{
+    uint32_t best = LEAP_CLASS_NONEMPTY;
+    if (c[LEAP_CLASS_UNKNOWN] > c[best]) best = LEAP_CLASS_UNKNOWN;
+    if (c[LEAP_CLASS_EMPTY] > c[best]) best = LEAP_CLASS_EMPTY;
+    return best;
+}
+
+static int64_t floor_div(int64_t a, int64_t b)
+{
+    int64_t q = a / b;
+    return (a % b != 0 && ((a < 0) != (b < 0))) ? q - 1 : q;
+}
+
+static int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
+
+static int grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap) return 1;
+    size_t n = *cap ? *cap : 256;
+    while (n < need) {
+        if (n > SIZE_MAX / 2 / elem) return 0;
+        n *= 2;
+    }
+    void *q = realloc(*p, n * elem);
+    if (!q) return 0;
+    *p = q;
+    *cap = n;
+    return 1;
+}
+
+/* ---- build ---------------------------------------------------------------------------- */
+
+typedef struct cell_item {
+    uint32_t c[3];
+    float lo, hi;
+} cell_item;
+
+typedef struct box_item {
+    uint32_t lo[3], hi[3]; /* inclusive cells */
+    float v;
+} box_item;
+
+typedef struct builder {
+    leap_occupancy *occ;
+    cell_item *items, *tmp;
+    size_t item_count, item_cap;
+    box_item *boxes;
+    size_t box_count, box_cap;
+    uint32_t *blist;           /* stack of box indices, one slice per recursion level */
+    size_t blist_count, blist_cap;
+    int oom;
+} builder;
+
+static void push_cell(builder *b, uint32_t x, uint32_t y, uint32_t z, float lo, float hi)
+{
+    if (!grow((void **)&b->items, &b->item_cap, b->item_count + 1, sizeof *b->items)) {
+        b->oom = 1;
+        return;
+    }
+    cell_item *it = &b->items[b->item_count++];
+    it->c[0] = x, it->c[1] = y, it->c[2] = z;
+    it->lo = lo, it->hi = hi;
+}
+
+/* Adds the items of one brick. */
+static void add_brick(builder *b, const leap_brick *br, const int32_t origin[3],
+                      const uint32_t cells[3])
+{
+    if (br->size <= 0) return;
+    int64_t lo[3], hi[3], ilo[3], ihi[3];
+    int interior = br->is_tile != 0;
+    for (int a = 0; a < 3; ++a) {
+        int64_t o = (int64_t)br->origin[a] - origin[a];
+        int64_t s = br->size;
+        /* closed footprint [8c, 8c+8] meets voxels [o, o+s-1] */
+        lo[a] = ceil_div(o - 8, 8);
+        hi[a] = floor_div(o + s - 1, 8);
+        /* footprint inside [o, o+s-1] */
+        ilo[a] = ceil_div(o, 8);
+        ihi[a] = floor_div(o + s - 9, 8);
+        if (ilo[a] > ihi[a]) interior = 0;
+        if (lo[a] < 0) lo[a] = 0;
+        if (hi[a] > (int64_t)cells[a] - 1) hi[a] = (int64_t)cells[a] - 1;
+        if (lo[a] > hi[a]) return; /* entirely outside the grid */
+    }
+    const float vlo = br->value_min, vhi = br->value_max;
+    if (interior) {
+        /* clip the interior to the grid; it may vanish */
+        int64_t clo[3], chi[3];
+        int inside = 1;
+        for (int a = 0; a < 3; ++a) {
+            clo[a] = ilo[a] < 0 ? 0 : ilo[a];
+            chi[a] = ihi[a] > (int64_t)cells[a] - 1 ? (int64_t)cells[a] - 1 : ihi[a];
+            if (clo[a] > chi[a]) inside = 0;
+        }
+        if (inside) {
+            if (!grow((void **)&b->boxes, &b->box_cap, b->box_count + 1, sizeof *b->boxes)) {
+                b->oom = 1;
+                return;
+            }
+            box_item *bx = &b->boxes[b->box_count++];
+            for (int a = 0; a < 3; ++a) bx->lo[a] = (uint32_t)clo[a], bx->hi[a] = (uint32_t)chi[a];
+            bx->v = br->tile_value;
+        }
+    }
+    for (int64_t z = lo[2]; z <= hi[2]; ++z)
+        for (int64_t y = lo[1]; y <= hi[1]; ++y) {
+            int in_zy = interior && z >= ilo[2] && z <= ihi[2] && y >= ilo[1] && y <= ihi[1];
+            for (int64_t x = lo[0]; x <= hi[0]; ++x) {
+                if (in_zy && x >= ilo[0] && x <= ihi[0]) {
+                    x = ihi[0]; /* skip the interior run */
+                    continue;
+                }
+                push_cell(b, (uint32_t)x, (uint32_t)y, (uint32_t)z, vlo, vhi);
+                if (b->oom) return;
+            }
+        }
+}
+
+static uint32_t add_leaf(builder *b, float lo, float hi)
+{
+    leap_occupancy *occ = b->occ;
+    if (lo == occ->background && hi == occ->background) return OCC_REF_IMPLICIT;
+    if (occ->range_count >= OCC_MAX_REFS ||
+        !grow((void **)&occ->ranges, &occ->range_cap, occ->range_count + 1, sizeof *occ->ranges)) {
+        b->oom = 1;
+        return OCC_REF_IMPLICIT;
+    }
+    occ->ranges[occ->range_count].lo = lo;
+    occ->ranges[occ->range_count].hi = hi;
+    return OCC_REF_LEAF | (uint32_t)occ->range_count++;
+}
+
+static void unite(float *lo, float *hi, float a, float b)
+{
+    /* NaN propagates so that a NaN range stays recognisable */
+    if (a != a || b != b || *lo != *lo) {
+        *lo = *hi = NAN;
+        return;
+    }
+    if (a < *lo) *lo = a;
+    if (b > *hi) *hi = b;
+}
+
+static int box_meets(const box_item *bx, const uint32_t org[3], uint64_t edge)
+{
+    for (int a = 0; a < 3; ++a)
+        if ((uint64_t)bx->hi[a] < org[a] || (uint64_t)bx->lo[a] >= (uint64_t)org[a] + edge)
+            return 0;
+    return 1;
+}
+
+static int box_covers(const box_item *bx, const uint32_t org[3], uint64_t edge)
+{
+    for (int a = 0; a < 3; ++a)
+        if (bx->lo[a] > org[a] || (uint64_t)bx->hi[a] + 1 < (uint64_t)org[a] + edge) return 0;
+    return 1;
+}
+
+static int ref_range(const leap_occupancy *occ, uint32_t ref, float *lo, float *hi)
+{
+    if (ref == OCC_REF_IMPLICIT) {
+        *lo = *hi = occ->background;
+        return 1;
+    }
+    if (ref & OCC_REF_LEAF) {
+        *lo = occ->ranges[ref & ~OCC_REF_LEAF].lo;
+        *hi = occ->ranges[ref & ~OCC_REF_LEAF].hi;
+        return 1;
+    }
+    return 0;
+}
+
+/* Builds the subtree of the node (level, org) over cell items [begin, end) and the box
+ * items listed in blist[lb, le); returns its child reference. */
+static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t begin, size_t end,
+                      size_t lb, size_t le)
+{
+    if (b->oom) return OCC_REF_IMPLICIT;
+    leap_occupancy *occ = b->occ;
+    const uint64_t edge = (uint64_t)1 << level;
+    if (begin == end) {
+        if (lb == le) return OCC_REF_IMPLICIT;
+        float lo = INFINITY, hi = -INFINITY;
+        int covered = 1;
+        for (size_t i = lb; i < le && covered; ++i) {
+            const box_item *bx = &b->boxes[b->blist[i]];
+            covered = box_covers(bx, org, edge);
+            unite(&lo, &hi, bx->v, bx->v);
+        }
+        if (covered) return add_leaf(b, lo, hi);
+    }
+    if (level == 0) {
+        float lo = INFINITY, hi = -INFINITY;
+        for (size_t i = begin; i < end; ++i) unite(&lo, &hi, b->items[i].lo, b->items[i].hi);
+        for (size_t i = lb; i < le; ++i) {
+            const box_item *bx = &b->boxes[b->blist[i]];
+            unite(&lo, &hi, bx->v, bx->v);
+        }
+        return add_leaf(b, lo, hi);
+    }
+
+    /* this node, stored in pre-order */
+    if (occ->node_count >= OCC_MAX_REFS ||
+        !grow((void **)&occ->nodes, &occ->node_cap, occ->node_count + 1, sizeof *occ->nodes)) {
+        b->oom = 1;
+        return OCC_REF_IMPLICIT;
+    }
+    const size_t ni = occ->node_count++;
+    const size_t r0 = occ->range_count;
+
+    /* partition the cell items by octant */
+    const uint32_t sh = level - 1;
+    size_t start[9] = {0};
+    {
+        size_t cnt[8] = {0};
+        for (size_t i = begin; i < end; ++i) {
+            const uint32_t *c = b->items[i].c;
+            ++cnt[((c[0] >> sh) & 1u) | ((c[1] >> sh) & 1u) << 1 | ((c[2] >> sh) & 1u) << 2];
+        }
+        start[0] = begin;
+        int single = -1;
+        for (int k = 0; k < 8; ++k) {
+            start[k + 1] = start[k] + cnt[k];
+            if (cnt[k] == end - begin) single = k;
+        }
+        if (single < 0 && end > begin) {
+            size_t pos[8];
+            for (int k = 0; k < 8; ++k) pos[k] = start[k];
+            for (size_t i = begin; i < end; ++i) {
+                const uint32_t *c = b->items[i].c;
+                int k = (int)(((c[0] >> sh) & 1u) | ((c[1] >> sh) & 1u) << 1 | ((c[2] >> sh) & 1u) << 2);
+                b->tmp[pos[k]++] = b->items[i];
+            }
+            memcpy(b->items + begin, b->tmp + begin, (end - begin) * sizeof *b->items);
+        }
+    }
+
+    uint32_t child[8];
+    for (int k = 0; k < 8; ++k) {
+        uint32_t corg[3];
+        for (int a = 0; a < 3; ++a) corg[a] = org[a] + (((uint32_t)k >> a & 1u) << sh);
+        const size_t cb = b->blist_count;
+        for (size_t i = lb; i < le; ++i) {
+            uint32_t bi = b->blist[i];
+            if (!box_meets(&b->boxes[bi], corg, edge >> 1)) continue;
+            if (!grow((void **)&b->blist, &b->blist_cap, b->blist_count + 1, sizeof *b->blist)) {
+                b->oom = 1;
+                return OCC_REF_IMPLICIT;
+            }
+            b->blist[b->blist_count++] = bi;
+        }
+        child[k] = build(b, level - 1, corg, start[k], start[k + 1], cb, b->blist_count);
+        b->blist_count = cb;
+        if (b->oom) return OCC_REF_IMPLICIT;
+    }
+
+    /* collapse eight uniform children with one range */
+    float lo0, hi0;
+    int uniform = ref_range(occ, child[0], &lo0, &hi0);
+    for (int k = 1; k < 8 && uniform; ++k) {
+        float lo, hi;
+        uniform = ref_range(occ, child[k], &lo, &hi) && lo == lo0 && hi == hi0;
+    }
+    if (uniform) {
+        occ->node_count = ni; /* no internal node was added below this one */
+        occ->range_count = r0;
+        return add_leaf(b, lo0, hi0);
+    }
+
+    occ_node *n = &occ->nodes[ni];
+    memcpy(n->origin, org, sizeof n->origin);
+    n->level = level;
+    memcpy(n->child, child, sizeof child);
+    memset(n->count, 0, sizeof n->count);
+    n->cls = LEAP_CLASS_UNKNOWN;
+    return (uint32_t)ni;
+}
+
+/* ---- counts and classes --------------------------------------------------------------- */
+
+static uint32_t ref_class(const leap_occupancy *occ, uint32_t ref)
+{
+    if (ref == OCC_REF_IMPLICIT) return occ->bg_cls;
+    if (ref & OCC_REF_LEAF) return occ->range_cls[ref & ~OCC_REF_LEAF];
+    return occ->nodes[ref].cls;
+}
+
+static void update_counts(leap_occupancy *occ)
+{
+    for (size_t i = occ->node_count; i-- > 0;) {
+        occ_node *n = &occ->nodes[i];
+        const uint64_t vol = cube_cells(n->level - 1);
+        uint64_t c[LEAP_CLASS_COUNT] = {0};
+        for (int k = 0; k < 8; ++k) {
+            uint32_t ref = n->child[k];
+            if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+                const occ_node *ch = &occ->nodes[ref];
+                for (int j = 0; j < LEAP_CLASS_COUNT; ++j) c[j] = sat_add(c[j], ch->count[j]);
+            } else {
+                uint32_t cls = ref_class(occ, ref);
+                c[cls] = sat_add(c[cls], vol);
+            }
+        }
+        memcpy(n->count, c, sizeof c);
+        n->cls = majority(c);
+    }
+    memset(occ->root_count, 0, sizeof occ->root_count);
+    if (occ->root != OCC_REF_IMPLICIT && !(occ->root & OCC_REF_LEAF)) {
+        memcpy(occ->root_count, occ->nodes[occ->root].count, sizeof occ->root_count);
+        occ->root_cls = occ->nodes[occ->root].cls;
+    } else {
+        occ->root_cls = ref_class(occ, occ->root);
+        occ->root_count[occ->root_cls] = cube_cells(occ->depth);
+    }
+}
+
+void leap_occupancy_destroy(leap_occupancy *occ)
+{
+    if (!occ) return;
+    free(occ->nodes);
+    free(occ->ranges);
+    free(occ->range_cls);
+    free(occ);
+}
+
+leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupancy **out,
+                                  leap_error *err)
+{
+    if (out) *out = NULL;
+    if (!desc || !out || (desc->brick_count && !desc->bricks))
+        return leap_fail(err, LEAP_ERR_USAGE, "occupancy: missing description or output");
+    const double t0 = now_ms();
+    leap_occupancy *occ = calloc(1, sizeof *occ);
+    if (!occ) return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory");
+    uint32_t maxc = 0;
+    for (int a = 0; a < 3; ++a) {
+        occ->cells[a] = desc->cells[a];
+        if (desc->cells[a] > maxc) maxc = desc->cells[a];
+    }
+    while (((uint64_t)1 << occ->depth) < maxc) ++occ->depth;
+    occ->background = desc->background;
+    occ->value_min = desc->value_min;
+    occ->value_max = desc->value_max;
+    occ->bg_cls = LEAP_CLASS_UNKNOWN;
+    occ->root = OCC_REF_IMPLICIT;
+
+    builder b;
+    memset(&b, 0, sizeof b);
+    b.occ = occ;
+    const int empty = desc->cells[0] == 0 || desc->cells[1] == 0 || desc->cells[2] == 0;
+    for (size_t i = 0; !empty && i < desc->brick_count && !b.oom; ++i)
+        add_brick(&b, &desc->bricks[i], desc->origin, desc->cells);
+    if (!b.oom && b.item_count) {
+        b.tmp = malloc(b.item_count * sizeof *b.tmp);
+        if (!b.tmp) b.oom = 1;
+    }
+    if (!b.oom && b.box_count) {
+        if (!grow((void **)&b.blist, &b.blist_cap, b.box_count, sizeof *b.blist)) b.oom = 1;
+        for (size_t i = 0; !b.oom && i < b.box_count; ++i) b.blist[i] = (uint32_t)i;
+        b.blist_count = b.box_count;
+    }
+    if (!b.oom) {
+        const uint32_t org[3] = {0, 0, 0};
+        occ->root = build(&b, occ->depth, org, 0, b.item_count, 0, b.box_count);
+    }
+    free(b.items);
+    free(b.tmp);
+    free(b.boxes);
+    free(b.blist);
+    if (!b.oom && occ->range_count) {
+        occ->range_cls = malloc(occ->range_count);
+        if (!occ->range_cls) b.oom = 1;
+        else memset(occ->range_cls, LEAP_CLASS_UNKNOWN, occ->range_count);
+    }
+    if (b.oom) {
+        leap_occupancy_destroy(occ);
+        return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory building the tree");
+    }
+    update_counts(occ);
+    occ->build_ms = now_ms() - t0;
+    *out = occ;
+    return LEAP_OK;
+}
+
+/* Per-classify constants: u = (v - lo) * scale, widened by `widen` on both sides. */
+typedef struct classifier {
+    double lo, scale, widen;
+    int flat;               /* hi == lo: every value maps to u = 0 */
+    uint32_t prefix[N_TABLE + 1]; /* prefix[i] = number of entries < i with opacity > 0 */
+} classifier;
+
+static uint32_t classify_range(const classifier *c, float vmin, float vmax)
+{
+    if (vmin != vmin || vmax != vmax) return LEAP_CLASS_NONEMPTY;
+    double u0, u1;
+    if (c->flat) {
+        u0 = u1 = 0.0;
+    } else {
+        u0 = ((double)vmin - c->lo) * c->scale;
+        u1 = ((double)vmax - c->lo) * c->scale;
+        if (u0 > u1) {
+            double t = u0;
+            u0 = u1;
+            u1 = t;
+        }
+    }
+    u0 -= c->widen;
+    u1 += c->widen;
+    /* the GPU clamps u to [0, 1] (also takes care of infinities) */
+    u0 = u0 < 0.0 ? 0.0 : (u0 > 1.0 ? 1.0 : u0);
+    u1 = u1 < 0.0 ? 0.0 : (u1 > 1.0 ? 1.0 : u1);
+    long i0 = (long)floor(u0 * (N_TABLE - 1)) - 1;
+    long i1 = (long)ceil(u1 * (N_TABLE - 1)) + 1;
+    if (i0 < 0) i0 = 0;
+    if (i1 > N_TABLE - 1) i1 = N_TABLE - 1;
+    return c->prefix[i1 + 1] - c->prefix[i0] > 0 ? LEAP_CLASS_NONEMPTY : LEAP_CLASS_EMPTY;
+}
+
+leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, double range_lo,
+                                    double range_hi, leap_error *err)
+{
+    if (!occ || !tf) return leap_fail(err, LEAP_ERR_USAGE, "occupancy: missing tree or TF");
+    if (!isfinite(range_lo) || !isfinite(range_hi))
+        return leap_fail(err, LEAP_ERR_USAGE, "occupancy: TF range [%g, %g] is not finite",
+                         range_lo, range_hi);
+    const double t0 = now_ms();
+    classifier local;
+    classifier *cl = &local;
+    cl->lo = range_lo;
+    cl->flat = range_hi == range_lo;
+    cl->scale = cl->flat ? 0.0 : 1.0 / (range_hi - range_lo);
+    const double qstep = fabs(occ->value_max - occ->value_min) / 65535.0;
+    cl->widen = (isfinite(qstep) ? qstep * fabs(cl->scale) : 0.0) + U_EPSILON;
+    cl->prefix[0] = 0;
+    for (int i = 0; i < N_TABLE; ++i)
+        cl->prefix[i + 1] = cl->prefix[i] + (tf->rgba[i][3] <= 0.0f ? 0u : 1u);
+
+    for (size_t i = 0; i < occ->range_count; ++i)
+        occ->range_cls[i] = (uint8_t)classify_range(cl, occ->ranges[i].lo, occ->ranges[i].hi);
+    occ->bg_cls = classify_range(cl, occ->background, occ->background);
+    update_counts(occ);
+    occ->classify_ms = now_ms() - t0;
+    return LEAP_OK;
+}
+
+void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!occ) return;
+    out->nodes = (uint32_t)(occ->node_count + occ->range_count);
+    out->depth = occ->depth;
+    out->ranges = (uint32_t)occ->range_count;
+    memcpy(out->cells, occ->root_count, sizeof out->cells);
+    out->build_ms = occ->build_ms;
+    out->classify_ms = occ->classify_ms;
+}
+
+uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell[3])
+{
+    for (int a = 0; a < 3; ++a)
+        if (cell[a] < 0 || cell[a] >= (int64_t)occ->cells[a]) return occ->bg_cls;
+    uint32_t ref = occ->root;
+    while (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+        const occ_node *n = &occ->nodes[ref];
+        const uint32_t sh = n->level - 1;
+        const uint32_t k = ((uint32_t)(cell[0] >> sh) & 1u) | ((uint32_t)(cell[1] >> sh) & 1u) << 1 |
+                           ((uint32_t)(cell[2] >> sh) & 1u) << 2;
+        ref = n->child[k];
+    }
+    return ref_class(occ, ref);
+}
+
+static void bounds_unite(double lo[3], double hi[3], const uint32_t org[3], uint32_t level)
+{
+    for (int a = 0; a < 3; ++a) {
+        double l = (double)org[a] * LEAP_CELL;
+        double h = ((double)org[a] + (double)((uint64_t)1 << level)) * LEAP_CELL;
+        if (l < lo[a]) lo[a] = l;
+        if (h > hi[a]) hi[a] = h;
+    }
+}
+
+static void bounds_walk(const leap_occupancy *occ, uint32_t ref, uint32_t level,
+                        const uint32_t org[3], double lo[3], double hi[3], int *found)
+{
+    if (ref == OCC_REF_IMPLICIT) return; /* background: EMPTY when this walk runs */
+    if (ref & OCC_REF_LEAF) {
+        if (occ->range_cls[ref & ~OCC_REF_LEAF] != LEAP_CLASS_EMPTY) {
+            bounds_unite(lo, hi, org, level);
+            *found = 1;
+        }
+        return;
+    }
+    const occ_node *n = &occ->nodes[ref];
+    if (n->count[LEAP_CLASS_NONEMPTY] == 0 && n->count[LEAP_CLASS_UNKNOWN] == 0) return;
+    for (int k = 0; k < 8; ++k) {
+        uint32_t corg[3];
+        for (int a = 0; a < 3; ++a) corg[a] = org[a] + (((uint32_t)k >> a & 1u) << (level - 1));
+        bounds_walk(occ, n->child[k], level - 1, corg, lo, hi, found);
+    }
+}
+
+int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
+{
+    if (!occ || occ->cells[0] == 0 || occ->cells[1] == 0 || occ->cells[2] == 0) return 0;
+    if (occ->bg_cls != LEAP_CLASS_EMPTY) {
+        /* every stored leaf lies inside the grid */
+        for (int a = 0; a < 3; ++a) lo[a] = 0.0, hi[a] = (double)occ->cells[a] * LEAP_CELL;
+        return 1;
+    }
+    double l[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, h[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
+    int found = 0;
+    const uint32_t org[3] = {0, 0, 0};
+    bounds_walk(occ, occ->root, occ->depth, org, l, h, &found);
+    if (!found) return 0;
+    for (int a = 0; a < 3; ++a) lo[a] = l[a], hi[a] = h[a];
+    return 1;
+}
+
+/* ---- internal interface for boxes.c and the tests ------------------------------------ */
+
+/* Root child reference; *depth = root level (edge 2^depth cells). */
+uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth)
+{
+    *depth = occ->depth;
+    return occ->root;
+}
+
+/* Class of a child reference (implicit: the background's class). */
+uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref)
+{
+    return ref_class(occ, ref);
+}
+
+/* Internal node `node`: origin (cells), level, child references, counts; returns its class. */
+uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
+                                uint32_t *level, uint32_t child[8], uint64_t count[3])
+{
+    const occ_node *n = &occ->nodes[node];
+    if (origin) memcpy(origin, n->origin, sizeof n->origin);
+    if (level) *level = n->level;
+    if (child) memcpy(child, n->child, sizeof n->child);
+    if (count) memcpy(count, n->count, sizeof n->count);
+    return n->cls;
+}
+
+/* ---- events and segments ------------------------------------------------------------- */
+
+static int event_before(const leap_event *a, const leap_event *b)
+{
+    if (a->t != b->t) return a->t < b->t;
+    if (a->order != b->order) return a->order < b->order;
+    return a->cls < b->cls;
+}
+
+static int event_cmp(const void *pa, const void *pb)
+{
+    const leap_event *a = pa, *b = pb;
+    return event_before(a, b) ? -1 : (event_before(b, a) ? 1 : 0);
+}
+
+size_t leap_resolve_events(leap_event *events, size_t count, uint32_t outside, leap_segment *out,
+                           size_t cap)
+{
+    /* events with a NaN t carry no position: moved to the end and ignored */
+    size_t n = 0;
+    for (size_t i = 0; i < count; ++i)
+        if (events[i].t == events[i].t) {
+            leap_event e = events[i];
+            events[i] = events[n];
+            events[n++] = e;
+        }
+    if (n <= 32) {
+        for (size_t i = 1; i < n; ++i) {
+            leap_event e = events[i];
+            size_t j = i;
+            while (j > 0 && event_before(&e, &events[j - 1])) {
+                events[j] = events[j - 1];
+                --j;
+            }
+            events[j] = e;
+        }
+    } else {
+        qsort(events, n, sizeof *events, event_cmp);
+    }
+
+    size_t segs = 0;
+    uint32_t cls = outside;
+    float start = 0.0f;
+    size_t i = 0;
+    int first = 1;
+    while (i < n) {
+        const float t = events[i].t;
+        uint32_t next = cls;
+        for (; i < n && events[i].t == t; ++i) next = events[i].cls;
+        if (first) {
+            first = 0;
+        } else if (next != cls || i == n) {
+            /* the run [start, t) of class cls ends here (t > start: groups have distinct t) */
+            if (segs < cap) {
+                out[segs].t0 = start;
+                out[segs].t1 = t;
+                out[segs].cls = cls;
+            }
+            ++segs;
+        } else {
+            continue; /* no class change: the run goes on */
+        }
+        cls = next;
+        start = t;
+    }
+    return segs;
+}

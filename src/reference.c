@@ -1,0 +1,318 @@
+/* CPU reference renderer: the ray-marching contract of leap/march.h evaluated in double
+ * precision with exact trilinear interpolation of the stored voxel values. */
+#include "leap/reference.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* Absolute index coordinates read by a sample must stay within int32 (with a margin for the
+ * +1 corner of a trilinear cell). */
+#define COORD_LIMIT 2147483000.0
+
+typedef struct ref_job {
+    const leap_reference_desc *desc;
+    leap_grid_reader *reader;
+    int first_row, row_stride;
+    float *rgba, *depth, *samples;
+} ref_job;
+
+/* The 8 voxel values of the last trilinear cell, keyed by its minimum corner. */
+typedef struct cell_cache {
+    int valid;
+    int32_t x, y, z;
+    double v[8]; /* index bit 0: +x, bit 1: +y, bit 2: +z */
+} cell_cache;
+
+static double sample_trilinear(leap_grid_reader *reader, cell_cache *cache, const double p[3])
+{
+    const double fx0 = floor(p[0]), fy0 = floor(p[1]), fz0 = floor(p[2]);
+    const int32_t x = (int32_t)fx0, y = (int32_t)fy0, z = (int32_t)fz0;
+    if (!cache->valid || cache->x != x || cache->y != y || cache->z != z) {
+        for (int n = 0; n < 8; ++n)
+            cache->v[n] = (double)leap_grid_reader_value(reader, x + (n & 1), y + ((n >> 1) & 1),
+                                                         z + ((n >> 2) & 1));
+        cache->x = x;
+        cache->y = y;
+        cache->z = z;
+        cache->valid = 1;
+    }
+    const double fx = p[0] - fx0, fy = p[1] - fy0, fz = p[2] - fz0;
+    const double *v = cache->v;
+    const double c00 = v[0] + (v[1] - v[0]) * fx;
+    const double c10 = v[2] + (v[3] - v[2]) * fx;
+    const double c01 = v[4] + (v[5] - v[4]) * fx;
+    const double c11 = v[6] + (v[7] - v[6]) * fx;
+    const double c0 = c00 + (c10 - c00) * fy;
+    const double c1 = c01 + (c11 - c01) * fy;
+    return c0 + (c1 - c0) * fz;
+}
+
+static void ray_point(const double o[3], const double d[3], double t, double p[3])
+{
+    p[0] = o[0] + t * d[0];
+    p[1] = o[1] + t * d[1];
+    p[2] = o[2] + t * d[2];
+}
+
+/* The contract's inclusion test for one lattice point (closed box, t >= 0). */
+static int lattice_inside(const leap_march *m, const double o[3], const double d[3], double k)
+{
+    const double t = k * m->step;
+    if (!(t >= 0.0))
+        return 0;
+    double p[3];
+    ray_point(o, d, t, p);
+    for (int c = 0; c < 3; ++c)
+        if (!(p[c] >= m->domain_min[c] && p[c] <= m->domain_max[c]))
+            return 0;
+    return 1;
+}
+
+/* Range of lattice indices [*k0, *k1] whose samples lie in the domain box; returns 0 when
+ * there is none. The slab test gives the interval; its ends are then settled with the
+ * pointwise test so rounding in the divisions cannot add or drop a boundary sample. */
+static int lattice_range(const leap_march *m, const double o[3], const double d[3], double *k0,
+                         double *k1)
+{
+    double tmin = 0.0, tmax = INFINITY;
+    for (int c = 0; c < 3; ++c) {
+        const double lo = m->domain_min[c], hi = m->domain_max[c];
+        if (d[c] == 0.0) {
+            /* parallel to this slab: unbounded by it if inside, a miss otherwise */
+            if (!(o[c] >= lo && o[c] <= hi))
+                return 0;
+            continue;
+        }
+        double t1 = (lo - o[c]) / d[c], t2 = (hi - o[c]) / d[c];
+        if (t1 > t2) {
+            const double s = t1;
+            t1 = t2;
+            t2 = s;
+        }
+        if (t1 > tmin)
+            tmin = t1;
+        if (t2 < tmax)
+            tmax = t2;
+    }
+    if (!(tmin <= tmax) || !isfinite(tmax))
+        return 0;
+    double a = ceil(tmin / m->step), b = floor(tmax / m->step);
+    if (a < 0.0)
+        a = 0.0;
+    /* beyond 2^53 consecutive lattice indices are no longer distinct doubles */
+    if (!(b < 9007199254740992.0))
+        return 0;
+    /* settle the ends: at most a couple of iterations each */
+    for (int i = 0; i < 4 && a - 1.0 >= 0.0 && lattice_inside(m, o, d, a - 1.0); ++i)
+        a -= 1.0;
+    for (int i = 0; i < 4 && a <= b && !lattice_inside(m, o, d, a); ++i)
+        a += 1.0;
+    for (int i = 0; i < 4 && lattice_inside(m, o, d, b + 1.0); ++i)
+        b += 1.0;
+    for (int i = 0; i < 4 && b >= a && !lattice_inside(m, o, d, b); ++i)
+        b -= 1.0;
+    if (!(a <= b))
+        return 0;
+    *k0 = a;
+    *k1 = b;
+    return 1;
+}
+
+static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *reader,
+                         cell_cache *cache, double px, double py, double out_rgba[4],
+                         double *out_depth, double *out_samples)
+{
+    const leap_march *m = desc->march;
+    double o[3], d[3];
+    leap_view_ray(desc->view, px, py, o, d);
+
+    double C[3] = {0.0, 0.0, 0.0}, T = 1.0, depth = INFINITY, n = 0.0;
+    double k0, k1;
+    if (lattice_range(m, o, d, &k0, &k1)) {
+        const double span = m->range_hi - m->range_lo;
+        const double inv_span = span != 0.0 ? 1.0 / span : 0.0;
+        const int64_t count = (int64_t)(k1 - k0) + 1;
+        for (int64_t i = 0; i < count; ++i) {
+            const double t = (k0 + (double)i) * m->step;
+            double p[3];
+            ray_point(o, d, t, p);
+            for (int c = 0; c < 3; ++c)
+                p[c] += m->index_origin[c];
+            const double v = sample_trilinear(reader, cache, p);
+            /* range_hi == range_lo: every value maps to u = 0 */
+            const double u = span != 0.0 ? (v - m->range_lo) * inv_span : 0.0;
+            double tf[4];
+            leap_tf_eval(desc->tf, u, tf);
+            n += 1.0;
+            if (tf[3] > LEAP_DEPTH_OPACITY && depth == INFINITY)
+                depth = leap_view_world_distance(desc->view, d, t);
+            const double alpha = leap_tf_alpha_for_step(tf[3], m->step);
+            if (alpha > 0.0) {
+                const double w = T * alpha;
+                C[0] += w * tf[0];
+                C[1] += w * tf[1];
+                C[2] += w * tf[2];
+                T *= 1.0 - alpha;
+                if (T < LEAP_ERT_TRANSMITTANCE)
+                    break;
+            }
+        }
+    }
+    out_rgba[0] = C[0];
+    out_rgba[1] = C[1];
+    out_rgba[2] = C[2];
+    out_rgba[3] = 1.0 - T;
+    *out_depth = depth;
+    *out_samples = n;
+}
+
+static void *render_rows(void *arg)
+{
+    ref_job *job = arg;
+    const leap_reference_desc *desc = job->desc;
+    const int w = desc->view->width, h = desc->view->height;
+    cell_cache cache;
+    cache.valid = 0;
+    for (int y = job->first_row; y < h; y += job->row_stride) {
+        for (int x = 0; x < w; ++x) {
+            double rgba[4], depth, samples;
+            render_pixel(desc, job->reader, &cache, x + 0.5, y + 0.5, rgba, &depth, &samples);
+            const size_t i = (size_t)y * (size_t)w + (size_t)x;
+            if (job->rgba)
+                for (int c = 0; c < 4; ++c)
+                    job->rgba[4 * i + c] = (float)rgba[c];
+            if (job->depth)
+                job->depth[i] = (float)depth;
+            if (job->samples)
+                job->samples[i] = (float)samples;
+        }
+    }
+    return NULL;
+}
+
+static leap_result validate(const leap_reference_desc *desc, leap_error *err)
+{
+    if (!desc)
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: no render description");
+    if (!desc->grid || !desc->tf || !desc->view || !desc->march)
+        return leap_fail(err, LEAP_ERR_USAGE,
+                         "reference: the description needs a grid, a transfer function, a view "
+                         "and march parameters");
+    const leap_view *v = desc->view;
+    const leap_march *m = desc->march;
+    for (int c = 0; c < 3; ++c)
+        if (v->index_origin[c] != m->index_origin[c])
+            return leap_fail(err, LEAP_ERR_USAGE,
+                             "reference: the view was built for another index origin than the march");
+    if (v->width <= 0 || v->height <= 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: image size %dx%d must be positive",
+                         v->width, v->height);
+    if ((size_t)v->width > SIZE_MAX / 4 / sizeof(float) / (size_t)v->height)
+        return leap_fail(err, LEAP_ERR_OOM, "reference: image size %dx%d is too large",
+                         v->width, v->height);
+    if (!isfinite(m->step) || !(m->step > 0.0))
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: step %g must be a finite number > 0",
+                         m->step);
+    if (!isfinite(m->range_lo) || !isfinite(m->range_hi))
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: value range [%g, %g] must be finite",
+                         m->range_lo, m->range_hi);
+    for (int c = 0; c < 3; ++c) {
+        const double io = m->index_origin[c];
+        if (!isfinite(io) || io != floor(io))
+            return leap_fail(err, LEAP_ERR_USAGE,
+                             "reference: index origin component %d (%g) must be an integer", c,
+                             io);
+        if (!isfinite(m->domain_min[c]) || !isfinite(m->domain_max[c]))
+            return leap_fail(err, LEAP_ERR_USAGE, "reference: domain box must be finite");
+        if (fabs(io + m->domain_min[c]) > COORD_LIMIT || fabs(io + m->domain_max[c]) > COORD_LIMIT)
+            return leap_fail(err, LEAP_ERR_USAGE,
+                             "reference: domain box exceeds the 32-bit index range");
+    }
+    const double *arrs[6] = {v->origin0, v->origin_dx, v->origin_dy, v->dir0, v->dir_dx,
+                             v->dir_dy};
+    for (int a = 0; a < 6; ++a)
+        for (int c = 0; c < 3; ++c)
+            if (!isfinite(arrs[a][c]))
+                return leap_fail(err, LEAP_ERR_USAGE, "reference: view has non-finite rays");
+    if (desc->threads < 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: thread count %d must be >= 0",
+                         desc->threads);
+    return LEAP_OK;
+}
+
+leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, float *depth,
+                                  float *samples, leap_error *err)
+{
+    leap_result r = validate(desc, err);
+    if (r != LEAP_OK)
+        return r;
+    const leap_march *m = desc->march;
+    if (!(m->domain_min[0] <= m->domain_max[0] && m->domain_min[1] <= m->domain_max[1] &&
+          m->domain_min[2] <= m->domain_max[2])) {
+        /* An empty domain (an empty grid) has no samples: a transparent image. */
+        size_t n = (size_t)desc->view->width * (size_t)desc->view->height;
+        for (size_t i = 0; i < n; ++i) {
+            if (rgba) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = 0.0f;
+            if (depth) depth[i] = INFINITY;
+            if (samples) samples[i] = 0.0f;
+        }
+        return LEAP_OK;
+    }
+
+    int nthreads = desc->threads;
+    if (nthreads == 0) {
+        long n = sysconf(_SC_NPROCESSORS_ONLN);
+        nthreads = n > 0 ? (int)(n < 256 ? n : 256) : 1;
+    }
+    if (nthreads > desc->view->height)
+        nthreads = desc->view->height;
+    if (nthreads < 1)
+        nthreads = 1;
+
+    ref_job *jobs = calloc((size_t)nthreads, sizeof *jobs);
+    pthread_t *tids = calloc((size_t)nthreads, sizeof *tids);
+    int *started = calloc((size_t)nthreads, sizeof *started);
+    if (!jobs || !tids || !started) {
+        free(jobs);
+        free(tids);
+        free(started);
+        return leap_fail(err, LEAP_ERR_OOM, "reference: out of memory for %d threads", nthreads);
+    }
+    for (int i = 0; i < nthreads; ++i) {
+        r = leap_grid_reader_create(desc->grid, &jobs[i].reader, err);
+        if (r != LEAP_OK) {
+            for (int j = 0; j < i; ++j)
+                leap_grid_reader_destroy(jobs[j].reader);
+            free(jobs);
+            free(tids);
+            free(started);
+            return r;
+        }
+        jobs[i].desc = desc;
+        jobs[i].first_row = i;
+        jobs[i].row_stride = nthreads;
+        jobs[i].rgba = rgba;
+        jobs[i].depth = depth;
+        jobs[i].samples = samples;
+    }
+    /* Job 0 runs on the calling thread; a job whose thread cannot start runs there too. */
+    for (int i = 1; i < nthreads; ++i)
+        started[i] = pthread_create(&tids[i], NULL, render_rows, &jobs[i]) == 0;
+    render_rows(&jobs[0]);
+    for (int i = 1; i < nthreads; ++i) {
+        if (started[i])
+            pthread_join(tids[i], NULL);
+        else
+            render_rows(&jobs[i]);
+    }
+    for (int i = 0; i < nthreads; ++i)
+        leap_grid_reader_destroy(jobs[i].reader);
+    free(jobs);
+    free(tids);
+    free(started);
+    return LEAP_OK;
+}

@@ -1,0 +1,696 @@
+/* Render core: Vulkan resources for one volume, transfer function and occupancy, and the
+ * frame passes: ray events (raster), segment lists (resolve), compositing. */
+#include "leap/renderer.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "leap/gpu.h"
+#include "shared.h"
+
+static const uint32_t composite_spv[] = {
+#include "composite_comp.inc"
+};
+static const uint32_t resolve_spv[] = {
+#include "resolve_comp.inc"
+};
+static const uint32_t events_vert_spv[] = {
+#include "events_vert.inc"
+};
+static const uint32_t events_frag_spv[] = {
+#include "events_frag.inc"
+};
+
+#define VK_CHECK(call)                                                                     \
+    do {                                                                                   \
+        VkResult vk_r_ = (call);                                                           \
+        if (vk_r_ != VK_SUCCESS)                                                           \
+            return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: %s failed: %s", #call,           \
+                             leap_vk_result_name(vk_r_));                                  \
+    } while (0)
+
+#define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
+#define BINDING_COUNT 12
+#define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
+
+enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
+
+struct leap_renderer {
+    leap_gpu *gpu;
+    char driver[2 * VK_MAX_DRIVER_NAME_SIZE];
+    uint32_t event_pool, max_segments;
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout pipeline_layout;
+    VkPipeline composite, resolve, events;
+    VkRenderPass render_pass;
+    VkFramebuffer framebuffer;
+    uint32_t fb_width, fb_height;
+    VkSampler linear_sampler;
+    VkDescriptorPool pool;
+    VkDescriptorSet set;
+    leap_buffer frame;
+    leap_image atlas;
+    leap_buffer pages;
+    leap_image tf;
+    leap_buffer out_rgba, out_aux;
+    leap_buffer boxes, heads, events_pool, counters, segments, pixel_lists;
+    size_t pixels_allocated;
+    /* From the uploaded atlas. */
+    int has_volume;
+    double value_min, value_max;
+    uint32_t top_dims[3], top_count, slot_dims[3];
+    /* Not owned. */
+    const leap_occupancy *occupancy;
+    const leap_boxes *box_set;
+    int lists_valid;
+};
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+const char *leap_mode_name(leap_mode mode)
+{
+    switch (mode) {
+    case LEAP_RENDER_NAIVE: return "naive";
+    case LEAP_RENDER_BBOX: return "bbox";
+    case LEAP_RENDER_SPARSELEAP: return "sparseleap";
+    default: return "unknown";
+    }
+}
+
+int leap_mode_from_name(const char *name)
+{
+    for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
+        if (name && strcmp(name, leap_mode_name((leap_mode)m)) == 0) return m;
+    return -1;
+}
+
+static VkShaderModule make_module(VkDevice dev, const uint32_t *code, size_t bytes)
+{
+    VkShaderModuleCreateInfo ci = {
+        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+        .codeSize = bytes,
+        .pCode = code,
+    };
+    VkShaderModule m = VK_NULL_HANDLE;
+    if (vkCreateShaderModule(dev, &ci, NULL, &m) != VK_SUCCESS) return VK_NULL_HANDLE;
+    return m;
+}
+
+/* The ray-event pass: boxes as instances, back faces only (chosen in the vertex shader),
+ * no attachments: fragments only append to storage buffers. */
+static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
+{
+    VkDevice dev = r->gpu->device;
+    VkSubpassDescription subpass = {.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS};
+    VkRenderPassCreateInfo rpci = {
+        .sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO,
+        .subpassCount = 1,
+        .pSubpasses = &subpass,
+    };
+    VK_CHECK(vkCreateRenderPass(dev, &rpci, NULL, &r->render_pass));
+    VkShaderModule vs = make_module(dev, events_vert_spv, sizeof events_vert_spv);
+    VkShaderModule fs = make_module(dev, events_frag_spv, sizeof events_frag_spv);
+    VkPipelineShaderStageCreateInfo stages[2] = {
+        {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_VERTEX_BIT,
+         .module = vs, .pName = "main"},
+        {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_FRAGMENT_BIT,
+         .module = fs, .pName = "main"},
+    };
+    VkPipelineVertexInputStateCreateInfo vertex_input = {.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+    VkPipelineInputAssemblyStateCreateInfo assembly = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO,
+        .topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST,
+    };
+    VkPipelineViewportStateCreateInfo viewport = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO,
+        .viewportCount = 1,
+        .scissorCount = 1,
+    };
+    VkPipelineRasterizationStateCreateInfo raster = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO,
+        .depthClampEnable = VK_TRUE, /* faces nearer than the near plane must not be clipped */
+        .polygonMode = VK_POLYGON_MODE_FILL,
+        .cullMode = VK_CULL_MODE_NONE,
+        .frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE,
+        .lineWidth = 1.0f,
+    };
+    VkPipelineMultisampleStateCreateInfo multisample = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO,
+        .rasterizationSamples = VK_SAMPLE_COUNT_1_BIT,
+    };
+    VkPipelineColorBlendStateCreateInfo blend = {.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+    VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO,
+        .dynamicStateCount = 2,
+        .pDynamicStates = dyn,
+    };
+    VkGraphicsPipelineCreateInfo gpci = {
+        .sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO,
+        .stageCount = 2,
+        .pStages = stages,
+        .pVertexInputState = &vertex_input,
+        .pInputAssemblyState = &assembly,
+        .pViewportState = &viewport,
+        .pRasterizationState = &raster,
+        .pMultisampleState = &multisample,
+        .pColorBlendState = &blend,
+        .pDynamicState = &dynamic,
+        .layout = r->pipeline_layout,
+        .renderPass = r->render_pass,
+    };
+    VkResult vr = vs && fs ? vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events)
+                           : VK_ERROR_INITIALIZATION_FAILED;
+    if (vs) vkDestroyShaderModule(dev, vs, NULL);
+    if (fs) vkDestroyShaderModule(dev, fs, NULL);
+    if (vr != VK_SUCCESS)
+        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create the ray-event pipeline: %s",
+                         leap_vk_result_name(vr));
+    return LEAP_OK;
+}
+
+static leap_result create_compute(leap_renderer *r, const uint32_t *code, size_t bytes, VkPipeline *out,
+                                  leap_error *err)
+{
+    VkShaderModule m = make_module(r->gpu->device, code, bytes);
+    if (!m) return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
+    VkComputePipelineCreateInfo cpci = {
+        .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
+                  .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main"},
+        .layout = r->pipeline_layout,
+    };
+    VkResult vr = vkCreateComputePipelines(r->gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, out);
+    vkDestroyShaderModule(r->gpu->device, m, NULL);
+    if (vr != VK_SUCCESS)
+        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a compute pipeline: %s", leap_vk_result_name(vr));
+    return LEAP_OK;
+}
+
+static leap_result create_pipelines(leap_renderer *r, leap_error *err)
+{
+    VkDevice dev = r->gpu->device;
+    VkDescriptorSetLayoutBinding b[BINDING_COUNT];
+    VkShaderStageFlags all = VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+    for (uint32_t i = 0; i < BINDING_COUNT; ++i)
+        b[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, NULL};
+    b[LEAP_BINDING_FRAME].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    b[LEAP_BINDING_ATLAS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    b[LEAP_BINDING_TF].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    VkDescriptorSetLayoutCreateInfo dslci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+        .bindingCount = BINDING_COUNT,
+        .pBindings = b,
+    };
+    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dslci, NULL, &r->set_layout));
+    VkPipelineLayoutCreateInfo plci = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+        .setLayoutCount = 1,
+        .pSetLayouts = &r->set_layout,
+    };
+    VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
+    leap_result lr = create_compute(r, composite_spv, sizeof composite_spv, &r->composite, err);
+    if (!lr) lr = create_compute(r, resolve_spv, sizeof resolve_spv, &r->resolve, err);
+    if (!lr) lr = create_events_pipeline(r, err);
+    if (lr) return lr;
+    VkSamplerCreateInfo sci = {
+        .sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
+        .magFilter = VK_FILTER_LINEAR,
+        .minFilter = VK_FILTER_LINEAR,
+        .mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST,
+        .addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+        .addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+        .addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+        .maxLod = 0.0f,
+    };
+    VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->linear_sampler));
+    VkDescriptorPoolSize sizes[] = {
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+        {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, BINDING_COUNT - 3},
+    };
+    VkDescriptorPoolCreateInfo dpci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+        .maxSets = 1,
+        .poolSizeCount = 3,
+        .pPoolSizes = sizes,
+    };
+    VK_CHECK(vkCreateDescriptorPool(dev, &dpci, NULL, &r->pool));
+    VkDescriptorSetAllocateInfo dsai = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+        .descriptorPool = r->pool,
+        .descriptorSetCount = 1,
+        .pSetLayouts = &r->set_layout,
+    };
+    VK_CHECK(vkAllocateDescriptorSets(dev, &dsai, &r->set));
+    lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_frame_gpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &r->frame, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                         &r->counters, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, (VkDeviceSize)r->event_pool * sizeof(leap_event_gpu),
+                                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->events_pool, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_box_gpu), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+    return lr;
+}
+
+leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer **out, leap_error *err)
+{
+    *out = NULL;
+    leap_renderer *r = calloc(1, sizeof *r);
+    if (!r) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
+    uint32_t max_pool = MAX_BUFFER_BYTES / sizeof(leap_event_gpu);
+    r->event_pool = desc && desc->event_pool ? desc->event_pool : max_pool;
+    if (r->event_pool > max_pool) r->event_pool = max_pool;
+    r->max_segments = desc && desc->max_segments ? desc->max_segments : LEAP_MAX_SEGMENTS;
+    if (r->max_segments > LEAP_MAX_SEGMENTS) r->max_segments = LEAP_MAX_SEGMENTS;
+    leap_gpu_desc gd = {.device_name = desc ? desc->device_name : NULL};
+    leap_result lr = leap_gpu_create(&gd, &r->gpu, err);
+    if (!lr) {
+        snprintf(r->driver, sizeof r->driver, "%s %s", r->gpu->driver_name, r->gpu->driver_info);
+        lr = create_pipelines(r, err);
+    }
+    if (lr) {
+        leap_renderer_destroy(r);
+        return lr;
+    }
+    *out = r;
+    return LEAP_OK;
+}
+
+static void destroy_frame_buffers(leap_renderer *r)
+{
+    leap_gpu *gpu = r->gpu;
+    leap_gpu_buffer_destroy(gpu, &r->out_aux);
+    leap_gpu_buffer_destroy(gpu, &r->out_rgba);
+    leap_gpu_buffer_destroy(gpu, &r->heads);
+    leap_gpu_buffer_destroy(gpu, &r->segments);
+    leap_gpu_buffer_destroy(gpu, &r->pixel_lists);
+    if (r->framebuffer) vkDestroyFramebuffer(gpu->device, r->framebuffer, NULL);
+    r->framebuffer = VK_NULL_HANDLE;
+    r->pixels_allocated = 0;
+    r->lists_valid = 0;
+}
+
+void leap_renderer_destroy(leap_renderer *r)
+{
+    if (!r) return;
+    leap_gpu *gpu = r->gpu;
+    if (gpu && gpu->device) {
+        VkDevice dev = gpu->device;
+        vkDeviceWaitIdle(dev);
+        destroy_frame_buffers(r);
+        leap_gpu_buffer_destroy(gpu, &r->boxes);
+        leap_gpu_buffer_destroy(gpu, &r->events_pool);
+        leap_gpu_buffer_destroy(gpu, &r->counters);
+        leap_gpu_image_destroy(gpu, &r->tf);
+        leap_gpu_buffer_destroy(gpu, &r->pages);
+        leap_gpu_image_destroy(gpu, &r->atlas);
+        leap_gpu_buffer_destroy(gpu, &r->frame);
+        if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
+        if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
+        if (r->events) vkDestroyPipeline(dev, r->events, NULL);
+        if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
+        if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
+        if (r->composite) vkDestroyPipeline(dev, r->composite, NULL);
+        if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
+        if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);
+    }
+    leap_gpu_destroy(gpu);
+    free(r);
+}
+
+const char *leap_renderer_device_name(const leap_renderer *r) { return r->gpu->props.deviceName; }
+const char *leap_renderer_driver_name(const leap_renderer *r) { return r->driver; }
+
+leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+{
+    vkDeviceWaitIdle(r->gpu->device);
+    leap_gpu_image_destroy(r->gpu, &r->atlas);
+    leap_gpu_buffer_destroy(r->gpu, &r->pages);
+    r->has_volume = 0;
+    size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
+    leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
+                                           texels * sizeof(uint16_t), &r->atlas, err);
+    if (!lr)
+        lr = leap_gpu_buffer_create(r->gpu, atlas->page_words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                    &r->pages, err);
+    if (lr) return lr;
+    memcpy(r->pages.mapped, atlas->pages, atlas->page_words * 4);
+    r->value_min = atlas->value_min;
+    r->value_max = atlas->value_max;
+    for (int i = 0; i < 3; ++i) {
+        r->top_dims[i] = atlas->top_dims[i];
+        r->slot_dims[i] = atlas->slot_dims[i];
+    }
+    r->top_count = atlas->top_count;
+    r->has_volume = 1;
+    return LEAP_OK;
+}
+
+leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err)
+{
+    vkDeviceWaitIdle(r->gpu->device);
+    leap_gpu_image_destroy(r->gpu, &r->tf);
+    uint32_t extent[3] = {LEAP_TF_TABLE_SIZE, 0, 0};
+    return leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, tf->rgba,
+                                 sizeof tf->rgba, &r->tf, err);
+}
+
+void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes)
+{
+    r->occupancy = occ;
+    r->box_set = boxes;
+}
+
+uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
+{
+    if (!r->has_volume) return 0;
+    return (uint64_t)r->atlas.extent[0] * r->atlas.extent[1] * r->atlas.extent[2] * 2 + r->pages.size;
+}
+
+const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r)
+{
+    return r->lists_valid ? r->pixel_lists.mapped : NULL;
+}
+
+static leap_vec4 v4(const double v[3], double w)
+{
+    return (leap_vec4){(float)v[0], (float)v[1], (float)v[2], (float)w};
+}
+
+static double det3(const double m[3][3])
+{
+    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+}
+
+/* Inverse of the 3x3 matrix whose columns are a, b, c. Returns 0 if singular. */
+static int invert_columns(const double a[3], const double b[3], const double c[3], double inv[3][3])
+{
+    double m[3][3] = {{a[0], b[0], c[0]}, {a[1], b[1], c[1]}, {a[2], b[2], c[2]}};
+    double d = det3(m);
+    if (!(fabs(d) > 0) || !isfinite(d)) return 0;
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+            inv[i][j] = (m[i1][j1] * m[i2][j2] - m[i1][j2] * m[i2][j1]) / d;
+        }
+    return 1;
+}
+
+/* Rows of the matrix taking relative index space to clip space such that the pixel centre
+ * (px, py) of the view's ray through a point lands on framebuffer position (px, py).
+ * Perspective: (a, b, c) = [dir_dx dir_dy dir0]^-1 (X - origin0), pixel = (a/c, b/c).
+ * Orthographic: (px, py, t) = [origin_dx origin_dy dir0]^-1 (X - origin0). */
+static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
+{
+    double inv[3][3] = {{0}};
+    const double *a = v->ortho ? v->origin_dx : v->dir_dx, *b = v->ortho ? v->origin_dy : v->dir_dy;
+    invert_columns(a, b, v->dir0, inv);
+    double rows[4][4];
+    for (int i = 0; i < 3; ++i) {
+        double off = -(inv[i][0] * v->origin0[0] + inv[i][1] * v->origin0[1] + inv[i][2] * v->origin0[2]);
+        rows[i][0] = inv[i][0], rows[i][1] = inv[i][1], rows[i][2] = inv[i][2], rows[i][3] = off;
+    }
+    /* rows[0], rows[1] give pixel coordinates times w (perspective: w = rows[2]). */
+    double w[4], sx = 2.0 / v->width, sy = 2.0 / v->height;
+    for (int k = 0; k < 4; ++k) w[k] = v->ortho ? (k == 3 ? 1.0 : 0.0) : rows[2][k];
+    double cx[4], cy[4];
+    for (int k = 0; k < 4; ++k) {
+        cx[k] = sx * rows[0][k] - w[k];
+        cy[k] = sy * rows[1][k] - w[k];
+    }
+    f->clip_x = (leap_vec4){(float)cx[0], (float)cx[1], (float)cx[2], (float)cx[3]};
+    f->clip_y = (leap_vec4){(float)cy[0], (float)cy[1], (float)cy[2], (float)cy[3]};
+    f->clip_z = (leap_vec4){0, 0, 0, 0};
+    f->clip_w = (leap_vec4){(float)w[0], (float)w[1], (float)w[2], (float)w[3]};
+    /* Size of one pixel: per unit distance (perspective) or absolute (ortho). */
+    double len0 = sqrt(v->dir0[0] * v->dir0[0] + v->dir0[1] * v->dir0[1] + v->dir0[2] * v->dir0[2]);
+    double px_len = 0;
+    for (int i = 0; i < 3; ++i) {
+        double d = v->ortho ? fmax(fabs(v->origin_dx[i]), fabs(v->origin_dy[i])) : fmax(fabs(v->dir_dx[i]), fabs(v->dir_dy[i]));
+        px_len += d * d;
+    }
+    px_len = sqrt(px_len);
+    f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
+}
+
+static void fill_frame(const leap_renderer *r, const leap_view *view, const leap_march *m, leap_mode mode,
+                       uint32_t box_count, leap_frame_gpu *f)
+{
+    memset(f, 0, sizeof *f);
+    f->origin0 = v4(view->origin0, 0);
+    f->origin_dx = v4(view->origin_dx, 0);
+    f->origin_dy = v4(view->origin_dy, 0);
+    f->dir0 = v4(view->dir0, 0);
+    f->dir_dx = v4(view->dir_dx, 0);
+    f->dir_dy = v4(view->dir_dy, 0);
+    f->world_row0 = v4(view->index_to_world_linear[0], 0);
+    f->world_row1 = v4(view->index_to_world_linear[1], 0);
+    f->world_row2 = v4(view->index_to_world_linear[2], 0);
+    f->domain_min = v4(m->domain_min, 0);
+    f->domain_max = v4(m->domain_max, 0);
+    f->atlas_inv_size = (leap_vec4){1.0f / r->atlas.extent[0], 1.0f / r->atlas.extent[1],
+                                    1.0f / r->atlas.extent[2], 0};
+    double range = m->range_hi - m->range_lo;
+    double scale = range != 0 ? (r->value_max - r->value_min) / range : 0.0;
+    double offset = range != 0 ? (r->value_min - m->range_lo) / range : 0.0;
+    f->march = (leap_vec4){(float)m->step, (float)(m->step / LEAP_TF_STEP_REF), (float)scale, (float)offset};
+    f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)LEAP_DEPTH_OPACITY, 0, 0};
+    f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
+    f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], 0};
+    f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, (uint32_t)mode, (uint32_t)view->ortho};
+    clip_matrix(view, f);
+    double lo[3] = {1, 1, 1}, hi[3] = {0, 0, 0}; /* empty unless the occupancy says otherwise */
+    if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
+    f->bbox_min = v4(lo, 0);
+    f->bbox_max = v4(hi, 0);
+    f->lists = (leap_uvec4){r->event_pool, r->max_segments, box_count, 0};
+}
+
+static leap_result ensure_frame_buffers(leap_renderer *r, const leap_view *view, leap_error *err)
+{
+    size_t pixels = (size_t)view->width * view->height;
+    if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "image of %dx%d pixels exceeds the 128 MiB per-buffer limit (at most %u pixels)",
+                         view->width, view->height, (unsigned)(MAX_BUFFER_BYTES / (8 * r->max_segments)));
+    if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width && r->fb_height == (uint32_t)view->height)
+        return LEAP_OK;
+    vkDeviceWaitIdle(r->gpu->device);
+    destroy_frame_buffers(r);
+    VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_aux, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 4, usage, &r->heads, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
+    if (lr) return lr;
+    VkFramebufferCreateInfo fci = {
+        .sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO,
+        .renderPass = r->render_pass,
+        .width = (uint32_t)view->width,
+        .height = (uint32_t)view->height,
+        .layers = 1,
+    };
+    VK_CHECK(vkCreateFramebuffer(r->gpu->device, &fci, NULL, &r->framebuffer));
+    r->fb_width = (uint32_t)view->width;
+    r->fb_height = (uint32_t)view->height;
+    r->pixels_allocated = pixels;
+    return LEAP_OK;
+}
+
+static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *err)
+{
+    VkDeviceSize need = (VkDeviceSize)(count ? count : 1) * sizeof(leap_box_gpu);
+    if (need > MAX_BUFFER_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the 128 MiB buffer limit", count);
+    if (r->boxes.size >= need) return LEAP_OK;
+    vkDeviceWaitIdle(r->gpu->device);
+    leap_gpu_buffer_destroy(r->gpu, &r->boxes);
+    return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+}
+
+static void write_descriptors(leap_renderer *r)
+{
+    VkDescriptorBufferInfo buf[BINDING_COUNT];
+    const leap_buffer *src[BINDING_COUNT] = {
+        [LEAP_BINDING_FRAME] = &r->frame, [LEAP_BINDING_PAGES] = &r->pages,
+        [LEAP_BINDING_OUT_RGBA] = &r->out_rgba, [LEAP_BINDING_OUT_AUX] = &r->out_aux,
+        [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_HEADS] = &r->heads,
+        [LEAP_BINDING_EVENTS] = &r->events_pool, [LEAP_BINDING_COUNTERS] = &r->counters,
+        [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
+    };
+    VkDescriptorImageInfo img[2] = {
+        {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        {r->linear_sampler, r->tf.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+    };
+    VkWriteDescriptorSet w[BINDING_COUNT];
+    for (uint32_t i = 0; i < BINDING_COUNT; ++i) {
+        w[i] = (VkWriteDescriptorSet){
+            .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+            .dstSet = r->set,
+            .dstBinding = i,
+            .descriptorCount = 1,
+            .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+        };
+        if (i == LEAP_BINDING_ATLAS || i == LEAP_BINDING_TF) {
+            w[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+            w[i].pImageInfo = &img[i == LEAP_BINDING_TF];
+            continue;
+        }
+        if (i == LEAP_BINDING_FRAME) w[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        buf[i] = (VkDescriptorBufferInfo){src[i]->buffer, 0, VK_WHOLE_SIZE};
+        w[i].pBufferInfo = &buf[i];
+    }
+    vkUpdateDescriptorSets(r->gpu->device, BINDING_COUNT, w, 0, NULL);
+}
+
+static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipelineStageFlags dst, VkAccessFlags from,
+                           VkAccessFlags to)
+{
+    VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER, .srcAccessMask = from, .dstAccessMask = to};
+    vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
+}
+
+static void record_lists(leap_renderer *r, const leap_view *view, uint32_t box_count)
+{
+    VkCommandBuffer cmd = r->gpu->cmd;
+    size_t pixels = (size_t)view->width * view->height;
+    vkCmdFillBuffer(cmd, r->heads.buffer, 0, pixels * 4, 0);
+    vkCmdFillBuffer(cmd, r->pixel_lists.buffer, 0, pixels * 16, 0);
+    vkCmdFillBuffer(cmd, r->counters.buffer, 0, 16, 0);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    VkRenderPassBeginInfo rpbi = {
+        .sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO,
+        .renderPass = r->render_pass,
+        .framebuffer = r->framebuffer,
+        .renderArea = {{0, 0}, {(uint32_t)view->width, (uint32_t)view->height}},
+    };
+    vkCmdBeginRenderPass(cmd, &rpbi, VK_SUBPASS_CONTENTS_INLINE);
+    VkViewport vp = {0, 0, (float)view->width, (float)view->height, 0, 1};
+    VkRect2D sc = {{0, 0}, {(uint32_t)view->width, (uint32_t)view->height}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &sc);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    if (box_count) vkCmdDraw(cmd, 36, box_count, 0, 0);
+    vkCmdEndRenderPass(cmd);
+    if (r->gpu->timestamps)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                  ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    if (r->gpu->timestamps)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT);
+}
+
+leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const leap_march *march,
+                                 leap_mode mode, float *rgba, float *depth, float *samples,
+                                 leap_frame_stats *stats, leap_error *err)
+{
+    leap_frame_stats st = {0};
+    if (!r->has_volume || !r->tf.image)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: no volume or transfer function uploaded");
+    if (!view || !march || view->width <= 0 || view->height <= 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: invalid view");
+    if (!(march->step > 0) || !isfinite(march->step))
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: step must be a positive number");
+    if ((int)mode < 0 || mode >= LEAP_RENDER_MODE_COUNT)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: unknown mode %d", (int)mode);
+    if (mode != LEAP_RENDER_NAIVE && !r->occupancy)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: mode %s needs an occupancy", leap_mode_name(mode));
+    int lists = mode == LEAP_RENDER_SPARSELEAP;
+    if (lists && !r->box_set)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: sparseleap needs occupancy boxes");
+    size_t pixels = (size_t)view->width * view->height;
+    double t0 = now_ms();
+    leap_result lr = ensure_frame_buffers(r, view, err);
+    uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
+    if (!lr && lists) lr = ensure_boxes(r, box_count, err);
+    if (lr) return lr;
+    if (lists) {
+        double eye_or_dir[3];
+        for (int i = 0; i < 3; ++i) eye_or_dir[i] = view->ortho ? view->dir0[i] : view->origin0[i];
+        st.order_ms = leap_boxes_order(r->box_set, eye_or_dir, view->ortho, r->boxes.mapped, NULL);
+        st.boxes = box_count;
+    }
+    fill_frame(r, view, march, mode, box_count, r->frame.mapped);
+    write_descriptors(r);
+    double t1 = now_ms();
+    st.upload_ms = t1 - t0;
+
+    leap_gpu *gpu = r->gpu;
+    if ((lr = leap_gpu_begin(gpu, err))) return lr;
+    VkCommandBuffer cmd = gpu->cmd;
+    if (gpu->timestamps) {
+        vkCmdResetQueryPool(cmd, gpu->timestamps, 0, TS_COUNT);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_START);
+    }
+    if (lists) {
+        record_lists(r, view, box_count);
+    } else if (gpu->timestamps) {
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->composite);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                  ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    if (gpu->timestamps)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_HOST_READ_BIT);
+    if ((lr = leap_gpu_submit_wait(gpu, err))) return lr;
+    double t2 = now_ms();
+    st.render_ms = t2 - t1;
+    double ts[TS_COUNT];
+    if (gpu->timestamps && leap_gpu_read_timestamps(gpu, TS_COUNT, ts, err) == LEAP_OK) {
+        st.gpu_raster_ms = ts[TS_RASTER];
+        st.gpu_resolve_ms = ts[TS_RESOLVE] - ts[TS_RASTER];
+        st.gpu_composite_ms = ts[TS_COMPOSITE] - ts[TS_RESOLVE];
+    }
+
+    const float *out = r->out_rgba.mapped, *aux = r->out_aux.mapped;
+    if (rgba) memcpy(rgba, out, pixels * 4 * sizeof(float));
+    uint64_t events = 0, segs = 0;
+    const uint32_t *pl = r->pixel_lists.mapped;
+    for (size_t i = 0; i < pixels; ++i) {
+        uint32_t n = (uint32_t)aux[4 * i + 1];
+        st.total_samples += n;
+        st.naive_samples += (uint64_t)aux[4 * i + 2];
+        if (n > st.samples_max) st.samples_max = n;
+        if (depth) depth[i] = aux[4 * i];
+        if (samples) samples[i] = aux[4 * i + 1];
+        if (lists) {
+            uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
+            events += e;
+            segs += s;
+            if (e > st.events_max) st.events_max = e;
+            if (s > st.segments_max) st.segments_max = s;
+            st.overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
+        }
+    }
+    r->lists_valid = lists;
+    st.readback_ms = now_ms() - t2;
+    st.samples_mean = (double)st.total_samples / (double)pixels;
+    st.events_mean = (double)events / (double)pixels;
+    st.segments_mean = (double)segs / (double)pixels;
+    st.width = (uint32_t)view->width;
+    st.height = (uint32_t)view->height;
+    if (stats) *stats = st;
+    return LEAP_OK;
+}

@@ -1,0 +1,511 @@
+/* Transfer functions: built-in presets and ParaView colour-map JSON files, both turned
+ * into a LEAP_TF_TABLE_SIZE table sampled at u_i = i / (N - 1). */
+#include "leap/tf.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define N_TABLE LEAP_TF_TABLE_SIZE
+
+/* ---- piecewise-linear functions ----------------------------------------------------- */
+
+/* Evaluates a piecewise-linear function with `n` >= 1 knots at x. xs is non-decreasing;
+ * vals holds `dim` values per knot. Outside [xs[0], xs[n-1]] the end values hold; at a
+ * repeated x (a step) the value right of the step is used. */
+static void pwl_eval(const double *xs, const double *vals, int n, int dim, double x,
+                     double *out)
+{
+    if (n == 1 || x <= xs[0]) {
+        memcpy(out, vals, (size_t)dim * sizeof *out);
+        return;
+    }
+    if (x >= xs[n - 1]) {
+        memcpy(out, vals + (size_t)(n - 1) * dim, (size_t)dim * sizeof *out);
+        return;
+    }
+    int j = 1;
+    while (j < n - 1 && xs[j] <= x)
+        ++j;
+    /* now xs[j-1] <= x < xs[j], hence xs[j] > xs[j-1] */
+    const double f = (x - xs[j - 1]) / (xs[j] - xs[j - 1]);
+    for (int c = 0; c < dim; ++c) {
+        const double a = vals[(size_t)(j - 1) * dim + c];
+        const double b = vals[(size_t)j * dim + c];
+        out[c] = a + (b - a) * f;
+    }
+}
+
+static float clamp01f(double v)
+{
+    if (!(v > 0.0))
+        return 0.0f;
+    if (v > 1.0)
+        return 1.0f;
+    return (float)v;
+}
+
+static double table_u(int i)
+{
+    return (double)i / (double)(N_TABLE - 1);
+}
+
+static void set_name(leap_tf *out, const char *name)
+{
+    snprintf(out->name, sizeof out->name, "%s", name);
+}
+
+/* ---- presets ------------------------------------------------------------------------- */
+
+static const char *const preset_names[] = {"grey", "viridis", "labels", "hot", "cloud", NULL};
+
+const char *const *leap_tf_preset_names(void)
+{
+    return preset_names;
+}
+
+/* Viridis sampled at u = 0, 0.1, ..., 1 (linear RGB interpolation in between). */
+static const double viridis_knots[11][3] = {
+    {0.267004, 0.004874, 0.329415}, {0.282623, 0.140926, 0.457517},
+    {0.253935, 0.265254, 0.529983}, {0.206756, 0.371758, 0.553117},
+    {0.163625, 0.471133, 0.558148}, {0.127568, 0.566949, 0.550556},
+    {0.134692, 0.658636, 0.517649}, {0.266941, 0.748751, 0.440573},
+    {0.477504, 0.821444, 0.318195}, {0.741388, 0.873449, 0.149561},
+    {0.993248, 0.906157, 0.143936},
+};
+
+/* Qualitative palette for label volumes; labels cycle through it. Neighbouring entries
+ * (including last -> first) differ clearly. */
+#define LABEL_PALETTE_SIZE 12
+static const double label_palette[LABEL_PALETTE_SIZE][3] = {
+    {0.90, 0.10, 0.10}, {0.12, 0.47, 0.90}, {0.20, 0.75, 0.25}, {0.98, 0.60, 0.05},
+    {0.60, 0.30, 0.80}, {0.10, 0.80, 0.80}, {0.95, 0.85, 0.15}, {0.90, 0.35, 0.65},
+    {0.55, 0.35, 0.20}, {0.55, 0.85, 0.45}, {0.40, 0.40, 0.95}, {0.70, 0.70, 0.70},
+};
+#define LABEL_OPACITY 0.8
+
+static void fill_grey(leap_tf *out)
+{
+    for (int i = 0; i < N_TABLE; ++i) {
+        const float u = (float)table_u(i);
+        out->rgba[i][0] = out->rgba[i][1] = out->rgba[i][2] = u;
+        out->rgba[i][3] = u;
+    }
+}
+
+static void fill_viridis(leap_tf *out)
+{
+    double xs[11];
+    for (int k = 0; k < 11; ++k)
+        xs[k] = k / 10.0;
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double u = table_u(i);
+        double rgb[3];
+        pwl_eval(xs, &viridis_knots[0][0], 11, 3, u, rgb);
+        /* transparent up to u = 0.05, then a linear ramp reaching 0.8 at u = 1 */
+        const double a = u <= 0.05 ? 0.0 : 0.8 * (u - 0.05) / 0.95;
+        out->rgba[i][0] = clamp01f(rgb[0]);
+        out->rgba[i][1] = clamp01f(rgb[1]);
+        out->rgba[i][2] = clamp01f(rgb[2]);
+        out->rgba[i][3] = clamp01f(a);
+    }
+}
+
+/* Black -> red -> yellow -> white with a linear opacity ramp. */
+static void fill_hot(leap_tf *out)
+{
+    static const double xs[4] = {0.0, 1.0 / 3.0, 2.0 / 3.0, 1.0};
+    static const double rgb[4][3] = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {1, 1, 1}};
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double u = table_u(i);
+        double c[3];
+        pwl_eval(xs, &rgb[0][0], 4, 3, u, c);
+        out->rgba[i][0] = clamp01f(c[0]);
+        out->rgba[i][1] = clamp01f(c[1]);
+        out->rgba[i][2] = clamp01f(c[2]);
+        out->rgba[i][3] = clamp01f(u);
+    }
+}
+
+/* White with a low opacity ramp, for smoke and clouds. */
+static void fill_cloud(leap_tf *out)
+{
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double u = table_u(i);
+        out->rgba[i][0] = out->rgba[i][1] = out->rgba[i][2] = 1.0f;
+        out->rgba[i][3] = clamp01f(0.25 * u);
+    }
+}
+
+/* Label volumes: the range spans `label_count` integers lo .. lo + label_count - 1, so
+ * label offset L sits at u = L / (label_count - 1). Each table entry takes the colour of
+ * the nearest label; offset 0 (the background when the range starts at 0) is fully
+ * transparent, every other label has opacity LABEL_OPACITY and palette colour
+ * (L - 1) mod LABEL_PALETTE_SIZE. */
+static void fill_labels(leap_tf *out, int label_count)
+{
+    const double span = label_count > 1 ? (double)(label_count - 1) : 0.0;
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double l = floor(table_u(i) * span + 0.5);
+        const long label = (long)l;
+        if (label <= 0) {
+            out->rgba[i][0] = out->rgba[i][1] = out->rgba[i][2] = 0.0f;
+            out->rgba[i][3] = 0.0f;
+            continue;
+        }
+        const double *c = label_palette[(label - 1) % LABEL_PALETTE_SIZE];
+        out->rgba[i][0] = (float)c[0];
+        out->rgba[i][1] = (float)c[1];
+        out->rgba[i][2] = (float)c[2];
+        out->rgba[i][3] = (float)LABEL_OPACITY;
+    }
+}
+
+leap_result leap_tf_preset(const char *name, int label_count, leap_tf *out, leap_error *err)
+{
+    if (!out)
+        return leap_fail(err, LEAP_ERR_USAGE, "transfer function: no output table");
+    if (!name)
+        name = "";
+    if (strcmp(name, "grey") == 0 || strcmp(name, "gray") == 0) {
+        fill_grey(out);
+        set_name(out, "grey");
+    } else if (strcmp(name, "viridis") == 0) {
+        fill_viridis(out);
+        set_name(out, "viridis");
+    } else if (strcmp(name, "labels") == 0) {
+        if (label_count < 1)
+            return leap_fail(err, LEAP_ERR_USAGE,
+                             "transfer function 'labels': label count %d must be >= 1",
+                             label_count);
+        fill_labels(out, label_count);
+        set_name(out, "labels");
+    } else if (strcmp(name, "hot") == 0) {
+        fill_hot(out);
+        set_name(out, "hot");
+    } else if (strcmp(name, "cloud") == 0) {
+        fill_cloud(out);
+        set_name(out, "cloud");
+    } else {
+        char list[160] = "";
+        size_t len = 0;
+        for (const char *const *p = preset_names; *p; ++p) {
+            int w = snprintf(list + len, sizeof list - len, "%s%s", p == preset_names ? "" : ", ",
+                             *p);
+            if (w < 0 || (size_t)w >= sizeof list - len)
+                break;
+            len += (size_t)w;
+        }
+        return leap_fail(err, LEAP_ERR_USAGE,
+                         "unknown transfer function '%s' (presets: %s; or a .json file)", name,
+                         list);
+    }
+    return LEAP_OK;
+}
+
+/* ---- ParaView JSON ------------------------------------------------------------------- */
+
+static leap_result read_file(const char *path, char **data, size_t *size, leap_error *err)
+{
+    *data = NULL;
+    *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    size_t cap = 4096, len = 0;
+    char *buf = malloc(cap + 1);
+    if (!buf) {
+        fclose(f);
+        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+    }
+    for (;;) {
+        if (len == cap) {
+            if (cap > ((size_t)1 << 30)) {
+                free(buf);
+                fclose(f);
+                return leap_fail(err, LEAP_ERR_FORMAT, "%s: file too large for a colour map",
+                                 path);
+            }
+            char *nb = realloc(buf, cap * 2 + 1);
+            if (!nb) {
+                free(buf);
+                fclose(f);
+                return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+            }
+            buf = nb;
+            cap *= 2;
+        }
+        size_t got = fread(buf + len, 1, cap - len, f);
+        len += got;
+        if (got == 0)
+            break;
+    }
+    int failed = ferror(f);
+    int saved = errno;
+    fclose(f);
+    if (failed) {
+        free(buf);
+        return leap_fail(err, LEAP_ERR_IO, "%s: read error: %s", path, strerror(saved));
+    }
+    buf[len] = '\0';
+    *data = buf;
+    *size = len;
+    return LEAP_OK;
+}
+
+/* Reads a JSON array of numbers with a count that is a positive multiple of 4 and at
+ * least `min_points` points. The caller frees *vals. */
+static leap_result read_points(const char *path, const cJSON *arr, const char *key,
+                               int min_points, double **vals, int *npoints, leap_error *err)
+{
+    *vals = NULL;
+    *npoints = 0;
+    if (!cJSON_IsArray(arr))
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s is not an array of numbers", path, key);
+    const int n = cJSON_GetArraySize(arr);
+    if (n % 4 != 0)
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s has %d numbers, expected a multiple of 4",
+                         path, key, n);
+    if (n / 4 < min_points)
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s has %d point%s, expected at least %d",
+                         path, key, n / 4, n / 4 == 1 ? "" : "s", min_points);
+    double *v = malloc((size_t)(n > 0 ? n : 1) * sizeof *v);
+    if (!v)
+        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+    int i = 0;
+    for (const cJSON *e = arr->child; e; e = e->next, ++i) {
+        if (!cJSON_IsNumber(e)) {
+            free(v);
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s[%d] is not a number", path, key, i);
+        }
+        if (!isfinite(e->valuedouble)) {
+            free(v);
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s[%d] is not finite", path, key, i);
+        }
+        v[i] = e->valuedouble;
+    }
+    *vals = v;
+    *npoints = n / 4;
+    return LEAP_OK;
+}
+
+/* x (entry 0 of each group of 4) must not decrease; entries listed in `unit` must lie in
+ * [0, 1]. */
+static leap_result check_points(const char *path, const char *key, const double *v, int np,
+                                const int unit[4], const char *what, leap_error *err)
+{
+    for (int p = 0; p < np; ++p) {
+        if (p > 0 && v[4 * p] < v[4 * (p - 1)])
+            return leap_fail(err, LEAP_ERR_FORMAT,
+                             "%s: %s x values decrease at point %d (%g after %g)", path, key, p,
+                             v[4 * p], v[4 * (p - 1)]);
+        for (int c = 1; c < 4; ++c) {
+            const double x = v[4 * p + c];
+            if (unit[c] && (x < 0.0 || x > 1.0))
+                return leap_fail(err, LEAP_ERR_FORMAT,
+                                 "%s: %s point %d has %s %g outside [0, 1]", path, key, p, what,
+                                 x);
+        }
+    }
+    return LEAP_OK;
+}
+
+static const char *base_name(const char *path)
+{
+    const char *s = strrchr(path, '/');
+    return s ? s + 1 : path;
+}
+
+/* Converts a byte offset to a 1-based line number for syntax error messages. */
+static int line_of(const char *text, size_t offset)
+{
+    int line = 1;
+    for (size_t i = 0; i < offset && text[i]; ++i)
+        if (text[i] == '\n')
+            ++line;
+    return line;
+}
+
+/* ParaView's interpolation colour spaces (Diverging, Lab, ...) are not reproduced: colours
+ * are interpolated linearly in RGB between the given points. Likewise each opacity
+ * point's midpoint and sharpness are ignored: opacity is linear between points. */
+leap_result leap_tf_load_json(const char *path, leap_tf *out, leap_error *err)
+{
+    if (!path || !out)
+        return leap_fail(err, LEAP_ERR_USAGE, "transfer function: no path or output table");
+    char *text = NULL;
+    size_t size = 0;
+    leap_result r = read_file(path, &text, &size, err);
+    if (r != LEAP_OK)
+        return r;
+
+    size_t start = 0;
+    while (start < size && (text[start] == ' ' || text[start] == '\t' || text[start] == '\n' ||
+                            text[start] == '\r'))
+        ++start;
+    if (start == size) {
+        free(text);
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: file is empty, expected a JSON colour map",
+                         path);
+    }
+
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithLengthOpts(text, size, &end, 0);
+    if (!root) {
+        size_t off = end && end >= text ? (size_t)(end - text) : 0;
+        if (off > size)
+            off = size;
+        r = leap_fail(err, LEAP_ERR_FORMAT, "%s: JSON syntax error at line %d (byte %zu)", path,
+                      line_of(text, off), off);
+        free(text);
+        return r;
+    }
+    free(text);
+
+    double *rgb = NULL, *op = NULL;
+    int nrgb = 0, nop = 0;
+    const cJSON *obj = root;
+    if (cJSON_IsArray(root)) {
+        obj = root->child;
+        if (!obj) {
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: the top-level array is empty", path);
+            goto done;
+        }
+    }
+    if (!cJSON_IsObject(obj)) {
+        r = leap_fail(err, LEAP_ERR_FORMAT,
+                      "%s: expected a JSON object (or an array of objects) with RGBPoints", path);
+        goto done;
+    }
+
+    const cJSON *jr = cJSON_GetObjectItemCaseSensitive(obj, "RGBPoints");
+    if (!jr) {
+        r = leap_fail(err, LEAP_ERR_FORMAT, "%s: missing \"RGBPoints\"", path);
+        goto done;
+    }
+    r = read_points(path, jr, "RGBPoints", 2, &rgb, &nrgb, err);
+    if (r != LEAP_OK)
+        goto done;
+    static const int rgb_unit[4] = {0, 1, 1, 1};
+    r = check_points(path, "RGBPoints", rgb, nrgb, rgb_unit, "a colour component", err);
+    if (r != LEAP_OK)
+        goto done;
+    const double x0 = rgb[0], x1 = rgb[4 * (nrgb - 1)];
+    if (!(x1 > x0)) {
+        r = leap_fail(err, LEAP_ERR_FORMAT,
+                      "%s: RGBPoints x values are all %g, expected at least two distinct x", path,
+                      x0);
+        goto done;
+    }
+
+    const cJSON *jp = cJSON_GetObjectItemCaseSensitive(obj, "Points");
+    if (jp && !cJSON_IsNull(jp)) {
+        r = read_points(path, jp, "Points", 1, &op, &nop, err);
+        if (r != LEAP_OK)
+            goto done;
+        static const int op_unit[4] = {0, 1, 0, 0};
+        r = check_points(path, "Points", op, nop, op_unit, "opacity", err);
+        if (r != LEAP_OK)
+            goto done;
+    }
+
+    double *xs = malloc((size_t)(nrgb + nop) * sizeof *xs);
+    double *vals = malloc((size_t)(3 * nrgb + nop) * sizeof *vals);
+    if (!xs || !vals) {
+        free(xs);
+        free(vals);
+        r = leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+        goto done;
+    }
+    for (int p = 0; p < nrgb; ++p) {
+        xs[p] = rgb[4 * p];
+        for (int c = 0; c < 3; ++c)
+            vals[3 * p + c] = rgb[4 * p + 1 + c];
+    }
+    double *oxs = xs + nrgb, *ovals = vals + 3 * nrgb;
+    for (int p = 0; p < nop; ++p) {
+        oxs[p] = op[4 * p];
+        ovals[p] = op[4 * p + 1];
+    }
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double u = table_u(i);
+        const double x = x0 + (x1 - x0) * u;
+        double c[3], a;
+        pwl_eval(xs, vals, nrgb, 3, x, c);
+        if (nop > 0)
+            pwl_eval(oxs, ovals, nop, 1, x, &a);
+        else
+            a = u;
+        out->rgba[i][0] = clamp01f(c[0]);
+        out->rgba[i][1] = clamp01f(c[1]);
+        out->rgba[i][2] = clamp01f(c[2]);
+        out->rgba[i][3] = clamp01f(a);
+    }
+    free(xs);
+    free(vals);
+
+    const cJSON *jn = cJSON_GetObjectItemCaseSensitive(obj, "Name");
+    if (cJSON_IsString(jn) && jn->valuestring && jn->valuestring[0])
+        set_name(out, jn->valuestring);
+    else
+        set_name(out, base_name(path));
+    r = LEAP_OK;
+
+done:
+    free(rgb);
+    free(op);
+    cJSON_Delete(root);
+    return r;
+}
+
+static int ends_with_json(const char *s)
+{
+    const size_t n = strlen(s);
+    if (n < 5)
+        return 0;
+    const char *e = s + n - 5;
+    return e[0] == '.' && (e[1] | 32) == 'j' && (e[2] | 32) == 's' && (e[3] | 32) == 'o' &&
+           (e[4] | 32) == 'n';
+}
+
+leap_result leap_tf_from_arg(const char *arg, int label_count, leap_tf *out, leap_error *err)
+{
+    if (!arg || !arg[0])
+        return leap_fail(err, LEAP_ERR_USAGE, "no transfer function given");
+    if (ends_with_json(arg))
+        return leap_tf_load_json(arg, out, err);
+    return leap_tf_preset(arg, label_count, out, err);
+}
+
+/* ---- evaluation ---------------------------------------------------------------------- */
+
+void leap_tf_eval(const leap_tf *tf, double u, double rgba[4])
+{
+    if (!(u > 0.0)) /* also NaN */
+        u = 0.0;
+    else if (u > 1.0)
+        u = 1.0;
+    const double x = u * (double)(N_TABLE - 1);
+    int i = (int)x;
+    if (i > N_TABLE - 1)
+        i = N_TABLE - 1;
+    const int j = i + 1 < N_TABLE ? i + 1 : N_TABLE - 1;
+    const double f = x - (double)i;
+    const float *a = tf->rgba[i], *b = tf->rgba[j];
+    for (int c = 0; c < 4; ++c)
+        rgba[c] = (double)a[c] + ((double)b[c] - (double)a[c]) * f;
+}
+
+double leap_tf_alpha_for_step(double alpha_tf, double dt)
+{
+    if (!(alpha_tf > 0.0))
+        return 0.0;
+    if (alpha_tf >= 1.0)
+        return 1.0;
+    if (dt == LEAP_TF_STEP_REF)
+        return alpha_tf;
+    return 1.0 - pow(1.0 - alpha_tf, dt / LEAP_TF_STEP_REF);
+}

@@ -1,0 +1,823 @@
+// OpenVDB behind the C API of include/leap/vdb.h. No C++ exception leaves this file:
+// every extern "C" function catches at its boundary and reports through leap_error.
+
+#include "leap/vdb.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <string>
+#include <vector>
+
+namespace vdb = openvdb;
+
+namespace {
+
+using FloatTree = vdb::FloatTree;
+using RootT = FloatTree::RootNodeType;
+using Node2T = RootT::ChildNodeType;   // 4096^3 internal node
+using Node1T = Node2T::ChildNodeType;  // 128^3 internal node
+using LeafT = FloatTree::LeafNodeType; // 8^3 leaf
+
+void init_openvdb()
+{
+    static std::once_flag once;
+    std::call_once(once, [] { vdb::initialize(); });
+}
+
+// Exception text on one line (OpenVDB messages may contain newlines).
+std::string one_line(const char *s)
+{
+    std::string out = s ? s : "unknown error";
+    std::replace(out.begin(), out.end(), '\n', ' ');
+    return out;
+}
+
+// Runs f (returning leap_result) and turns any exception into `code` with a message
+// that names `what` (usually the file).
+template <typename F>
+leap_result guarded(leap_error *err, leap_result code, const std::string &what, F &&f)
+{
+    try {
+        return f();
+    } catch (const std::bad_alloc &) {
+        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", what.c_str());
+    } catch (const vdb::Exception &e) {
+        return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
+    } catch (const std::exception &e) {
+        return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
+    } catch (...) {
+        return leap_fail(err, code, "%s: unknown error", what.c_str());
+    }
+}
+
+void copy_str(char *dst, size_t cap, const std::string &s)
+{
+    std::snprintf(dst, cap, "%s", s.c_str());
+}
+
+bool is_scalar_type(const std::string &t)
+{
+    return t == "float" || t == "double" || t == "int32";
+}
+
+// Row-major column-vector matrix (world = M * (i,j,k,1)) from an OpenVDB transform.
+// OpenVDB's Mat4d uses row vectors (world = (i,j,k,1) * A), so M = A^T.
+void transform_to_info(const vdb::math::Transform &xf, leap_grid_info *info)
+{
+    const vdb::math::Mat4d a = xf.baseMap()->getAffineMap()->getMat4();
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) info->index_to_world[r][c] = a(c, r);
+    for (int axis = 0; axis < 3; ++axis) {
+        double s = 0.0;
+        for (int r = 0; r < 3; ++r) s += info->index_to_world[r][axis] * info->index_to_world[r][axis];
+        info->voxel_size[axis] = std::sqrt(s);
+    }
+}
+
+void meta_to_info(const vdb::GridBase &g, const std::string &name, leap_grid_info *info)
+{
+    copy_str(info->name, sizeof info->name, name);
+    copy_str(info->value_type, sizeof info->value_type, g.valueType());
+    copy_str(info->grid_class, sizeof info->grid_class,
+             vdb::GridBase::gridClassToString(g.getGridClass()));
+    info->scalar = is_scalar_type(g.valueType());
+    info->saved_as_half = g.valueType() == "float" && g.saveFloatAsHalf();
+    transform_to_info(g.constTransform(), info);
+    info->bbox_min[0] = info->bbox_min[1] = info->bbox_min[2] = 0;
+    info->bbox_max[0] = info->bbox_max[1] = info->bbox_max[2] = -1;
+}
+
+// Background of a scalar grid as float (how every scalar type is presented).
+bool scalar_background(const vdb::GridBase &g, double *out)
+{
+    if (auto f = dynamic_cast<const vdb::FloatGrid *>(&g)) *out = f->background();
+    else if (auto d = dynamic_cast<const vdb::DoubleGrid *>(&g)) *out = float(d->background());
+    else if (auto i = dynamic_cast<const vdb::Int32Grid *>(&g)) *out = float(i->background());
+    else return false;
+    return true;
+}
+
+// Reads the grid descriptors of a .vdb file in file order, with OpenVDB's own readers
+// (io::File keeps them private and sorted by name). Their offsets also tell whether the
+// file is complete: OpenVDB does not notice some truncations by itself.
+class DescriptorReader : public vdb::io::Archive {
+public:
+    // Returns false for the old streamed format, which has no grid offsets.
+    bool read(const std::string &path, std::vector<vdb::io::GridDescriptor> &out)
+    {
+        std::ifstream is(path, std::ios_base::in | std::ios_base::binary);
+        if (!is) OPENVDB_THROW(vdb::IoError, "cannot open the file");
+        readHeader(is);
+        if (!inputHasGridOffsets()) return false;
+        // The same stream set-up as io::File::open.
+        vdb::io::StreamMetadata::Ptr meta(new vdb::io::StreamMetadata);
+        meta->setSeekable(true);
+        vdb::io::setStreamMetadataPtr(is, meta, /*transfer=*/false);
+        setFormatVersion(is);
+        setLibraryVersion(is);
+        setDataCompression(is);
+        vdb::MetaMap file_meta;
+        file_meta.readMeta(is);
+        const int32_t count = readGridCount(is);
+        for (int32_t i = 0; i < count && is; ++i) {
+            vdb::io::GridDescriptor gd;
+            gd.read(is);
+            out.push_back(gd);
+            gd.seekToEnd(is);
+        }
+        if (!is) OPENVDB_THROW(vdb::IoError, "the grid table is incomplete (truncated file)");
+        return true;
+    }
+};
+
+struct Range {
+    float lo = std::numeric_limits<float>::infinity();
+    float hi = -std::numeric_limits<float>::infinity();
+    void add(float v)
+    {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+    }
+    void add(const Range &r)
+    {
+        lo = std::min(lo, r.lo);
+        hi = std::max(hi, r.hi);
+    }
+    bool empty() const { return lo > hi; }
+};
+
+// ---- min/max of all stored values (active or not, background where there is no data)
+// inside an index box, descending only into the nodes that the box touches.
+
+void range_in(const LeafT &leaf, const vdb::CoordBBox &b, Range &r)
+{
+    const float *data = leaf.buffer().data();
+    const vdb::Coord o = leaf.origin();
+    // Offsets inside the leaf, so that a leaf at the end of the index range cannot overflow.
+    const vdb::Coord lo = b.min() - o, hi = b.max() - o;
+    for (int x = lo.x(); x <= hi.x(); ++x)
+        for (int y = lo.y(); y <= hi.y(); ++y) {
+            const float *row = data + (x << (2 * LeafT::LOG2DIM)) + (y << LeafT::LOG2DIM);
+            for (int z = lo.z(); z <= hi.z(); ++z) r.add(row[z]);
+        }
+}
+
+template <typename NodeT>
+void range_in(const NodeT &node, const vdb::CoordBBox &b, Range &r)
+{
+    using ChildT = typename NodeT::ChildNodeType;
+    const vdb::Coord o = node.origin();
+    const int sh = ChildT::TOTAL;
+    const auto *table = node.getTable();
+    for (int cx = (b.min().x() - o.x()) >> sh; cx <= (b.max().x() - o.x()) >> sh; ++cx)
+        for (int cy = (b.min().y() - o.y()) >> sh; cy <= (b.max().y() - o.y()) >> sh; ++cy)
+            for (int cz = (b.min().z() - o.z()) >> sh; cz <= (b.max().z() - o.z()) >> sh; ++cz) {
+                const vdb::Index n = (cx << (2 * NodeT::LOG2DIM)) + (cy << NodeT::LOG2DIM) + cz;
+                if (node.isChildMaskOn(n)) {
+                    const ChildT &child = *table[n].getChild();
+                    vdb::CoordBBox cb = child.getNodeBoundingBox();
+                    cb.intersect(b);
+                    range_in(child, cb, r);
+                } else {
+                    r.add(table[n].getValue());
+                }
+            }
+}
+
+// Box given in 64-bit so that callers may pass a box reaching past the int32 index range;
+// the part outside holds no voxels and is dropped.
+void range_in_box(const RootT &root, const int64_t lo[3], const int64_t hi[3], Range &r)
+{
+    const int64_t lim_lo = std::numeric_limits<int32_t>::min(), lim_hi = std::numeric_limits<int32_t>::max();
+    int64_t a[3], b[3];
+    for (int i = 0; i < 3; ++i) {
+        a[i] = std::max(lo[i], lim_lo);
+        b[i] = std::min(hi[i], lim_hi);
+        if (a[i] > b[i]) return;
+    }
+    const int64_t dim = Node2T::DIM;
+    auto align = [dim](int64_t v) { return v - (((v % dim) + dim) % dim); };
+    for (int64_t kx = align(a[0]); kx <= b[0]; kx += dim)
+        for (int64_t ky = align(a[1]); ky <= b[1]; ky += dim)
+            for (int64_t kz = align(a[2]); kz <= b[2]; kz += dim) {
+                const vdb::Coord key{int(kx), int(ky), int(kz)};
+                if (const Node2T *child = root.probeConstNode<Node2T>(key)) {
+                    vdb::CoordBBox cb = child->getNodeBoundingBox();
+                    cb.intersect(vdb::CoordBBox(int(a[0]), int(a[1]), int(a[2]), int(b[0]), int(b[1]), int(b[2])));
+                    range_in(*child, cb, r);
+                } else {
+                    r.add(root.getValue(key)); // root tile, or background where there is none
+                }
+            }
+}
+
+// Value range of a brick: the box [o, o+size) plus a one-voxel apron. For a tile the
+// interior is the tile value, so only the six faces of the apron shell are visited.
+Range brick_range(const RootT &root, const vdb::Coord &o, int size, bool is_tile, float tile_value)
+{
+    Range r;
+    const int64_t lo[3] = {int64_t(o.x()) - 1, int64_t(o.y()) - 1, int64_t(o.z()) - 1};
+    const int64_t hi[3] = {int64_t(o.x()) + size, int64_t(o.y()) + size, int64_t(o.z()) + size};
+    if (!is_tile) {
+        range_in_box(root, lo, hi, r);
+        return r;
+    }
+    r.add(tile_value);
+    for (int axis = 0; axis < 3; ++axis)
+        for (int side = 0; side < 2; ++side) {
+            int64_t a[3], b[3];
+            for (int i = 0; i < 3; ++i) {
+                // Axes before `axis` are already covered by earlier faces: keep them inside.
+                a[i] = i < axis ? lo[i] + 1 : lo[i];
+                b[i] = i < axis ? hi[i] - 1 : hi[i];
+            }
+            a[axis] = b[axis] = side ? hi[axis] : lo[axis];
+            range_in_box(root, a, b, r);
+        }
+    return r;
+}
+
+bool brick_before(const leap_brick &a, const leap_brick &b)
+{
+    if (a.origin[2] != b.origin[2]) return a.origin[2] < b.origin[2];
+    if (a.origin[1] != b.origin[1]) return a.origin[1] < b.origin[1];
+    return a.origin[0] < b.origin[0];
+}
+
+// Per-leaf statistics for the load-time scan.
+struct Scan {
+    uint64_t nonfinite = 0;
+    Range all;            // finite stored values
+    Range active;         // finite active values
+    bool active_nan = false, active_pinf = false, active_ninf = false;
+
+    void add(float v, bool on)
+    {
+        if (std::isfinite(v)) {
+            all.add(v);
+            if (on) active.add(v);
+            return;
+        }
+        ++nonfinite;
+        if (!on) return;
+        if (std::isnan(v)) active_nan = true;
+        else if (v > 0) active_pinf = true;
+        else active_ninf = true;
+    }
+    void merge(const Scan &o)
+    {
+        nonfinite += o.nonfinite;
+        all.add(o.all);
+        active.add(o.active);
+        active_nan |= o.active_nan;
+        active_pinf |= o.active_pinf;
+        active_ninf |= o.active_ninf;
+    }
+};
+
+float sanitize(float v, float bg, const Range &finite)
+{
+    if (std::isnan(v)) return bg;
+    if (std::isinf(v)) return v > 0 ? finite.hi : finite.lo;
+    return v;
+}
+
+struct TileRec {
+    vdb::Coord origin;
+    int level; // 0: 8^3, 1: 128^3, 2: 4096^3
+    float value;
+};
+
+// Converts a double/int32 grid into a float tree of the same topology, tiles and background.
+template <typename GridT>
+FloatTree::Ptr convert_tree(const vdb::GridBase &g)
+{
+    const GridT &src = static_cast<const GridT &>(g);
+    return FloatTree::Ptr(new FloatTree(src.tree()));
+}
+
+} // namespace
+
+struct leap_vdb_file {
+    std::string path;
+    std::unique_ptr<vdb::io::File> file;
+    std::vector<std::string> names; // unique names as io::File accepts them ("name[N]" for duplicates)
+    std::vector<std::string> plain; // grid names as written
+    mutable std::vector<leap_grid_info> infos; // backgrounds are filled in lazily
+    mutable std::vector<char> have_background;
+    mutable int cached_index = -1; // grid read by leap_vdb_grid_info, not yet loaded
+    mutable vdb::GridBase::Ptr cached_grid;
+    mutable std::mutex mutex;
+};
+
+struct leap_grid {
+    vdb::FloatGrid::Ptr grid;
+    leap_grid_info info;
+    std::vector<TileRec> tiles; // active tiles, in iteration order
+};
+
+struct leap_grid_reader {
+    explicit leap_grid_reader(const FloatTree &t) : acc(t) {}
+    vdb::tree::ValueAccessor<const FloatTree> acc;
+};
+
+struct WriterGrid {
+    vdb::GridBase::Ptr grid;
+    leap_vdb_type type;
+};
+
+struct leap_vdb_writer {
+    std::vector<WriterGrid> grids;
+    std::string deferred_error; // first failure inside a void call, reported by save
+};
+
+extern "C" {
+
+leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!path || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_open: NULL argument");
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, std::strerror(errno));
+    if (S_ISDIR(st.st_mode)) return leap_fail(err, LEAP_ERR_IO, "'%s' is a directory, not a .vdb file", path);
+    if (!S_ISREG(st.st_mode)) return leap_fail(err, LEAP_ERR_IO, "'%s' is not a regular file", path);
+    if (FILE *f = std::fopen(path, "rb")) std::fclose(f);
+    else return leap_fail(err, LEAP_ERR_IO, "cannot read '%s': %s", path, std::strerror(errno));
+    if (st.st_size == 0) return leap_fail(err, LEAP_ERR_FORMAT, "'%s' is empty (0 bytes), not a VDB file", path);
+
+    const std::string what = std::string("'") + path + "'";
+    return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+        init_openvdb();
+        std::unique_ptr<leap_vdb_file> f(new leap_vdb_file);
+        f->path = path;
+        f->file.reset(new vdb::io::File(path));
+        // No delayed loading: a grid is read completely and checked once, at load time.
+        f->file->open(false);
+        std::vector<vdb::io::GridDescriptor> descs;
+        if (DescriptorReader().read(path, descs)) {
+            for (const vdb::io::GridDescriptor &gd : descs) {
+                const std::string name = vdb::io::GridDescriptor::nameAsString(gd.uniqueName());
+                if (gd.getGridPos() < 0 || gd.getGridPos() > gd.getBlockPos() || gd.getBlockPos() > gd.getEndPos())
+                    return leap_fail(err, LEAP_ERR_FORMAT, "%s: corrupt grid table (grid '%s')", what.c_str(),
+                                     name.c_str());
+                if (gd.getEndPos() > int64_t(st.st_size))
+                    return leap_fail(err, LEAP_ERR_FORMAT, "%s: truncated: grid '%s' ends at byte %lld but the "
+                                     "file has %lld bytes", what.c_str(), name.c_str(),
+                                     (long long)gd.getEndPos(), (long long)st.st_size);
+                f->names.push_back(name);
+                f->plain.push_back(gd.gridName());
+            }
+        } else {
+            for (auto it = f->file->beginName(); it != f->file->endName(); ++it) {
+                f->names.push_back(it.gridName());
+                f->plain.push_back(vdb::io::GridDescriptor::stripSuffix(it.gridName()));
+            }
+        }
+        for (const std::string &name : f->names) {
+            leap_grid_info info;
+            std::memset(&info, 0, sizeof info);
+            meta_to_info(*f->file->readGridMetadata(name), name, &info);
+            f->infos.push_back(info);
+        }
+        if (f->names.empty())
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: no grids (an empty or truncated VDB file)", what.c_str());
+        f->have_background.assign(f->names.size(), 0);
+        *out = f.release();
+        return LEAP_OK;
+    });
+}
+
+void leap_vdb_close(leap_vdb_file *file)
+{
+    if (!file) return;
+    try {
+        if (file->file && file->file->isOpen()) file->file->close();
+    } catch (...) {
+    }
+    delete file;
+}
+
+int leap_vdb_grid_count(const leap_vdb_file *file)
+{
+    return file ? int(file->names.size()) : 0;
+}
+
+leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out, leap_error *err)
+{
+    if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_grid_info: NULL argument");
+    if (index < 0 || index >= int(file->names.size()))
+        return leap_fail(err, LEAP_ERR_USAGE, "'%s': grid index %d out of range (%d grids)", file->path.c_str(),
+                         index, int(file->names.size()));
+    const size_t i = size_t(index);
+    std::lock_guard<std::mutex> lock(file->mutex);
+    if (!file->have_background[i] && file->infos[i].scalar) {
+        // The background is stored with the tree, not with the metadata, so the grid is read
+        // here and kept for a following leap_vdb_load_grid of the same index. (Delayed
+        // loading would read less, but it trips assertions in OpenVDB on corrupt files.)
+        const std::string what = "'" + file->path + "', grid '" + file->names[i] + "'";
+        leap_result r = guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+            vdb::GridBase::Ptr g = file->file->readGrid(file->names[i]);
+            double bg = 0.0;
+            if (scalar_background(*g, &bg)) file->infos[i].background = bg;
+            file->cached_index = index;
+            file->cached_grid = g;
+            return LEAP_OK;
+        });
+        if (r != LEAP_OK) return r;
+        file->have_background[i] = 1;
+    }
+    *out = file->infos[i];
+    return LEAP_OK;
+}
+
+int leap_vdb_find_grid(const leap_vdb_file *file, const char *name)
+{
+    if (!file) return -1;
+    for (size_t i = 0; i < file->infos.size(); ++i) {
+        if (name ? file->names[i] == name : file->infos[i].scalar != 0) return int(i);
+    }
+    // Grids sharing a name are listed as "name[0]", "name[1]", ...; the bare name selects the first.
+    for (size_t i = 0; name && i < file->plain.size(); ++i)
+        if (file->plain[i] == name) return int(i);
+    return -1;
+}
+
+leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_load_grid: NULL argument");
+    if (index < 0 || index >= int(file->names.size()))
+        return leap_fail(err, LEAP_ERR_USAGE, "'%s': grid index %d out of range (%d grids)", file->path.c_str(),
+                         index, int(file->names.size()));
+    const size_t gi = size_t(index);
+    const leap_grid_info &meta = file->infos[gi];
+    if (!meta.scalar)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': grid '%s' has value type %s; only float, half, double "
+                         "and int32 grids can be rendered", file->path.c_str(), meta.name, meta.value_type);
+
+    const std::string what = "'" + file->path + "', grid '" + file->names[gi] + "'";
+    return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+        vdb::GridBase::Ptr base;
+        {
+            std::lock_guard<std::mutex> lock(file->mutex);
+            if (file->cached_index == index) base = std::move(file->cached_grid);
+            else base = file->file->readGrid(file->names[gi]);
+            file->cached_index = -1;
+            file->cached_grid.reset();
+        }
+        if (!base->constTransform().isLinear())
+            return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: non-linear (frustum) transform is not supported",
+                             what.c_str());
+
+        std::unique_ptr<leap_grid> g(new leap_grid);
+        g->info = meta;
+        if (base->isType<vdb::FloatGrid>()) {
+            g->grid = vdb::gridPtrCast<vdb::FloatGrid>(base);
+        } else {
+            FloatTree::Ptr tree;
+            if (base->isType<vdb::DoubleGrid>()) tree = convert_tree<vdb::DoubleGrid>(*base);
+            else if (base->isType<vdb::Int32Grid>()) tree = convert_tree<vdb::Int32Grid>(*base);
+            else return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: unsupported grid type %s", what.c_str(),
+                                  base->type().c_str());
+            g->grid = vdb::FloatGrid::create(tree);
+            g->grid->setTransform(base->constTransform().copy());
+        }
+        base.reset();
+        FloatTree &tree = g->grid->tree();
+
+        uint64_t nonfinite = 0;
+        float bg = tree.background();
+        if (!std::isfinite(bg)) {
+            // Nothing can stand in for a non-finite background; 0 is the neutral choice.
+            ++nonfinite;
+            bg = 0.0f;
+            tree.root().setBackground(bg, /*updateChildNodes=*/true);
+        }
+
+        std::vector<LeafT *> leaves;
+        leaves.reserve(tree.leafCount());
+        for (auto it = tree.beginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+
+        using Blocks = tbb::blocked_range<size_t>;
+        Scan scan = tbb::parallel_reduce(
+            Blocks(0, leaves.size(), 64), Scan(),
+            [&](const Blocks &r, Scan s) {
+                for (size_t i = r.begin(); i != r.end(); ++i) {
+                    const LeafT &leaf = *leaves[i];
+                    const float *v = leaf.buffer().data();
+                    const auto &mask = leaf.getValueMask();
+                    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+                }
+                return s;
+            },
+            [](Scan a, const Scan &b) {
+                a.merge(b);
+                return a;
+            });
+
+        // Tiles at every level (leaf depth excluded), active or not.
+        auto tile_iter = tree.beginValueAll();
+        tile_iter.setMaxDepth(tile_iter.getLeafDepth() - 1);
+        for (auto it = tile_iter; it; ++it) scan.add(*it, it.isValueOn());
+
+        nonfinite += scan.nonfinite;
+        Range finite = scan.all;
+        if (finite.empty()) finite.add(bg);
+        if (scan.nonfinite > 0) {
+            tbb::parallel_for(Blocks(0, leaves.size(), 64), [&](const Blocks &r) {
+                for (size_t i = r.begin(); i != r.end(); ++i) {
+                    float *v = leaves[i]->buffer().data();
+                    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], bg, finite);
+                }
+            });
+            for (auto it = tile_iter; it; ++it)
+                if (!std::isfinite(*it)) it.setValue(sanitize(*it, bg, finite));
+        }
+
+        Range values = scan.active;
+        if (scan.active_nan) values.add(bg);
+        if (scan.active_pinf) values.add(finite.hi);
+        if (scan.active_ninf) values.add(finite.lo);
+
+        leap_grid_info &info = g->info;
+        info.background = bg;
+        info.nonfinite_values = nonfinite;
+        info.leaf_count = leaves.size();
+        auto on_tiles = tree.cbeginValueOn();
+        on_tiles.setMaxDepth(on_tiles.getLeafDepth() - 1);
+        for (auto it = on_tiles; it; ++it) {
+            vdb::CoordBBox bb;
+            it.getBoundingBox(bb);
+            const int level = int(it.getLevel()) - 1;
+            if (level < 0 || level >= LEAP_TILE_LEVELS) continue;
+            ++info.active_tiles[level];
+            g->tiles.push_back(TileRec{bb.min(), level, *it});
+        }
+        info.active_voxels = tree.activeVoxelCount();
+        if (info.active_voxels > 0) {
+            vdb::CoordBBox bb;
+            tree.evalActiveVoxelBoundingBox(bb);
+            for (int a = 0; a < 3; ++a) {
+                info.bbox_min[a] = bb.min()[a];
+                info.bbox_max[a] = bb.max()[a];
+            }
+        } else {
+            info.bbox_min[0] = info.bbox_min[1] = info.bbox_min[2] = 0;
+            info.bbox_max[0] = info.bbox_max[1] = info.bbox_max[2] = -1;
+        }
+        info.value_min = values.empty() ? bg : values.lo;
+        info.value_max = values.empty() ? bg : values.hi;
+        info.memory_bytes = tree.memUsage();
+        *out = g.release();
+        return LEAP_OK;
+    });
+}
+
+void leap_grid_destroy(leap_grid *grid)
+{
+    delete grid;
+}
+
+const leap_grid_info *leap_grid_get_info(const leap_grid *grid)
+{
+    return grid ? &grid->info : nullptr;
+}
+
+size_t leap_grid_brick_count(const leap_grid *grid)
+{
+    return grid ? size_t(grid->info.leaf_count) + grid->tiles.size() : 0;
+}
+
+leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err)
+{
+    if (!grid || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_bricks: NULL argument");
+    return guarded(err, LEAP_ERR_FORMAT, std::string("grid '") + grid->info.name + "'", [&]() -> leap_result {
+        const FloatTree &tree = grid->grid->constTree();
+        const RootT &root = tree.root();
+        std::vector<const LeafT *> leaves;
+        leaves.reserve(size_t(grid->info.leaf_count));
+        for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+        const size_t nl = leaves.size(), nt = grid->tiles.size();
+        if (nl != grid->info.leaf_count) return leap_fail(err, LEAP_ERR_FORMAT, "leaf count changed");
+
+        tbb::parallel_for(tbb::blocked_range<size_t>(0, nl + nt, 16), [&](const tbb::blocked_range<size_t> &r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                leap_brick &b = out[i];
+                std::memset(&b, 0, sizeof b);
+                vdb::Coord o;
+                Range v;
+                if (i < nl) {
+                    o = leaves[i]->origin();
+                    b.size = int32_t(LeafT::DIM);
+                    v = brick_range(root, o, b.size, false, 0.0f);
+                } else {
+                    const TileRec &t = grid->tiles[i - nl];
+                    o = t.origin;
+                    b.size = t.level == 0 ? int32_t(Node1T::ChildNodeType::DIM)
+                           : t.level == 1 ? int32_t(Node1T::DIM) : int32_t(Node2T::DIM);
+                    b.is_tile = 1;
+                    b.tile_value = t.value;
+                    v = brick_range(root, o, b.size, true, t.value);
+                }
+                for (int a = 0; a < 3; ++a) b.origin[a] = o[a];
+                b.value_min = v.lo;
+                b.value_max = v.hi;
+            }
+        });
+        std::sort(out, out + nl, brick_before);
+        std::sort(out + nl, out + nl + nt, brick_before);
+        return LEAP_OK;
+    });
+}
+
+leap_result leap_grid_reader_create(const leap_grid *grid, leap_grid_reader **out, leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!grid || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_reader_create: NULL argument");
+    return guarded(err, LEAP_ERR_OOM, "leap_grid_reader_create", [&]() -> leap_result {
+        *out = new leap_grid_reader(grid->grid->constTree());
+        return LEAP_OK;
+    });
+}
+
+void leap_grid_reader_destroy(leap_grid_reader *reader)
+{
+    delete reader;
+}
+
+float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int32_t k)
+{
+    return reader->acc.getValue(vdb::Coord(i, j, k));
+}
+
+void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], float *out)
+{
+    // Rows are read in runs that stay inside one 8-voxel block: one lookup per run, then
+    // either the leaf's values or the single value of a block that has no leaf.
+    auto &acc = reader->acc;
+    size_t n = 0;
+    for (int32_t z = 0; z < dim[2]; ++z)
+        for (int32_t y = 0; y < dim[1]; ++y)
+            for (int32_t x = 0; x < dim[0];) {
+                const vdb::Coord c(min[0] + x, min[1] + y, min[2] + z);
+                const int32_t run = std::min(dim[0] - x, int32_t(LeafT::DIM) - (c.x() & int32_t(LeafT::DIM - 1)));
+                if (const LeafT *leaf = acc.probeConstLeaf(c)) {
+                    const float *v = leaf->buffer().data() + LeafT::coordToOffset(c);
+                    for (int32_t k = 0; k < run; ++k) out[n++] = v[k << (2 * LeafT::LOG2DIM)];
+                } else {
+                    const float v = acc.getValue(c);
+                    for (int32_t k = 0; k < run; ++k) out[n++] = v;
+                }
+                x += run;
+            }
+}
+
+/* ---- Writing ---------------------------------------------------------------------- */
+
+leap_result leap_vdb_writer_create(leap_vdb_writer **out, leap_error *err)
+{
+    if (!out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_writer_create: NULL argument");
+    *out = nullptr;
+    return guarded(err, LEAP_ERR_OOM, "leap_vdb_writer_create", [&]() -> leap_result {
+        init_openvdb();
+        *out = new leap_vdb_writer;
+        return LEAP_OK;
+    });
+}
+
+void leap_vdb_writer_destroy(leap_vdb_writer *writer)
+{
+    delete writer;
+}
+
+int leap_vdb_writer_add_grid(leap_vdb_writer *writer, const char *name, leap_vdb_type type, double background,
+                             const double index_to_world[4][4], int fog, leap_error *err)
+{
+    if (!writer || !name) {
+        leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_writer_add_grid: NULL argument");
+        return -1;
+    }
+    if (index_to_world) {
+        const double *last = index_to_world[3];
+        if (last[0] != 0.0 || last[1] != 0.0 || last[2] != 0.0 || last[3] != 1.0) {
+            leap_fail(err, LEAP_ERR_USAGE, "grid '%s': index_to_world is not affine (last row must be 0 0 0 1)", name);
+            return -1;
+        }
+    }
+    int handle = -1;
+    leap_result r = guarded(err, LEAP_ERR_USAGE, std::string("grid '") + name + "'", [&]() -> leap_result {
+        vdb::GridBase::Ptr g;
+        switch (type) {
+        case LEAP_VDB_FLOAT:
+        case LEAP_VDB_HALF: g = vdb::FloatGrid::create(float(background)); break;
+        case LEAP_VDB_DOUBLE: g = vdb::DoubleGrid::create(background); break;
+        case LEAP_VDB_INT32: g = vdb::Int32Grid::create(int32_t(std::lround(background))); break;
+        case LEAP_VDB_VEC3F: g = vdb::Vec3SGrid::create(vdb::Vec3s(float(background))); break;
+        default: return leap_fail(err, LEAP_ERR_USAGE, "grid '%s': unknown value type %d", name, int(type));
+        }
+        g->setName(name);
+        if (type == LEAP_VDB_HALF) g->setSaveFloatAsHalf(true);
+        if (fog) g->setGridClass(vdb::GRID_FOG_VOLUME);
+        if (index_to_world) {
+            // OpenVDB multiplies row vectors from the left: its matrix is our transpose.
+            vdb::math::Mat4d a;
+            for (int r = 0; r < 4; ++r)
+                for (int c = 0; c < 4; ++c) a(c, r) = index_to_world[r][c];
+            g->setTransform(vdb::math::Transform::createLinearTransform(a));
+        }
+        writer->grids.push_back(WriterGrid{g, type});
+        handle = int(writer->grids.size()) - 1;
+        return LEAP_OK;
+    });
+    return r == LEAP_OK ? handle : -1;
+}
+
+} // extern "C"
+
+namespace {
+
+int32_t to_int32(double v)
+{
+    if (!std::isfinite(v)) return 0;
+    v = std::min(std::max(std::round(v), double(INT32_MIN)), double(INT32_MAX));
+    return int32_t(v);
+}
+
+// Applies op(grid, value) with the grid cast to its concrete type and the value converted.
+template <typename Op>
+void with_typed(leap_vdb_writer *w, int grid, double value, Op op)
+{
+    if (!w || grid < 0 || grid >= int(w->grids.size())) return;
+    const WriterGrid &g = w->grids[size_t(grid)];
+    try {
+        switch (g.type) {
+        case LEAP_VDB_FLOAT:
+        case LEAP_VDB_HALF: op(static_cast<vdb::FloatGrid &>(*g.grid), float(value)); break;
+        case LEAP_VDB_DOUBLE: op(static_cast<vdb::DoubleGrid &>(*g.grid), value); break;
+        case LEAP_VDB_INT32: op(static_cast<vdb::Int32Grid &>(*g.grid), to_int32(value)); break;
+        case LEAP_VDB_VEC3F: op(static_cast<vdb::Vec3SGrid &>(*g.grid), vdb::Vec3s(float(value))); break;
+        }
+    } catch (const std::exception &e) {
+        if (w->deferred_error.empty()) w->deferred_error = one_line(e.what());
+    } catch (...) {
+        if (w->deferred_error.empty()) w->deferred_error = "unknown error";
+    }
+}
+
+} // namespace
+
+extern "C" {
+
+void leap_vdb_writer_set(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k, double value)
+{
+    with_typed(writer, grid, value, [&](auto &g, auto v) { g.tree().setValueOn(vdb::Coord(i, j, k), v); });
+}
+
+void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3], const int32_t max[3],
+                          double value, int active)
+{
+    if (!min || !max) return;
+    if (writer && (max[0] == INT32_MAX || max[1] == INT32_MAX || max[2] == INT32_MAX)) {
+        // OpenVDB's fill loop steps past the box end and would overflow (and never stop) here.
+        if (writer->deferred_error.empty()) writer->deferred_error = "fill box reaches INT32_MAX";
+        return;
+    }
+    with_typed(writer, grid, value, [&](auto &g, auto v) {
+        g.tree().fill(vdb::CoordBBox(min[0], min[1], min[2], max[0], max[1], max[2]), v, active != 0);
+    });
+}
+
+leap_result leap_vdb_writer_save(leap_vdb_writer *writer, const char *path, leap_error *err)
+{
+    if (!writer || !path) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_writer_save: NULL argument");
+    if (!writer->deferred_error.empty())
+        return leap_fail(err, LEAP_ERR_USAGE, "cannot write '%s': an earlier edit failed: %s", path,
+                         writer->deferred_error.c_str());
+    return guarded(err, LEAP_ERR_IO, std::string("cannot write '") + path + "'", [&]() -> leap_result {
+        vdb::GridCPtrVec grids;
+        for (const WriterGrid &g : writer->grids) grids.push_back(g.grid);
+        vdb::io::File(path).write(grids);
+        return LEAP_OK;
+    });
+}
+
+} // extern "C"

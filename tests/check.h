@@ -1,0 +1,50 @@
+/* Minimal assertion helpers for leap's ctest programs: each failed check prints where and
+ * why, the program keeps going, and main returns check_exit_code(). */
+#ifndef LEAP_TEST_CHECK_H
+#define LEAP_TEST_CHECK_H
+
+#include <math.h>
+#include <stdio.h>
+
+static int check_failures = 0;
+static int check_count = 0;
+
+#define CHECK(cond)                                                                        \
+    do {                                                                                   \
+        ++check_count;                                                                     \
+        if (!(cond)) {                                                                     \
+            ++check_failures;                                                              \
+            fprintf(stderr, "%s:%d: CHECK failed: %s\n", __FILE__, __LINE__, #cond);        \
+        }                                                                                  \
+    } while (0)
+
+#define CHECK_MSG(cond, ...)                                                               \
+    do {                                                                                   \
+        ++check_count;                                                                     \
+        if (!(cond)) {                                                                     \
+            ++check_failures;                                                              \
+            fprintf(stderr, "%s:%d: CHECK failed: %s: ", __FILE__, __LINE__, #cond);        \
+            fprintf(stderr, __VA_ARGS__);                                                  \
+            fputc('\n', stderr);                                                           \
+        }                                                                                  \
+    } while (0)
+
+#define CHECK_NEAR(a, b, tol)                                                              \
+    CHECK_MSG(fabs((double)(a) - (double)(b)) <= (tol), "%s = %.9g, %s = %.9g, tol %.3g", #a, \
+              (double)(a), #b, (double)(b), (double)(tol))
+
+/* A leap call that must succeed; prints its message otherwise. */
+#define CHECK_OK(call, errp)                                                               \
+    do {                                                                                   \
+        leap_result check_r_ = (call);                                                     \
+        CHECK_MSG(check_r_ == LEAP_OK, "%s -> %s: %s", #call, leap_result_name(check_r_),   \
+                  (errp)->msg);                                                            \
+    } while (0)
+
+static inline int check_exit_code(void)
+{
+    printf("%d checks, %d failed\n", check_count, check_failures);
+    return check_failures ? 1 : 0;
+}
+
+#endif

@@ -1,0 +1,204 @@
+/* The `leap` command line as a user meets it: exit codes (0 ok, 1 runtime, 2 usage), one-line
+ * messages naming the input, no output file left behind on failure, and real output files. */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include "check.h"
+#include "leap/image.h"
+
+static char out_text[8192];
+
+/* Runs `leap ARGS`, captures stderr+stdout into out_text, returns the exit code. */
+static int run(const char *args)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "%s %s 2>&1", LEAP_EXE, args);
+    FILE *p = popen(cmd, "r");
+    if (!p) return -1;
+    size_t n = fread(out_text, 1, sizeof out_text - 1, p);
+    out_text[n] = '\0';
+    int status = pclose(p);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static void write_file(const char *path, const char *text, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    if (f) {
+        fwrite(text, 1, n, f);
+        fclose(f);
+    }
+}
+
+static int lines(const char *s)
+{
+    int n = 0;
+    for (; *s; ++s) n += *s == '\n';
+    return n;
+}
+
+#define EXPECT_FAIL(code, args, needle, out)                                               \
+    do {                                                                                   \
+        remove(out);                                                                       \
+        int rc_ = run(args);                                                               \
+        CHECK_MSG(rc_ == (code), "leap %s -> exit %d, expected %d: %s", args, rc_, code, out_text); \
+        CHECK_MSG(strstr(out_text, needle) != NULL, "leap %s: message lacks '%s': %s", args, needle, out_text); \
+        CHECK_MSG(lines(out_text) == 1, "leap %s: expected a one-line message: %s", args, out_text); \
+        CHECK_MSG(!exists(out), "leap %s left %s behind", args, out);                       \
+    } while (0)
+
+int main(void)
+{
+    const char *tmp = LEAP_TEST_TMP;
+    mkdir(tmp, 0755);
+    char sphere[1024], out[1024], args[4096], path[1024];
+    snprintf(sphere, sizeof sphere, "%s/sphere.vdb", LEAP_VOLUMES);
+    snprintf(out, sizeof out, "%s/out.png", tmp);
+
+    /* Help. */
+    CHECK(run("--help") == 0 && strstr(out_text, "render") && strstr(out_text, "info"));
+    CHECK(run("render --help") == 0 && strstr(out_text, "--orbit") && strstr(out_text, "--stats"));
+    CHECK(run("info --help") == 0 && strstr(out_text, "--json"));
+    CHECK(run("") == 2);
+    CHECK(run("frobnicate") == 2 && strstr(out_text, "frobnicate"));
+
+    /* Usage errors: exit 2, no output. */
+    snprintf(args, sizeof args, "render %s -o %s --size 0x10", sphere, out);
+    EXPECT_FAIL(2, args, "--size", out);
+    snprintf(args, sizeof args, "render %s -o %s --size 100000x100000", sphere, out);
+    EXPECT_FAIL(2, args, "--size", out);
+    snprintf(args, sizeof args, "render %s -o %s --step 0", sphere, out);
+    EXPECT_FAIL(2, args, "--step", out);
+    snprintf(args, sizeof args, "render %s -o %s --step nan", sphere, out);
+    EXPECT_FAIL(2, args, "--step", out);
+    snprintf(args, sizeof args, "render %s -o %s --step -1", sphere, out);
+    EXPECT_FAIL(2, args, "--step", out);
+    snprintf(args, sizeof args, "render %s -o %s --range 5,1", sphere, out);
+    EXPECT_FAIL(2, args, "--range", out);
+    snprintf(args, sizeof args, "render %s -o %s --mode warp", sphere, out);
+    EXPECT_FAIL(2, args, "warp", out);
+    snprintf(args, sizeof args, "render %s -o %s --orbit 1,2 --eye 0,0,1 --target 0,0,0", sphere, out);
+    EXPECT_FAIL(2, args, "conflicts", out);
+    snprintf(args, sizeof args, "render %s -o %s --bogus", sphere, out);
+    EXPECT_FAIL(2, args, "--bogus", out);
+    snprintf(args, sizeof args, "render %s", sphere);
+    EXPECT_FAIL(2, args, "output", out);
+    snprintf(path, sizeof path, "%s/out.xyz", tmp);
+    snprintf(args, sizeof args, "render %s -o %s", sphere, path);
+    EXPECT_FAIL(2, args, "out.xyz", path);
+    snprintf(args, sizeof args, "render %s -o %s --eye 1,2,3 --target 1,2,3", sphere, out);
+    EXPECT_FAIL(2, args, "eye", out);
+    snprintf(args, sizeof args, "render %s -o %s --eye 0,0,10 --target 0,0,0 --up 0,0,1", sphere, out);
+    EXPECT_FAIL(2, args, "parallel", out);
+
+    /* Runtime errors: exit 1, message names the file. */
+    snprintf(path, sizeof path, "%s/missing.vdb", tmp);
+    snprintf(args, sizeof args, "render %s -o %s", path, out);
+    EXPECT_FAIL(1, args, "missing.vdb", out);
+    snprintf(args, sizeof args, "render %s -o %s", tmp, out);
+    EXPECT_FAIL(1, args, tmp, out);
+    snprintf(path, sizeof path, "%s/empty.vdb", tmp);
+    write_file(path, "", 0);
+    snprintf(args, sizeof args, "render %s -o %s", path, out);
+    EXPECT_FAIL(1, args, "empty.vdb", out);
+    snprintf(path, sizeof path, "%s/text.vdb", tmp);
+    write_file(path, "this is not a volume\n", 21);
+    snprintf(args, sizeof args, "render %s -o %s", path, out);
+    EXPECT_FAIL(1, args, "text.vdb", out);
+    snprintf(args, sizeof args, "render %s -o %s --grid nosuchgrid", sphere, out);
+    EXPECT_FAIL(1, args, "nosuchgrid", out);
+    snprintf(args, sizeof args, "render %s -o %s/no/such/dir/out.png", sphere, tmp);
+    snprintf(path, sizeof path, "%s/no/such/dir/out.png", tmp);
+    EXPECT_FAIL(1, args, "out.png", path);
+    snprintf(path, sizeof path, "%s/bad_tf.json", tmp);
+    write_file(path, "{ \"RGBPoints\": [0, 1, 0", 23);
+    snprintf(args, sizeof args, "render %s -o %s --tf %s", sphere, out, path);
+    EXPECT_FAIL(1, args, "bad_tf.json", out);
+    snprintf(args, sizeof args, "render %s -o %s --tf nosuchpreset", sphere, out);
+    EXPECT_FAIL(1, args, "nosuchpreset", out);
+
+    /* Successful renders: PNG, TIFF, EXR with extra channels, stats JSON. */
+    char stats[1024];
+    snprintf(stats, sizeof stats, "%s/stats.json", tmp);
+    remove(out);
+    snprintf(args, sizeof args, "render %s -o %s --size 64x48 --stats %s -q", sphere, out, stats);
+    CHECK_MSG(run(args) == 0, "%s", out_text);
+    int w = 0, h = 0, c = 0;
+    float *px = NULL;
+    leap_error err = {{0}};
+    CHECK_OK(leap_image_read(out, &w, &h, &c, &px, &err), &err);
+    CHECK(w == 64 && h == 48 && c == 3);
+    double sum = 0;
+    for (int i = 0; px && i < w * h * c; ++i) sum += px[i];
+    CHECK_MSG(sum > 1.0, "rendered PNG is black");
+    free(px);
+    FILE *f = fopen(stats, "rb");
+    char json[8192] = "";
+    if (f) {
+        json[fread(json, 1, sizeof json - 1, f)] = '\0';
+        fclose(f);
+    }
+    cJSON *root = cJSON_Parse(json);
+    CHECK_MSG(root != NULL, "stats JSON does not parse: %s", json);
+    if (root) {
+        cJSON *ms = cJSON_GetObjectItem(root, "ms");
+        const char *keys[] = {"load", "upload", "render", "readback", "write"};
+        for (int i = 0; i < 5; ++i) CHECK_MSG(cJSON_IsNumber(cJSON_GetObjectItem(ms, keys[i])), "ms.%s", keys[i]);
+        cJSON *spp = cJSON_GetObjectItem(root, "samples_per_pixel");
+        CHECK(cJSON_IsNumber(cJSON_GetObjectItem(spp, "mean")) && cJSON_GetObjectItem(spp, "mean")->valuedouble > 0);
+        CHECK(cJSON_IsNumber(cJSON_GetObjectItem(spp, "max")));
+        CHECK(cJSON_GetObjectItem(root, "total_samples")->valuedouble > 0);
+        CHECK(cJSON_GetObjectItem(root, "width")->valuedouble == 64);
+        CHECK(cJSON_IsString(cJSON_GetObjectItem(root, "device")));
+        CHECK(cJSON_IsString(cJSON_GetObjectItem(root, "driver")));
+        cJSON_Delete(root);
+    }
+
+    snprintf(path, sizeof path, "%s/out.exr", tmp);
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32 --ortho --orbit 0,0 -q", sphere, path);
+    CHECK_MSG(run(args) == 0, "%s", out_text);
+    px = NULL;
+    CHECK_OK(leap_image_read(path, &w, &h, &c, &px, &err), &err);
+    CHECK(w == 32 && h == 32 && c == 6);
+    if (px && c == 6) {
+        int hit = 0;
+        for (int i = 0; i < w * h; ++i) hit += px[6 * i + 3] > 0.1f && isfinite(px[6 * i + 4]) && px[6 * i + 5] >= 1;
+        CHECK_MSG(hit > 0, "EXR has no pixel with alpha, finite depth and samples");
+    }
+    free(px);
+
+    snprintf(path, sizeof path, "%s/out.tif", tmp);
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 --mode reference -q", sphere, path);
+    CHECK_MSG(run(args) == 0, "%s", out_text);
+    CHECK(exists(path));
+
+    /* info, text and JSON. */
+    snprintf(args, sizeof args, "info %s", sphere);
+    CHECK(run(args) == 0 && strstr(out_text, "density") && strstr(out_text, "leaves"));
+    snprintf(args, sizeof args, "info %s/rotated.vdb --json", LEAP_VOLUMES);
+    CHECK(run(args) == 0);
+    root = cJSON_Parse(out_text);
+    CHECK_MSG(root != NULL, "info --json does not parse");
+    if (root) {
+        cJSON *grids = cJSON_GetObjectItem(root, "grids");
+        CHECK(cJSON_GetArraySize(grids) >= 2);
+        cJSON *g0 = cJSON_GetArrayItem(grids, 0);
+        const char *keys[] = {"name", "value_type", "voxel_size", "index_to_world", "bbox_min", "active_voxels",
+                              "leaf_count", "active_tiles_8_128_4096", "value_min", "memory_bytes"};
+        for (int i = 0; i < 10; ++i) CHECK_MSG(cJSON_GetObjectItem(g0, keys[i]) != NULL, "info json lacks %s", keys[i]);
+        cJSON_Delete(root);
+    }
+    snprintf(args, sizeof args, "info %s/missing.vdb", tmp);
+    CHECK(run(args) == 1 && strstr(out_text, "missing.vdb"));
+    return check_exit_code();
+}

@@ -1,0 +1,182 @@
+/* Every skipping mode gives the naive image (max abs difference <= 1e-5 per channel), on every
+ * shipped volume, five kinds of camera and two transfer functions (one with opacity at the
+ * background value); per-pixel list overflow still gives the naive image and is counted. */
+#include "gpu_fixture.h"
+
+#define W 64
+#define H 64
+#define TOL 1e-5
+
+typedef struct vol_case {
+    const char *file, *grid;
+} vol_case;
+
+static const vol_case volumes[] = {
+    {"sphere.vdb", NULL}, {"blobs.vdb", NULL}, {"shell.vdb", NULL},
+    {"labels.vdb", NULL}, {"rotated.vdb", "density"},
+};
+
+/* A world point at the centre of a leaf brick with the largest value (inside non-empty data). */
+static void nonempty_point(const scene *s, double world[3])
+{
+    size_t n = leap_grid_brick_count(s->grid);
+    leap_brick *b = malloc(n * sizeof *b);
+    leap_error err;
+    size_t best = 0;
+    if (leap_grid_bricks(s->grid, b, &err) == LEAP_OK)
+        for (size_t i = 0; i < n; ++i)
+            if (!b[i].is_tile && b[i].value_max > b[best].value_max) best = i;
+    double p[3];
+    for (int i = 0; i < 3; ++i) p[i] = b[best].origin[i] + 3.7;
+    for (int r = 0; r < 3; ++r)
+        world[r] = s->info->index_to_world[r][0] * p[0] + s->info->index_to_world[r][1] * p[1] +
+                   s->info->index_to_world[r][2] * p[2] + s->info->index_to_world[r][3];
+    free(b);
+}
+
+static int camera(const scene *s, int which, leap_camera *cam)
+{
+    leap_error err;
+    *cam = (leap_camera){.fov_deg = 60, .up = {0, 1, 0}};
+    switch (which) {
+    case 0: return leap_camera_orbit(s->center, s->radius, 35, 25, 0, 40, 0, cam, &err) == LEAP_OK;
+    case 1: /* inside the volume, near the centre */
+        for (int i = 0; i < 3; ++i) cam->eye[i] = cam->target[i] = s->center[i];
+        cam->eye[2] += 0.3 * s->radius;
+        cam->eye[0] += 0.11 * s->radius;
+        return 1;
+    case 2: /* inside a non-empty box */
+        nonempty_point(s, cam->eye);
+        for (int i = 0; i < 3; ++i) cam->target[i] = s->center[i] + 0.01 * s->radius;
+        return 1;
+    case 3: /* exactly axis-aligned perspective */
+        return leap_camera_orbit(s->center, s->radius, 90, 0, 0, 40, 0, cam, &err) == LEAP_OK;
+    default: /* orthographic along an axis: every ray parallel to -Z */
+        return leap_camera_orbit(s->center, s->radius, 0, 0, 0, 40, 1, cam, &err) == LEAP_OK;
+    }
+}
+
+static const char *camera_names[] = {"orbit", "inside volume", "inside non-empty box", "axis-aligned", "ortho"};
+
+/* Opacity everywhere, including at the background value: all space is non-empty. */
+static void fog_tf(leap_tf *tf)
+{
+    for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
+        double u = (double)i / (LEAP_TF_TABLE_SIZE - 1);
+        tf->rgba[i][0] = (float)u, tf->rgba[i][1] = 0.5f, tf->rgba[i][2] = (float)(1 - u);
+        tf->rgba[i][3] = (float)(0.01 + 0.3 * u);
+    }
+    snprintf(tf->name, sizeof tf->name, "fog");
+}
+
+int main(void)
+{
+    leap_renderer *renderer = make_renderer();
+    CHECK(renderer != NULL);
+    if (!renderer) return check_exit_code();
+    leap_error err = {{0}};
+    float *naive = malloc(W * H * 4 * sizeof(float)), *img = malloc(W * H * 4 * sizeof(float));
+    for (size_t v = 0; v < sizeof volumes / sizeof volumes[0]; ++v) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
+        scene s;
+        int ok = scene_load(&s, path, volumes[v].grid, strcmp(volumes[v].file, "labels.vdb") ? "viridis" : "labels", 0.5);
+        CHECK_MSG(ok, "%s", path);
+        if (!ok) continue;
+        CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
+        for (int tfi = 0; tfi < 2; ++tfi) {
+            leap_tf tf = s.tf;
+            if (tfi == 1) fog_tf(&tf);
+            leap_occupancy *occ = NULL;
+            leap_boxes *boxes = NULL;
+            size_t nb = leap_grid_brick_count(s.grid);
+            leap_brick *bricks = malloc(nb * sizeof *bricks);
+            CHECK_OK(leap_grid_bricks(s.grid, bricks, &err), &err);
+            leap_occupancy_desc od = {.bricks = bricks, .brick_count = nb, .background = (float)s.info->background,
+                                      .value_min = s.atlas->value_min, .value_max = s.atlas->value_max};
+            for (int i = 0; i < 3; ++i) od.origin[i] = s.atlas->origin[i], od.cells[i] = s.atlas->cells[i];
+            CHECK_OK(leap_occupancy_create(&od, &occ, &err), &err);
+            free(bricks);
+            if (!occ) continue;
+            CHECK_OK(leap_occupancy_classify(occ, &tf, s.march.range_lo, s.march.range_hi, &err), &err);
+            CHECK_OK(leap_boxes_create(occ, 1, &boxes, &err), &err);
+            CHECK_OK(leap_renderer_set_tf(renderer, &tf, &err), &err);
+            leap_renderer_set_occupancy(renderer, occ, boxes);
+            for (int c = 0; c < 5; ++c) {
+                leap_camera cam;
+                CHECK(camera(&s, c, &cam));
+                leap_view view;
+                CHECK_OK(leap_view_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+                leap_frame_stats ns, st;
+                CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err),
+                         &err);
+                double alpha = 0;
+                for (int i = 0; i < W * H; ++i) alpha += naive[4 * i + 3];
+                CHECK_MSG(alpha > 0.5, "%s %s: naive image is empty", volumes[v].file, camera_names[c]);
+                for (int m = LEAP_RENDER_BBOX; m <= LEAP_RENDER_SPARSELEAP; ++m) {
+                    CHECK_OK(leap_renderer_render(renderer, &view, &s.march, (leap_mode)m, img, NULL, NULL, &st, &err),
+                             &err);
+                    image_diff d = compare_rgba(img, naive, W * H);
+                    printf("%-12s %-4s %-22s %-10s max %.2e samples %6.1f%% of naive, boxes %u, events/px %.1f, "
+                           "overflow %u\n",
+                           volumes[v].file, tf.name, camera_names[c], leap_mode_name((leap_mode)m), d.max_abs,
+                           100.0 * st.total_samples / (double)(ns.total_samples ? ns.total_samples : 1), st.boxes,
+                           st.events_mean, st.overflow_pixels);
+                    CHECK_MSG(d.nonfinite == 0 && d.max_abs <= TOL, "%s %s %s %s: max abs %g vs naive",
+                              volumes[v].file, tf.name, camera_names[c], leap_mode_name((leap_mode)m), d.max_abs);
+                    CHECK(st.total_samples <= ns.total_samples);
+                    CHECK(st.naive_samples == ns.total_samples);
+                }
+            }
+            leap_renderer_set_occupancy(renderer, NULL, NULL);
+            leap_boxes_destroy(boxes);
+            leap_occupancy_destroy(occ);
+        }
+        scene_free(&s);
+    }
+    leap_renderer_destroy(renderer);
+
+    /* Overflow: one segment per pixel and a tiny event pool; images still equal naive. */
+    leap_renderer_desc tiny = {.event_pool = 2000, .max_segments = 1};
+    leap_renderer *r2 = NULL;
+    CHECK_OK(leap_renderer_create(&tiny, &r2, &err), &err);
+    char path[1024];
+    snprintf(path, sizeof path, "%s/blobs.vdb", LEAP_VOLUMES);
+    scene s;
+    if (r2 && scene_load(&s, path, NULL, "viridis", 0.5)) {
+        size_t nb = leap_grid_brick_count(s.grid);
+        leap_brick *bricks = malloc(nb * sizeof *bricks);
+        leap_grid_bricks(s.grid, bricks, &err);
+        leap_occupancy_desc od = {.bricks = bricks, .brick_count = nb, .background = (float)s.info->background,
+                                  .value_min = s.atlas->value_min, .value_max = s.atlas->value_max};
+        for (int i = 0; i < 3; ++i) od.origin[i] = s.atlas->origin[i], od.cells[i] = s.atlas->cells[i];
+        leap_occupancy *occ = NULL;
+        leap_boxes *boxes = NULL;
+        CHECK_OK(leap_occupancy_create(&od, &occ, &err), &err);
+        free(bricks);
+        CHECK_OK(leap_occupancy_classify(occ, &s.tf, s.march.range_lo, s.march.range_hi, &err), &err);
+        CHECK_OK(leap_boxes_create(occ, 1, &boxes, &err), &err);
+        CHECK_OK(leap_renderer_set_volume(r2, s.atlas, &err), &err);
+        CHECK_OK(leap_renderer_set_tf(r2, &s.tf, &err), &err);
+        leap_renderer_set_occupancy(r2, occ, boxes);
+        leap_camera cam;
+        camera(&s, 0, &cam);
+        leap_view view;
+        CHECK_OK(leap_view_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+        leap_frame_stats st;
+        CHECK_OK(leap_renderer_render(r2, &view, &s.march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
+        CHECK_OK(leap_renderer_render(r2, &view, &s.march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err), &err);
+        image_diff d = compare_rgba(img, naive, W * H);
+        printf("overflow: %u of %d pixels overflowed, max abs %.2e\n", st.overflow_pixels, W * H, d.max_abs);
+        CHECK(st.overflow_pixels > 0);
+        CHECK(d.max_abs <= TOL);
+        leap_renderer_set_occupancy(r2, NULL, NULL);
+        leap_boxes_destroy(boxes);
+        leap_occupancy_destroy(occ);
+        scene_free(&s);
+    }
+    leap_renderer_destroy(r2);
+    free(naive);
+    free(img);
+    return check_exit_code();
+}

@@ -1,0 +1,34 @@
+/* The host view of shaders/shared.h must match the std140 offsets the shaders use. */
+#include <stddef.h>
+
+#include "check.h"
+#include "shared.h"
+
+int main(void)
+{
+    CHECK(sizeof(leap_vec4) == 16);
+    CHECK(sizeof(leap_uvec4) == 16);
+    CHECK(offsetof(leap_frame_gpu, origin0) == 0);
+    CHECK(offsetof(leap_frame_gpu, origin_dx) == 16);
+    CHECK(offsetof(leap_frame_gpu, origin_dy) == 32);
+    CHECK(offsetof(leap_frame_gpu, dir0) == 48);
+    CHECK(offsetof(leap_frame_gpu, dir_dx) == 64);
+    CHECK(offsetof(leap_frame_gpu, dir_dy) == 80);
+    CHECK(offsetof(leap_frame_gpu, world_row0) == 96);
+    CHECK(offsetof(leap_frame_gpu, world_row1) == 112);
+    CHECK(offsetof(leap_frame_gpu, world_row2) == 128);
+    CHECK(offsetof(leap_frame_gpu, domain_min) == 144);
+    CHECK(offsetof(leap_frame_gpu, domain_max) == 160);
+    CHECK(offsetof(leap_frame_gpu, atlas_inv_size) == 176);
+    CHECK(offsetof(leap_frame_gpu, march) == 192);
+    CHECK(offsetof(leap_frame_gpu, limits) == 208);
+    CHECK(offsetof(leap_frame_gpu, top_dims) == 224);
+    CHECK(offsetof(leap_frame_gpu, slot_dims) == 240);
+    CHECK(offsetof(leap_frame_gpu, image) == 256);
+    CHECK(sizeof(leap_frame_gpu) == 272);
+    /* Page entries: the constant flag must leave room for any slot or block index. */
+    CHECK((LEAP_PAGE_CONST & (LEAP_PAGE_CONST - 1)) == 0);
+    CHECK(LEAP_CELL == 1 << LEAP_CELL_SHIFT && LEAP_BLOCK == 1 << LEAP_BLOCK_SHIFT);
+    CHECK(LEAP_SLOT == LEAP_CELL + 1);
+    return check_exit_code();
+}

@@ -1,0 +1,346 @@
+/* Transfer functions: presets, table evaluation, step correction and ParaView JSON. */
+#include "check.h"
+#include "leap/tf.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define N LEAP_TF_TABLE_SIZE
+
+static leap_tf tf; /* large: keep off the stack */
+static leap_tf tf2;
+
+static int table_in_unit_range(const leap_tf *t)
+{
+    for (int i = 0; i < N; ++i)
+        for (int c = 0; c < 4; ++c)
+            if (!(t->rgba[i][c] >= 0.0f && t->rgba[i][c] <= 1.0f))
+                return 0;
+    return 1;
+}
+
+static int has_preset(const char *name)
+{
+    for (const char *const *p = leap_tf_preset_names(); *p; ++p)
+        if (strcmp(*p, name) == 0)
+            return 1;
+    return 0;
+}
+
+static void test_presets(void)
+{
+    leap_error err = {{0}};
+    CHECK(has_preset("grey"));
+    CHECK(has_preset("viridis"));
+    CHECK(has_preset("labels"));
+
+    int count = 0;
+    for (const char *const *p = leap_tf_preset_names(); *p; ++p, ++count) {
+        memset(&tf, 0xff, sizeof tf); /* NaN garbage: everything must be overwritten */
+        CHECK_OK(leap_tf_preset(*p, 5, &tf, &err), &err);
+        CHECK_MSG(table_in_unit_range(&tf), "preset %s has values outside [0,1]", *p);
+        CHECK_MSG(strcmp(tf.name, *p) == 0, "preset %s named '%s'", *p, tf.name);
+    }
+    CHECK(count >= 3);
+
+    /* grey: black -> white, opacity ramp from 0 */
+    CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
+    CHECK(tf.rgba[0][3] == 0.0f);
+    CHECK(tf.rgba[0][0] == 0.0f);
+    CHECK(tf.rgba[N - 1][0] == 1.0f && tf.rgba[N - 1][1] == 1.0f && tf.rgba[N - 1][2] == 1.0f);
+    CHECK(tf.rgba[N - 1][3] > 0.0f);
+    int mono = 1;
+    for (int i = 1; i < N; ++i)
+        if (tf.rgba[i][0] < tf.rgba[i - 1][0] || tf.rgba[i][3] < tf.rgba[i - 1][3])
+            mono = 0;
+    CHECK(mono);
+
+    /* viridis: dark purple -> yellow, transparent low end */
+    CHECK_OK(leap_tf_preset("viridis", 1, &tf, &err), &err);
+    CHECK(tf.rgba[0][3] == 0.0f);
+    CHECK(tf.rgba[(int)(0.04 * (N - 1))][3] == 0.0f);
+    CHECK(tf.rgba[N - 1][3] > 0.3f);
+    CHECK(tf.rgba[0][2] > tf.rgba[0][1]);         /* low end: blue > green (purple) */
+    CHECK(tf.rgba[N - 1][0] > 0.9f && tf.rgba[N - 1][2] < 0.3f); /* high end: yellow */
+    /* lightness grows: green channel increases monotonically for viridis */
+    mono = 1;
+    for (int i = 1; i < N; ++i)
+        if (tf.rgba[i][1] < tf.rgba[i - 1][1])
+            mono = 0;
+    CHECK(mono);
+
+    /* labels: 0 transparent, each integer its own plateau, neighbours differ */
+    for (int lc = 2; lc <= 40; lc += 7) {
+        CHECK_OK(leap_tf_preset("labels", lc, &tf, &err), &err);
+        double prev[4] = {-1, -1, -1, -1};
+        for (int l = 0; l < lc; ++l) {
+            const double u = (double)l / (double)(lc - 1);
+            double c[4];
+            leap_tf_eval(&tf, u, c);
+            /* the entry nearest to the label holds exactly this colour */
+            const int idx = (int)floor(u * (N - 1) + 0.5);
+            for (int k = 0; k < 4; ++k)
+                CHECK_MSG(c[k] == (double)tf.rgba[idx][k], "labels(%d) label %d channel %d", lc,
+                          l, k);
+            /* a plateau: a little to either side gives the same colour */
+            double cl[4], cr[4];
+            leap_tf_eval(&tf, u - 0.3 / (lc - 1), cl);
+            leap_tf_eval(&tf, u + 0.3 / (lc - 1), cr);
+            int same = 1;
+            for (int k = 0; k < 4; ++k)
+                if (cl[k] != c[k] || cr[k] != c[k])
+                    same = 0;
+            CHECK_MSG(same, "labels(%d) label %d is not a plateau", lc, l);
+            if (l == 0) {
+                CHECK(c[3] == 0.0);
+            } else {
+                CHECK_NEAR(c[3], 0.8, 1e-6);
+                if (l > 1)
+                    CHECK_MSG(fabs(c[0] - prev[0]) + fabs(c[1] - prev[1]) +
+                                      fabs(c[2] - prev[2]) > 0.2,
+                              "labels(%d) labels %d and %d look alike", lc, l - 1, l);
+            }
+            memcpy(prev, c, sizeof prev);
+        }
+    }
+    /* the palette cycles: label L and L + period share a colour for some period */
+    CHECK_OK(leap_tf_preset("labels", 101, &tf, &err), &err);
+    {
+        double c1[4];
+        leap_tf_eval(&tf, 1.0 / 100.0, c1);
+        int period = 0;
+        for (int l = 2; l <= 100 && !period; ++l) {
+            double c[4];
+            leap_tf_eval(&tf, l / 100.0, c);
+            if (c[0] == c1[0] && c[1] == c1[1] && c[2] == c1[2])
+                period = l - 1;
+        }
+        CHECK(period >= 6);
+    }
+    CHECK(leap_tf_preset("labels", 0, &tf, &err) == LEAP_ERR_USAGE);
+
+    /* unknown name: usage error listing presets */
+    err.msg[0] = 0;
+    CHECK(leap_tf_preset("no-such-map", 1, &tf, &err) == LEAP_ERR_USAGE);
+    CHECK(strstr(err.msg, "no-such-map") != NULL);
+    CHECK(strstr(err.msg, "viridis") != NULL);
+    CHECK(leap_tf_from_arg("no-such-map", 1, &tf, &err) == LEAP_ERR_USAGE);
+    CHECK_OK(leap_tf_from_arg("viridis", 1, &tf, &err), &err);
+}
+
+static void test_eval(void)
+{
+    memset(&tf, 0, sizeof tf);
+    for (int i = 0; i < N; ++i) {
+        tf.rgba[i][0] = (float)i / (N - 1);
+        tf.rgba[i][1] = (i % 2) ? 1.0f : 0.0f;
+        tf.rgba[i][2] = 0.25f;
+        tf.rgba[i][3] = 1.0f - (float)i / (N - 1);
+    }
+    double c[4];
+    leap_tf_eval(&tf, 0.0, c);
+    CHECK(c[0] == 0.0 && c[1] == 0.0 && c[3] == 1.0);
+    leap_tf_eval(&tf, 1.0, c);
+    CHECK(c[0] == 1.0 && c[1] == 1.0 && c[3] == 0.0);
+    leap_tf_eval(&tf, -5.0, c);
+    CHECK(c[0] == 0.0 && c[3] == 1.0);
+    leap_tf_eval(&tf, 7.0, c);
+    CHECK(c[0] == 1.0 && c[3] == 0.0);
+    leap_tf_eval(&tf, NAN, c);
+    CHECK(c[0] == 0.0 && c[1] == 0.0);
+    leap_tf_eval(&tf, INFINITY, c);
+    CHECK(c[0] == 1.0);
+    /* between entries 0 (g = 0) and 1 (g = 1): linear */
+    for (int k = 0; k <= 4; ++k) {
+        const double f = k / 4.0;
+        leap_tf_eval(&tf, f / (N - 1), c);
+        CHECK_NEAR(c[1], f, 1e-12);
+        CHECK_NEAR(c[2], 0.25, 1e-12);
+    }
+    /* exact entries */
+    leap_tf_eval(&tf, 100.0 / (N - 1), c);
+    CHECK_NEAR(c[0], tf.rgba[100][0], 1e-12);
+    CHECK_NEAR(c[1], 0.0, 1e-12);
+    /* halfway between entries 5 and 6 */
+    leap_tf_eval(&tf, 5.5 / (N - 1), c);
+    CHECK_NEAR(c[0], 0.5 * ((double)tf.rgba[5][0] + (double)tf.rgba[6][0]), 1e-12);
+    CHECK_NEAR(c[1], 0.5, 1e-12);
+}
+
+static void test_alpha(void)
+{
+    const double as[] = {0.0, 1e-6, 0.1, 0.5, 0.9, 0.999};
+    for (size_t i = 0; i < sizeof as / sizeof as[0]; ++i) {
+        const double a = as[i];
+        CHECK_NEAR(leap_tf_alpha_for_step(a, 1.0), a, 1e-15);
+        const double h = leap_tf_alpha_for_step(a, 0.5);
+        CHECK_NEAR(1.0 - (1.0 - h) * (1.0 - h), a, 1e-12);
+        const double q = leap_tf_alpha_for_step(a, 0.25);
+        CHECK_NEAR(1.0 - pow(1.0 - q, 4.0), a, 1e-12);
+        const double d = leap_tf_alpha_for_step(a, 2.0);
+        CHECK_NEAR(d, 1.0 - (1.0 - a) * (1.0 - a), 1e-12);
+        CHECK(h <= a + 1e-15 && d >= a - 1e-15);
+    }
+    CHECK(leap_tf_alpha_for_step(1.0, 0.5) == 1.0);
+    CHECK(leap_tf_alpha_for_step(1.5, 0.5) == 1.0);
+    CHECK(leap_tf_alpha_for_step(-0.5, 0.5) == 0.0);
+    CHECK(leap_tf_alpha_for_step(NAN, 0.5) == 0.0);
+}
+
+static char tmpdir[1024];
+
+static const char *write_tmp(const char *name, const char *text)
+{
+    static char path[2048];
+    snprintf(path, sizeof path, "%s/%s", tmpdir, name);
+    FILE *f = fopen(path, "wb");
+    if (!f) {
+        fprintf(stderr, "cannot write %s: %s\n", path, strerror(errno));
+        return path;
+    }
+    fputs(text, f);
+    fclose(f);
+    return path;
+}
+
+/* Loading `text` must fail with `code` and a message naming the file and containing
+ * `needle`. */
+static void expect_fail(const char *name, const char *text, leap_result code, const char *needle)
+{
+    leap_error err = {{0}};
+    const char *path = write_tmp(name, text);
+    const leap_result r = leap_tf_load_json(path, &tf, &err);
+    CHECK_MSG(r == code, "%s: got %s (%s), expected %s", name, leap_result_name(r), err.msg,
+              leap_result_name(code));
+    CHECK_MSG(strstr(err.msg, name) != NULL, "%s: message '%s' does not name the file", name,
+              err.msg);
+    if (needle)
+        CHECK_MSG(strstr(err.msg, needle) != NULL, "%s: message '%s' lacks '%s'", name, err.msg,
+                  needle);
+}
+
+static void test_json(void)
+{
+    leap_error err = {{0}};
+    snprintf(tmpdir, sizeof tmpdir, "%s", LEAP_TEST_TMP);
+    mkdir(tmpdir, 0777);
+
+    /* committed sample presets */
+    CHECK_OK(leap_tf_load_json(LEAP_TEST_DATA "/tf_cool_warm.json", &tf, &err), &err);
+    CHECK(table_in_unit_range(&tf));
+    CHECK(strcmp(tf.name, "Cool to Warm (test)") == 0);
+    CHECK_NEAR(tf.rgba[0][0], 0.23, 1e-6);
+    CHECK_NEAR(tf.rgba[0][2], 0.754, 1e-6);
+    CHECK_NEAR(tf.rgba[N - 1][0], 0.706, 1e-6);
+    CHECK_NEAR(tf.rgba[0][3], 0.0, 1e-7);
+    CHECK_NEAR(tf.rgba[N - 1][3], 1.0, 1e-7);
+    {
+        double c[4];
+        leap_tf_eval(&tf, 0.5, c); /* x = 0: the middle point, up to the table spacing */
+        CHECK_NEAR(c[0], 0.865, 2e-3);
+        CHECK_NEAR(c[3], 0.5, 1e-6);
+    }
+    CHECK_OK(leap_tf_from_arg(LEAP_TEST_DATA "/tf_ember_array.json", 1, &tf, &err), &err);
+    CHECK(strcmp(tf.name, "Ember (test)") == 0);
+    CHECK(tf.rgba[0][0] == 0.0f && tf.rgba[0][3] == 0.0f);
+    CHECK_NEAR(tf.rgba[N - 1][1], 0.9, 1e-6);
+    CHECK_NEAR(tf.rgba[N - 1][3], 1.0, 1e-7); /* default opacity ramp 0..1 */
+    {
+        double c[4];
+        leap_tf_eval(&tf, 0.25, c);
+        CHECK_NEAR(c[0], 0.4, 1e-6);
+        CHECK_NEAR(c[3], 0.25, 1e-6);
+    }
+
+    /* a valid object: x domain [10, 20] maps to [0, 1]; Points outside clamp */
+    const char *p = write_tmp("ok_object.json",
+                              "{\"RGBPoints\": [10, 0, 0, 1,  20, 1, 0, 0],\n"
+                              " \"Points\": [12, 0.0, 0.5, 0.0,  14, 1.0, 0.5, 0.0]}");
+    CHECK_OK(leap_tf_load_json(p, &tf, &err), &err);
+    CHECK(strcmp(tf.name, "ok_object.json") == 0);
+    CHECK(tf.rgba[0][2] == 1.0f && tf.rgba[0][0] == 0.0f);
+    CHECK(tf.rgba[N - 1][0] == 1.0f && tf.rgba[N - 1][2] == 0.0f);
+    {
+        double c[4];
+        leap_tf_eval(&tf, 0.1, c); /* x = 11: before the first opacity point */
+        CHECK_NEAR(c[3], 0.0, 1e-6);
+        CHECK_NEAR(c[0], 0.1, 1e-6);
+        leap_tf_eval(&tf, 0.3, c); /* x = 13 */
+        CHECK_NEAR(c[3], 0.5, 2e-3);
+        leap_tf_eval(&tf, 0.8, c); /* x = 18: after the last opacity point */
+        CHECK_NEAR(c[3], 1.0, 1e-6);
+    }
+    /* array form, no Points: default ramp; a step (repeated x) in RGB */
+    p = write_tmp("ok_array.json",
+                  "[{\"RGBPoints\": [0, 0, 0, 0,  1, 0, 0, 0,  1, 1, 1, 1,  2, 1, 1, 1]}]");
+    CHECK_OK(leap_tf_load_json(p, &tf, &err), &err);
+    CHECK(tf.rgba[0][3] == 0.0f && tf.rgba[N - 1][3] == 1.0f);
+    CHECK(tf.rgba[N / 2 - 1][0] == 0.0f && tf.rgba[N / 2 + 1][0] == 1.0f);
+    /* a path with upper-case extension goes through from_arg */
+    p = write_tmp("UPPER.JSON", "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1, 1]}");
+    CHECK_OK(leap_tf_from_arg(p, 1, &tf, &err), &err);
+
+    /* invalid files */
+    expect_fail("syntax.json", "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1, 1,]", LEAP_ERR_FORMAT,
+                "syntax");
+    expect_fail("nan_literal.json", "{\"RGBPoints\": [0, NaN, 0, 0, 1, 1, 1, 1]}",
+                LEAP_ERR_FORMAT, NULL);
+    expect_fail("missing.json", "{\"Points\": [0, 0, 0.5, 0, 1, 1, 0.5, 0]}", LEAP_ERR_FORMAT,
+                "RGBPoints");
+    expect_fail("count.json", "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1]}", LEAP_ERR_FORMAT,
+                "RGBPoints has 7 numbers, expected a multiple of 4");
+    expect_fail("one_point.json", "{\"RGBPoints\": [0, 0, 0, 0]}", LEAP_ERR_FORMAT,
+                "RGBPoints");
+    expect_fail("same_x.json", "{\"RGBPoints\": [3, 0, 0, 0, 3, 1, 1, 1]}", LEAP_ERR_FORMAT,
+                "distinct");
+    expect_fail("decreasing.json",
+                "{\"RGBPoints\": [0, 0, 0, 0, 2, 1, 1, 1, 1, 0.5, 0.5, 0.5]}", LEAP_ERR_FORMAT,
+                "decrease");
+    expect_fail("colour_range.json", "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1.5, 1]}",
+                LEAP_ERR_FORMAT, "outside [0, 1]");
+    expect_fail("negative.json", "{\"RGBPoints\": [0, -0.1, 0, 0, 1, 1, 1, 1]}",
+                LEAP_ERR_FORMAT, "outside [0, 1]");
+    expect_fail("infinite.json", "{\"RGBPoints\": [0, 0, 0, 0, 1e999, 1, 1, 1]}",
+                LEAP_ERR_FORMAT, "finite");
+    expect_fail("string.json", "{\"RGBPoints\": [0, 0, 0, 0, 1, \"nan\", 1, 1]}",
+                LEAP_ERR_FORMAT, "not a number");
+    expect_fail("not_array.json", "{\"RGBPoints\": 5}", LEAP_ERR_FORMAT, "RGBPoints");
+    expect_fail("points_count.json",
+                "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1, 1], \"Points\": [0, 1, 0.5]}",
+                LEAP_ERR_FORMAT, "Points has 3 numbers");
+    expect_fail("points_range.json",
+                "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1, 1], \"Points\": [0, 2, 0.5, 0]}",
+                LEAP_ERR_FORMAT, "opacity");
+    expect_fail("points_order.json",
+                "{\"RGBPoints\": [0, 0, 0, 0, 1, 1, 1, 1], "
+                "\"Points\": [1, 0, 0.5, 0, 0, 1, 0.5, 0]}",
+                LEAP_ERR_FORMAT, "decrease");
+    expect_fail("empty.json", "", LEAP_ERR_FORMAT, "empty");
+    expect_fail("blank.json", "  \n\t ", LEAP_ERR_FORMAT, "empty");
+    expect_fail("empty_array.json", "[]", LEAP_ERR_FORMAT, NULL);
+    expect_fail("scalar.json", "42", LEAP_ERR_FORMAT, NULL);
+
+    /* a failed load leaves a usable error and does not crash on a following good load */
+    char missing[2048];
+    snprintf(missing, sizeof missing, "%s/does_not_exist.json", tmpdir);
+    err.msg[0] = 0;
+    CHECK(leap_tf_load_json(missing, &tf2, &err) == LEAP_ERR_IO);
+    CHECK(strstr(err.msg, "does_not_exist.json") != NULL);
+    CHECK(leap_tf_from_arg(missing, 1, &tf2, &err) == LEAP_ERR_IO);
+    err.msg[0] = 0;
+    CHECK(leap_tf_load_json(tmpdir, &tf2, &err) != LEAP_OK); /* a directory */
+    CHECK(err.msg[0] != 0);
+}
+
+int main(void)
+{
+    test_presets();
+    test_eval();
+    test_alpha();
+    test_json();
+    return check_exit_code();
+}

@@ -1,0 +1,1050 @@
+/* Tests of the OpenVDB shim (include/leap/vdb.h): every file is written here with the
+ * writer API, then read back. */
+#include "leap/vdb.h"
+
+#include "check.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+static const char *tmp_file(const char *name)
+{
+    static char path[4][1024];
+    static int slot = 0;
+    slot = (slot + 1) % 4;
+    snprintf(path[slot], sizeof path[slot], "%s/%s", LEAP_TEST_TMP, name);
+    return path[slot];
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void matmul(double a[4][4], double b[4][4], double out[4][4])
+{
+    double r[4][4];
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            r[i][j] = 0.0;
+            for (int k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
+        }
+    memcpy(out, r, sizeof r);
+}
+
+static void identity(double m[4][4])
+{
+    memset(m, 0, 16 * sizeof(double));
+    for (int i = 0; i < 4; ++i) m[i][i] = 1.0;
+}
+
+/* Rotation by `deg` degrees about axis 0/1/2. */
+static void rotation(int axis, double deg, double m[4][4])
+{
+    identity(m);
+    const double c = cos(deg * M_PI / 180.0), s = sin(deg * M_PI / 180.0);
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    m[a][a] = c;
+    m[a][b] = -s;
+    m[b][a] = s;
+    m[b][b] = c;
+}
+
+/* Opens `path`, loads the grid called `name` (NULL: first scalar) and closes the file,
+ * so every test also checks that a grid outlives its file. */
+static leap_grid *load(const char *path, const char *name)
+{
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    leap_result r = leap_vdb_open(path, &f, &err);
+    CHECK_MSG(r == LEAP_OK, "open %s: %s", path, err.msg);
+    if (r != LEAP_OK) return NULL;
+    const int index = leap_vdb_find_grid(f, name);
+    CHECK_MSG(index >= 0, "grid %s in %s", name ? name : "(first scalar)", path);
+    leap_grid *g = NULL;
+    if (index >= 0) {
+        r = leap_vdb_load_grid(f, index, &g, &err);
+        CHECK_MSG(r == LEAP_OK, "load %s from %s: %s", name ? name : "(first scalar)", path, err.msg);
+    }
+    leap_vdb_close(f);
+    return g;
+}
+
+static int save(leap_vdb_writer *w, const char *path)
+{
+    leap_error err = {{0}};
+    leap_result r = leap_vdb_writer_save(w, path, &err);
+    CHECK_MSG(r == LEAP_OK, "save %s: %s", path, err.msg);
+    leap_vdb_writer_destroy(w);
+    return r == LEAP_OK;
+}
+
+static leap_vdb_writer *new_writer(void)
+{
+    leap_error err = {{0}};
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    return w;
+}
+
+static int add_grid(leap_vdb_writer *w, const char *name, leap_vdb_type type, double bg,
+                    const double m[4][4], int fog)
+{
+    leap_error err = {{0}};
+    int g = leap_vdb_writer_add_grid(w, name, type, bg, m, fog, &err);
+    CHECK_MSG(g >= 0, "add_grid %s: %s", name, err.msg);
+    return g;
+}
+
+static float value_at(leap_grid *g, int i, int j, int k)
+{
+    leap_error err = {{0}};
+    leap_grid_reader *r = NULL;
+    CHECK_OK(leap_grid_reader_create(g, &r, &err), &err);
+    if (!r) return NAN;
+    float v = leap_grid_reader_value(r, i, j, k);
+    leap_grid_reader_destroy(r);
+    return v;
+}
+
+/* All bricks of a grid in a malloc'ed array; *n receives the count. */
+static leap_brick *get_bricks(leap_grid *g, size_t *n)
+{
+    leap_error err = {{0}};
+    *n = leap_grid_brick_count(g);
+    leap_brick *b = calloc(*n ? *n : 1, sizeof *b);
+    CHECK_OK(leap_grid_bricks(g, b, &err), &err);
+    return b;
+}
+
+static const leap_brick *find_brick(const leap_brick *b, size_t n, int x, int y, int z)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (b[i].origin[0] == x && b[i].origin[1] == y && b[i].origin[2] == z) return &b[i];
+    return NULL;
+}
+
+/* ---- value types ------------------------------------------------------------------ */
+
+static void test_value_types(void)
+{
+    const char *path = tmp_file("types.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int gf = add_grid(w, "f", LEAP_VDB_FLOAT, 0.5, NULL, 1);
+    const int gh = add_grid(w, "h", LEAP_VDB_HALF, -1.0, NULL, 1);
+    const int gd = add_grid(w, "d", LEAP_VDB_DOUBLE, 0.1, NULL, 0);
+    const int gi = add_grid(w, "i", LEAP_VDB_INT32, 3.0, NULL, 0);
+    const double vals[5] = {0.123456789, -3.5, 1000.25, 1e-3, 42.0};
+    for (int n = 0; n < 5; ++n) {
+        leap_vdb_writer_set(w, gf, n, 2 * n, -3 * n, vals[n]);
+        leap_vdb_writer_set(w, gh, n, 2 * n, -3 * n, vals[n]);
+        leap_vdb_writer_set(w, gd, n, 2 * n, -3 * n, vals[n]);
+        leap_vdb_writer_set(w, gi, n, 2 * n, -3 * n, vals[n] + 0.3);
+    }
+    if (!save(w, path)) return;
+
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    if (!f) return;
+    CHECK(leap_vdb_grid_count(f) == 4);
+    struct { const char *name, *type; int half; double bg; } want[4] = {
+        {"f", "float", 0, 0.5}, {"h", "float", 1, -1.0}, {"d", "double", 0, (float)0.1}, {"i", "int32", 0, 3.0}};
+    for (int n = 0; n < 4; ++n) {
+        const int index = leap_vdb_find_grid(f, want[n].name);
+        CHECK(index >= 0);
+        if (index < 0) continue;
+        leap_grid_info info;
+        CHECK_OK(leap_vdb_grid_info(f, index, &info, &err), &err);
+        CHECK(strcmp(info.name, want[n].name) == 0);
+        CHECK_MSG(strcmp(info.value_type, want[n].type) == 0, "%s: %s", info.name, info.value_type);
+        CHECK(info.scalar == 1);
+        CHECK(info.saved_as_half == want[n].half);
+        CHECK_NEAR(info.background, want[n].bg, 1e-12);
+        CHECK(info.active_voxels == 0); /* filled only by load */
+        CHECK(strcmp(info.grid_class, n < 2 ? "fog volume" : "unknown") == 0);
+    }
+    leap_vdb_close(f);
+
+    const char *names[4] = {"f", "h", "d", "i"};
+    for (int t = 0; t < 4; ++t) {
+        leap_grid *g = load(path, names[t]);
+        if (!g) continue;
+        const leap_grid_info *info = leap_grid_get_info(g);
+        CHECK(info->active_voxels == 5);
+        CHECK(info->leaf_count == 4); /* (0..4, 0..8, -12..0) spans 4 leaves */
+        CHECK(info->nonfinite_values == 0);
+        CHECK(info->bbox_min[0] == 0 && info->bbox_min[1] == 0 && info->bbox_min[2] == -12);
+        CHECK(info->bbox_max[0] == 4 && info->bbox_max[1] == 8 && info->bbox_max[2] == 0);
+        CHECK(info->memory_bytes > 0);
+        CHECK_NEAR(info->background, want[t].bg, 1e-12);
+        double lo = INFINITY, hi = -INFINITY;
+        for (int n = 0; n < 5; ++n) {
+            const float v = value_at(g, n, 2 * n, -3 * n);
+            double expect = vals[n];
+            double tol = 0.0;
+            if (t == 0) expect = (float)vals[n];
+            if (t == 1) tol = fabs(vals[n]) * 1e-3 + 1e-7; /* half: 11-bit mantissa */
+            if (t == 2) expect = (float)vals[n];
+            if (t == 3) expect = floor(vals[n] + 0.3 + 0.5);
+            CHECK_MSG(fabs(v - expect) <= tol, "grid %s voxel %d: %.9g vs %.9g", names[t], n, v, expect);
+            lo = fmin(lo, v);
+            hi = fmax(hi, v);
+        }
+        CHECK_NEAR(info->value_min, lo, 0);
+        CHECK_NEAR(info->value_max, hi, 0);
+        /* A voxel with no data reads the background. */
+        CHECK_NEAR(value_at(g, 1000, -5000, 77), want[t].bg, 0);
+        CHECK_NEAR(value_at(g, 1, 0, 0), want[t].bg, 0); /* inactive voxel inside a leaf */
+        leap_grid_destroy(g);
+    }
+}
+
+/* ---- vec3 grid, grid selection ---------------------------------------------------- */
+
+static void test_grid_selection(void)
+{
+    const char *path = tmp_file("multi.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    /* Grids are listed in file order; the vec3 grid comes first. */
+    const int gv = add_grid(w, "velocity", LEAP_VDB_VEC3F, 0.0, NULL, 0);
+    const int gd = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    const int gt = add_grid(w, "temperature", LEAP_VDB_DOUBLE, 0.0, NULL, 0);
+    const int g2 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1); /* a duplicate name */
+    leap_vdb_writer_set(w, gv, 1, 2, 3, 4.0);
+    leap_vdb_writer_set(w, gd, 1, 2, 3, 0.75);
+    leap_vdb_writer_set(w, gt, 1, 2, 3, 300.0);
+    leap_vdb_writer_set(w, g2, 1, 2, 3, 0.5);
+    if (!save(w, path)) return;
+
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    if (!f) return;
+    CHECK(leap_vdb_grid_count(f) == 4);
+    const int iv = leap_vdb_find_grid(f, "velocity");
+    const int id = leap_vdb_find_grid(f, "density");
+    const int it = leap_vdb_find_grid(f, "temperature");
+    const int i2 = leap_vdb_find_grid(f, "density[1]"); /* OpenVDB's name for the second one */
+    CHECK(iv == 0 && id == 1 && it == 2 && i2 == 3);
+    CHECK(leap_vdb_find_grid(f, "density[0]") == id);
+    CHECK(leap_vdb_find_grid(f, NULL) == id);
+    CHECK(leap_vdb_find_grid(f, "pressure") == -1);
+    CHECK(leap_vdb_find_grid(f, "") == -1);
+
+    leap_grid_info info;
+    CHECK_OK(leap_vdb_grid_info(f, iv, &info, &err), &err);
+    CHECK(info.scalar == 0);
+    CHECK_MSG(strcmp(info.value_type, "vec3s") == 0, "%s", info.value_type);
+    CHECK(leap_vdb_grid_info(f, 4, &info, &err) != LEAP_OK);
+    CHECK(leap_vdb_grid_info(f, -1, &info, &err) != LEAP_OK);
+
+    leap_grid *g = (leap_grid *)&info; /* must be reset to NULL on failure */
+    err.msg[0] = 0;
+    CHECK(leap_vdb_load_grid(f, iv, &g, &err) == LEAP_ERR_UNSUPPORTED);
+    CHECK(g == NULL);
+    CHECK(strlen(err.msg) > 0);
+
+    CHECK_OK(leap_vdb_load_grid(f, it, &g, &err), &err);
+    if (g) {
+        CHECK(strcmp(leap_grid_get_info(g)->name, "temperature") == 0);
+        CHECK_NEAR(value_at(g, 1, 2, 3), 300.0, 0);
+        leap_grid_destroy(g);
+    }
+    g = NULL;
+    CHECK_OK(leap_vdb_load_grid(f, i2, &g, &err), &err);
+    leap_vdb_close(f);
+    if (g) {
+        CHECK_NEAR(value_at(g, 1, 2, 3), 0.5, 0);
+        leap_grid_destroy(g);
+    }
+
+    /* A file with only a vec3 grid has no scalar grid. */
+    path = tmp_file("vec3only.vdb");
+    w = new_writer();
+    if (!w) return;
+    leap_vdb_writer_set(w, add_grid(w, "v", LEAP_VDB_VEC3F, 0.0, NULL, 0), 0, 0, 0, 1.0);
+    if (!save(w, path)) return;
+    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    if (f) {
+        CHECK(leap_vdb_find_grid(f, NULL) == -1);
+        CHECK(leap_vdb_find_grid(f, "v") == 0);
+        leap_vdb_close(f);
+    }
+}
+
+/* ---- transforms ------------------------------------------------------------------- */
+
+static void test_transforms(void)
+{
+    double rx[4][4], rz[4][4], scale[4][4], m[4][4];
+    rotation(2, 30.0, rz);
+    rotation(0, 20.0, rx);
+    identity(scale);
+    scale[0][0] = 0.5;
+    scale[1][1] = 1.0;
+    scale[2][2] = 2.0;
+    matmul(rz, rx, m);
+    matmul(m, scale, m);
+    m[0][3] = 10.0;
+    m[1][3] = -20.0;
+    m[2][3] = 5.5;
+
+    double aniso[4][4];
+    identity(aniso);
+    aniso[0][0] = 0.25;
+    aniso[1][1] = 0.5;
+    aniso[2][2] = 3.0;
+    aniso[0][3] = -1.0;
+
+    double uniform[4][4];
+    identity(uniform);
+    for (int i = 0; i < 3; ++i) uniform[i][i] = 0.1;
+    uniform[2][3] = 1e4;
+
+    struct { const char *name; double (*m)[4]; double vs[3]; } cases[3] = {
+        {"rotated", m, {0.5, 1.0, 2.0}}, {"aniso", aniso, {0.25, 0.5, 3.0}}, {"uniform", uniform, {0.1, 0.1, 0.1}}};
+
+    const char *path = tmp_file("transforms.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    for (int c = 0; c < 3; ++c) leap_vdb_writer_set(w, add_grid(w, cases[c].name, LEAP_VDB_FLOAT, 0, cases[c].m, 1), 0, 0, 0, 1);
+    leap_vdb_writer_set(w, add_grid(w, "identity", LEAP_VDB_FLOAT, 0, NULL, 1), 0, 0, 0, 1);
+    if (!save(w, path)) return;
+
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    if (!f) return;
+    for (int c = 0; c < 4; ++c) {
+        leap_grid_info info;
+        const int index = leap_vdb_find_grid(f, c < 3 ? cases[c].name : "identity");
+        CHECK_OK(leap_vdb_grid_info(f, index, &info, &err), &err);
+        double want[4][4];
+        if (c < 3) memcpy(want, cases[c].m, sizeof want);
+        else identity(want);
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j)
+                CHECK_MSG(fabs(info.index_to_world[i][j] - want[i][j]) <= 1e-9, "%s [%d][%d] = %.12g, want %.12g",
+                          info.name, i, j, info.index_to_world[i][j], want[i][j]);
+        for (int a = 0; a < 3; ++a) CHECK_NEAR(info.voxel_size[a], c < 3 ? cases[c].vs[a] : 1.0, 1e-9);
+    }
+    /* The loaded grid carries the same transform. */
+    leap_grid *g = NULL;
+    CHECK_OK(leap_vdb_load_grid(f, leap_vdb_find_grid(f, "rotated"), &g, &err), &err);
+    leap_vdb_close(f);
+    if (g) {
+        for (int i = 0; i < 4; ++i)
+            for (int j = 0; j < 4; ++j) CHECK_NEAR(leap_grid_get_info(g)->index_to_world[i][j], m[i][j], 1e-9);
+        leap_grid_destroy(g);
+    }
+
+    /* A projective last row is rejected. */
+    w = new_writer();
+    if (!w) return;
+    double bad[4][4];
+    identity(bad);
+    bad[3][0] = 0.5;
+    CHECK(leap_vdb_writer_add_grid(w, "bad", LEAP_VDB_FLOAT, 0, bad, 0, &err) == -1);
+    CHECK(strlen(err.msg) > 0);
+    /* So is a singular one. */
+    identity(bad);
+    bad[1][1] = 0.0;
+    err.msg[0] = 0;
+    CHECK(leap_vdb_writer_add_grid(w, "singular", LEAP_VDB_FLOAT, 0, bad, 0, &err) == -1);
+    CHECK(strlen(err.msg) > 0);
+    leap_vdb_writer_destroy(w);
+}
+
+/* ---- tiles ------------------------------------------------------------------------ */
+
+static void test_tiles(void)
+{
+    const char *path = tmp_file("tiles.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int g0 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    const int32_t a0[3] = {0, 0, 0}, a1[3] = {7, 7, 7};                  /* one 8^3 tile */
+    const int32_t b0[3] = {128, 256, 128}, b1[3] = {255, 383, 255};      /* one 128^3 tile */
+    const int32_t c0[3] = {4096, -4096, 8192}, c1[3] = {8191, -1, 12287}; /* one 4096^3 tile */
+    leap_vdb_writer_fill(w, g0, a0, a1, 1.0, 1);
+    leap_vdb_writer_fill(w, g0, b0, b1, 2.0, 1);
+    leap_vdb_writer_fill(w, g0, c0, c1, 3.0, 1);
+    leap_vdb_writer_set(w, g0, -100, -100, -100, 0.5);
+    /* Inactive fill: not a brick, not an active voxel. */
+    const int32_t d0[3] = {-64, 0, 0}, d1[3] = {-57, 7, 7};
+    leap_vdb_writer_fill(w, g0, d0, d1, 0.0, 0);
+    if (!save(w, path)) return;
+
+    leap_grid *g = load(path, "density");
+    if (!g) return;
+    const leap_grid_info *info = leap_grid_get_info(g);
+    CHECK(info->leaf_count == 1);
+    CHECK_MSG(info->active_tiles[0] == 1 && info->active_tiles[1] == 1 && info->active_tiles[2] == 1,
+              "tiles %llu %llu %llu", (unsigned long long)info->active_tiles[0],
+              (unsigned long long)info->active_tiles[1], (unsigned long long)info->active_tiles[2]);
+    CHECK(info->active_voxels == 512ull + 128ull * 128 * 128 + 4096ull * 4096 * 4096 + 1);
+    CHECK(info->bbox_min[0] == -100 && info->bbox_min[1] == -4096 && info->bbox_min[2] == -100);
+    CHECK(info->bbox_max[0] == 8191 && info->bbox_max[1] == 383 && info->bbox_max[2] == 12287);
+    CHECK_NEAR(info->value_min, 0.5, 0);
+    CHECK_NEAR(info->value_max, 3.0, 0);
+    CHECK(leap_grid_brick_count(g) == 4);
+
+    size_t n = 0;
+    const double t0 = now_seconds();
+    leap_brick *b = get_bricks(g, &n);
+    const double dt = now_seconds() - t0;
+    printf("tiles: %zu bricks in %.3f s\n", n, dt);
+    if (n == 4) {
+        CHECK(b[0].is_tile == 0 && b[0].size == 8 && b[0].origin[0] == -104 && b[0].origin[2] == -104);
+        CHECK_NEAR(b[0].value_min, 0.0, 0);
+        CHECK_NEAR(b[0].value_max, 0.5, 0);
+        /* Tiles sorted by z: the 8^3 tile (z 0), the 128^3 tile (z 128), the root tile (z 8192). */
+        const int sizes[3] = {8, 128, 4096};
+        const float values[3] = {1.0f, 2.0f, 3.0f};
+        const int32_t *origins[3] = {a0, b0, c0};
+        for (int t = 0; t < 3; ++t) {
+            const leap_brick *k = &b[1 + t];
+            CHECK(k->is_tile == 1);
+            CHECK_MSG(k->size == sizes[t], "tile %d size %d", t, k->size);
+            CHECK(k->origin[0] == origins[t][0] && k->origin[1] == origins[t][1] && k->origin[2] == origins[t][2]);
+            CHECK_NEAR(k->tile_value, values[t], 0);
+            CHECK_NEAR(k->value_min, 0.0, 0); /* the apron is background */
+            CHECK_NEAR(k->value_max, values[t], 0);
+        }
+    }
+    free(b);
+    CHECK_NEAR(value_at(g, 4096 + 17, -5, 8192 + 4095), 3.0, 0);
+    CHECK_NEAR(value_at(g, 200, 300, 200), 2.0, 0);
+    CHECK_NEAR(value_at(g, 7, 0, 7), 1.0, 0);
+    CHECK_NEAR(value_at(g, 8, 0, 7), 0.0, 0);
+    leap_grid_destroy(g);
+}
+
+/* Tile aprons: neighbours of a 128^3 and a 4096^3 tile, including negative coordinates. */
+static void test_tile_apron(void)
+{
+    const char *path = tmp_file("tile_apron.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int g0 = add_grid(w, "mid", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    const int32_t m0[3] = {0, 0, 0}, m1[3] = {127, 127, 127};
+    leap_vdb_writer_fill(w, g0, m0, m1, 2.0, 1);
+    leap_vdb_writer_set(w, g0, 128, 5, 5, 9.0);   /* apron of the tile */
+    leap_vdb_writer_set(w, g0, 129, 5, 5, 50.0);  /* beyond the apron */
+    leap_vdb_writer_set(w, g0, -1, -1, -1, -4.0); /* apron corner */
+    leap_vdb_writer_set(w, g0, -2, -1, -1, -40.0);
+
+    const int g1 = add_grid(w, "root", LEAP_VDB_FLOAT, 0.25, NULL, 1);
+    const int32_t r0[3] = {-4096, 0, -4096}, r1[3] = {-1, 4095, -1};
+    leap_vdb_writer_fill(w, g1, r0, r1, 1.0, 1);
+    leap_vdb_writer_set(w, g1, 0, 17, -33, 7.0);       /* +x face */
+    leap_vdb_writer_set(w, g1, -4097, 4096, 0, -3.0);  /* corner (-x, +y, +z) */
+    leap_vdb_writer_set(w, g1, 1, 17, -33, 70.0);      /* beyond */
+    leap_vdb_writer_set(w, g1, -4098, 4096, 0, -30.0); /* beyond */
+    /* A second root tile sharing the -y face: its value is in the apron. */
+    const int32_t s0[3] = {-4096, -4096, -4096}, s1[3] = {-1, -1, -1};
+    leap_vdb_writer_fill(w, g1, s0, s1, 1.5, 1);
+    if (!save(w, path)) return;
+
+    leap_grid *g = load(path, "mid");
+    if (g) {
+        size_t n = 0;
+        leap_brick *b = get_bricks(g, &n);
+        const leap_brick *t = find_brick(b, n, 0, 0, 0);
+        CHECK(t && t->is_tile == 1 && t->size == 128);
+        if (t && t->is_tile) {
+            CHECK_NEAR(t->value_min, -4.0, 0);
+            CHECK_NEAR(t->value_max, 9.0, 0);
+        }
+        /* The leaf next to the tile reads the tile's face, the 9, the 50 and background. */
+        const leap_brick *l = find_brick(b, n, 128, 0, 0);
+        CHECK(l && l->is_tile == 0);
+        if (l) {
+            CHECK_NEAR(l->value_min, 0.0, 0);
+            CHECK_NEAR(l->value_max, 50.0, 0);
+        }
+        free(b);
+        leap_grid_destroy(g);
+    }
+
+    g = load(path, "root");
+    if (g) {
+        const leap_grid_info *info = leap_grid_get_info(g);
+        CHECK(info->active_tiles[2] == 2);
+        size_t n = 0;
+        const double t0 = now_seconds();
+        leap_brick *b = get_bricks(g, &n);
+        printf("root tile apron: %zu bricks in %.3f s\n", n, now_seconds() - t0);
+        const leap_brick *t = find_brick(b, n, -4096, 0, -4096);
+        CHECK(t && t->is_tile == 1 && t->size == 4096);
+        if (t && t->is_tile) {
+            CHECK_NEAR(t->value_min, -3.0, 0);
+            CHECK_NEAR(t->value_max, 7.0, 0);
+        }
+        const leap_brick *s = find_brick(b, n, -4096, -4096, -4096);
+        CHECK(s && s->is_tile == 1 && s->size == 4096);
+        if (s && s->is_tile) {
+            CHECK_NEAR(s->value_min, 0.25, 0); /* background on five sides, the 1.0 tile on +y */
+            CHECK_NEAR(s->value_max, 1.5, 0);
+        }
+        free(b);
+        leap_grid_destroy(g);
+    }
+}
+
+/* ---- leaf aprons, background, ordering -------------------------------------------- */
+
+static void test_leaf_apron(void)
+{
+    const char *path = tmp_file("leaf_apron.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int g0 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.25, NULL, 1);
+    leap_vdb_writer_set(w, g0, 7, 3, 3, 1.0);     /* leaf (0,0,0) */
+    leap_vdb_writer_set(w, g0, 8, 3, 3, 5.0);     /* leaf (8,0,0), in the apron of leaf (0,0,0) */
+    leap_vdb_writer_set(w, g0, 9, 3, 3, 100.0);   /* leaf (8,0,0), outside that apron */
+    leap_vdb_writer_set(w, g0, -1, -1, -1, -2.0); /* leaf (-8,-8,-8), apron corner of (0,0,0) */
+    leap_vdb_writer_set(w, g0, -2, -2, -2, -50.0);
+    leap_vdb_writer_set(w, g0, 3, 3, 8, 3.0);     /* leaf (0,0,8) */
+    leap_vdb_writer_set(w, g0, 3, 8, 0, 0.5);     /* leaf (0,8,0) */
+    leap_vdb_writer_set(w, g0, 1000, 1000, 1000, 0.5);
+    leap_vdb_writer_set(w, g0, -1000, 1000, -1000, 0.5);
+    if (!save(w, path)) return;
+
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    if (f) {
+        leap_grid_info info;
+        CHECK_OK(leap_vdb_grid_info(f, 0, &info, &err), &err);
+        CHECK_NEAR(info.background, 0.25, 0);
+        leap_vdb_close(f);
+    }
+
+    leap_grid *g = load(path, NULL);
+    if (!g) return;
+    CHECK_NEAR(leap_grid_get_info(g)->background, 0.25, 0);
+    CHECK_NEAR(value_at(g, 500, 500, 500), 0.25, 0);
+    CHECK_NEAR(value_at(g, 6, 3, 3), 0.25, 0);
+    size_t n = 0;
+    leap_brick *b = get_bricks(g, &n);
+    CHECK(n == 7);
+    const leap_brick *l = find_brick(b, n, 0, 0, 0);
+    CHECK(l != NULL);
+    if (l) {
+        CHECK(l->is_tile == 0 && l->size == 8);
+        CHECK_NEAR(l->value_min, -2.0, 0);
+        CHECK_NEAR(l->value_max, 5.0, 0);
+    }
+    l = find_brick(b, n, 8, 0, 0);
+    if (l) {
+        CHECK_NEAR(l->value_min, 0.25, 0);
+        CHECK_NEAR(l->value_max, 100.0, 0);
+    }
+    l = find_brick(b, n, -8, -8, -8);
+    if (l) {
+        CHECK_NEAR(l->value_min, -50.0, 0);
+        CHECK_NEAR(l->value_max, 0.25, 0); /* the (0,0,0) corner is an inactive voxel */
+    }
+    l = find_brick(b, n, 1000 & ~7, 1000 & ~7, 1000 & ~7);
+    if (l) {
+        CHECK_NEAR(l->value_min, 0.25, 0);
+        CHECK_NEAR(l->value_max, 0.5, 0);
+    }
+    /* Ordering: leaves sorted by z, then y, then x. */
+    for (size_t i = 1; i < n; ++i) {
+        const int32_t *p = b[i - 1].origin, *q = b[i].origin;
+        const int ordered = p[2] < q[2] || (p[2] == q[2] && (p[1] < q[1] || (p[1] == q[1] && p[0] < q[0])));
+        CHECK_MSG(ordered, "brick %zu (%d %d %d) after (%d %d %d)", i, q[0], q[1], q[2], p[0], p[1], p[2]);
+    }
+    for (size_t i = 0; i < n; ++i)
+        CHECK(b[i].origin[0] % 8 == 0 && b[i].origin[1] % 8 == 0 && b[i].origin[2] % 8 == 0);
+
+    /* Box reads agree with single reads. */
+    leap_grid_reader *r = NULL;
+    CHECK_OK(leap_grid_reader_create(g, &r, &err), &err);
+    if (r) {
+        const int32_t mn[3] = {-3, -2, -1}, dim[3] = {14, 7, 12};
+        float *box = malloc(sizeof(float) * 14 * 7 * 12);
+        leap_grid_reader_box(r, mn, dim, box);
+        int same = 1;
+        for (int z = 0; z < dim[2]; ++z)
+            for (int y = 0; y < dim[1]; ++y)
+                for (int x = 0; x < dim[0]; ++x)
+                    same &= box[(z * dim[1] + y) * dim[0] + x] ==
+                            leap_grid_reader_value(r, mn[0] + x, mn[1] + y, mn[2] + z);
+        CHECK(same);
+        CHECK(box[(4 * dim[1] + 5) * dim[0] + 11] == 5.0f); /* voxel (8,3,3) */
+        free(box);
+        leap_grid_reader_destroy(r);
+    }
+    free(b);
+    leap_grid_destroy(g);
+}
+
+/* Leaves and tiles mixed: leaves first, each group sorted. */
+static void test_ordering(void)
+{
+    const char *path = tmp_file("ordering.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int g0 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    unsigned s = 12345u;
+    for (int n = 0; n < 300; ++n) {
+        int c[3];
+        for (int a = 0; a < 3; ++a) {
+            s = s * 1664525u + 1013904223u;
+            c[a] = (int)(s >> 16) % 600 - 300;
+        }
+        leap_vdb_writer_set(w, g0, c[0], c[1], c[2], 1.0 + n);
+    }
+    for (int t = 0; t < 6; ++t) {
+        const int32_t lo[3] = {1024 + 16 * (5 - t), 8 * t, -512}, hi[3] = {lo[0] + 7, lo[1] + 7, lo[2] + 7};
+        leap_vdb_writer_fill(w, g0, lo, hi, 0.5, 1);
+    }
+    if (!save(w, path)) return;
+    leap_grid *g = load(path, "density");
+    if (!g) return;
+    size_t n = 0;
+    leap_brick *b = get_bricks(g, &n);
+    const leap_grid_info *info = leap_grid_get_info(g);
+    CHECK(n == info->leaf_count + 6);
+    CHECK(info->active_tiles[0] == 6);
+    int bad = 0;
+    for (size_t i = 0; i < n; ++i) {
+        if (b[i].is_tile != (i >= info->leaf_count)) ++bad;
+        if (i == 0 || i == info->leaf_count) continue;
+        const int32_t *p = b[i - 1].origin, *q = b[i].origin;
+        if (!(p[2] < q[2] || (p[2] == q[2] && (p[1] < q[1] || (p[1] == q[1] && p[0] < q[0]))))) ++bad;
+    }
+    CHECK_MSG(bad == 0, "%d bricks out of order", bad);
+    free(b);
+    leap_grid_destroy(g);
+}
+
+/* ---- non-finite values ------------------------------------------------------------ */
+
+static void test_nonfinite(void)
+{
+    const char *path = tmp_file("nonfinite.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int gf = add_grid(w, "f", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    const int gd = add_grid(w, "d", LEAP_VDB_DOUBLE, 0.0, NULL, 1);
+    const double vals[6] = {1.0, NAN, INFINITY, -INFINITY, -2.0, 3.0};
+    for (int i = 0; i < 6; ++i) {
+        leap_vdb_writer_set(w, gf, i, 0, 0, vals[i]);
+        leap_vdb_writer_set(w, gd, i, 0, 0, vals[i]);
+    }
+    /* A NaN tile next to the leaf, and +Inf in the apron of leaf (0,0,0). */
+    const int32_t t0[3] = {16, 0, 0}, t1[3] = {23, 7, 7};
+    leap_vdb_writer_fill(w, gf, t0, t1, NAN, 1);
+    leap_vdb_writer_set(w, gf, 8, 0, 0, INFINITY);
+    leap_vdb_writer_set(w, gf, 9, 0, 0, 0.5);
+    leap_vdb_writer_set(w, gf, 15, 3, 3, INFINITY); /* in the apron of the NaN tile */
+    if (!save(w, path)) return;
+
+    leap_grid *g = load(path, "f");
+    if (g) {
+        const leap_grid_info *info = leap_grid_get_info(g);
+        CHECK_MSG(info->nonfinite_values == 6, "%llu", (unsigned long long)info->nonfinite_values);
+        CHECK_NEAR(info->value_min, -2.0, 0);
+        CHECK_NEAR(info->value_max, 3.0, 0);
+        CHECK_NEAR(value_at(g, 1, 0, 0), 0.0, 0);  /* NaN -> background */
+        CHECK_NEAR(value_at(g, 2, 0, 0), 3.0, 0);  /* +Inf -> largest finite */
+        CHECK_NEAR(value_at(g, 3, 0, 0), -2.0, 0); /* -Inf -> smallest finite */
+        CHECK_NEAR(value_at(g, 8, 0, 0), 3.0, 0);
+        CHECK_NEAR(value_at(g, 20, 4, 4), 0.0, 0); /* NaN tile -> background */
+        size_t n = 0;
+        leap_brick *b = get_bricks(g, &n);
+        int finite = 1;
+        for (size_t i = 0; i < n; ++i)
+            finite &= isfinite(b[i].value_min) && isfinite(b[i].value_max) && isfinite(b[i].tile_value);
+        CHECK(finite);
+        const leap_brick *t = find_brick(b, n, 16, 0, 0);
+        CHECK(t && t->is_tile);
+        if (t) {
+            CHECK_NEAR(t->tile_value, 0.0, 0);
+            CHECK_NEAR(t->value_min, 0.0, 0);
+            CHECK_NEAR(t->value_max, 3.0, 0); /* the +Inf at (15,3,3) */
+        }
+        const leap_brick *l = find_brick(b, n, 0, 0, 0);
+        if (l) {
+            CHECK_NEAR(l->value_min, -2.0, 0);
+            CHECK_NEAR(l->value_max, 3.0, 0);
+        }
+        free(b);
+        leap_grid_destroy(g);
+    }
+    g = load(path, "d");
+    if (g) {
+        const leap_grid_info *info = leap_grid_get_info(g);
+        CHECK(info->nonfinite_values == 3);
+        CHECK_NEAR(value_at(g, 1, 0, 0), 0.0, 0);
+        CHECK_NEAR(value_at(g, 2, 0, 0), 3.0, 0);
+        CHECK_NEAR(value_at(g, 3, 0, 0), -2.0, 0);
+        leap_grid_destroy(g);
+    }
+}
+
+/* ---- empty grid ------------------------------------------------------------------- */
+
+static void test_empty(void)
+{
+    const char *path = tmp_file("empty_grid.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    add_grid(w, "nothing", LEAP_VDB_FLOAT, 0.125, NULL, 1);
+    if (!save(w, path)) return;
+    leap_grid *g = load(path, "nothing");
+    if (!g) return;
+    const leap_grid_info *info = leap_grid_get_info(g);
+    CHECK(info->active_voxels == 0 && info->leaf_count == 0);
+    CHECK(info->bbox_min[0] > info->bbox_max[0]);
+    CHECK_NEAR(info->value_min, 0.125, 0);
+    CHECK_NEAR(info->value_max, 0.125, 0);
+    CHECK(leap_grid_brick_count(g) == 0);
+    CHECK_NEAR(value_at(g, 0, 0, 0), 0.125, 0);
+    leap_grid_destroy(g);
+}
+
+/* ---- far from the origin ---------------------------------------------------------- */
+
+static void test_extreme_coordinates(void)
+{
+    const char *path = tmp_file("far.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int g0 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    leap_vdb_writer_set(w, g0, INT32_MAX, INT32_MIN, 1000000000, 2.0);
+    leap_vdb_writer_set(w, g0, INT32_MAX - 8, INT32_MIN, 1000000000, 3.0); /* neighbouring leaf */
+    leap_vdb_writer_set(w, g0, INT32_MIN, INT32_MAX, -1000000000, 4.0);
+    /* A root tile in the far negative corner. (OpenVDB cannot fill a box that reaches
+     * INT32_MAX: its fill loop overflows, so the writer refuses such boxes.) */
+    const int32_t lo[3] = {INT32_MIN, INT32_MIN, INT32_MIN}, hi[3] = {INT32_MIN + 4095, INT32_MIN + 4095, INT32_MIN + 4095};
+    leap_vdb_writer_fill(w, g0, lo, hi, 5.0, 1);
+    if (!save(w, path)) return;
+    leap_grid *g = load(path, NULL);
+    if (!g) return;
+    const leap_grid_info *info = leap_grid_get_info(g);
+    CHECK(info->leaf_count == 3);
+    CHECK(info->active_tiles[2] == 1);
+    CHECK(info->bbox_min[0] == INT32_MIN && info->bbox_max[0] == INT32_MAX);
+    CHECK_NEAR(value_at(g, INT32_MAX, INT32_MIN, 1000000000), 2.0, 0);
+    CHECK_NEAR(value_at(g, INT32_MIN, INT32_MIN + 4095, INT32_MIN), 5.0, 0);
+    CHECK_NEAR(value_at(g, INT32_MAX, INT32_MAX, INT32_MAX), 0.0, 0);
+    size_t n = 0;
+    leap_brick *b = get_bricks(g, &n);
+    CHECK(n == 4);
+    const leap_brick *l = find_brick(b, n, INT32_MAX - 7, INT32_MIN, 1000000000 & ~7);
+    CHECK(l != NULL);
+    if (l) {
+        CHECK_NEAR(l->value_min, 0.0, 0);
+        CHECK_NEAR(l->value_max, 3.0, 0); /* the neighbour at INT32_MAX - 8 is in the apron */
+    }
+    const leap_brick *t = find_brick(b, n, lo[0], lo[1], lo[2]);
+    CHECK(t && t->is_tile && t->size == 4096);
+    if (t) {
+        CHECK_NEAR(t->value_min, 0.0, 0);
+        CHECK_NEAR(t->value_max, 5.0, 0);
+    }
+    free(b);
+    leap_grid_destroy(g);
+
+    /* The refused fill is reported by save. */
+    w = new_writer();
+    if (!w) return;
+    const int g1 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    const int32_t top[3] = {INT32_MAX - 7, 0, 0}, end[3] = {INT32_MAX, 7, 7};
+    leap_vdb_writer_fill(w, g1, top, end, 1.0, 1);
+    leap_error err = {{0}};
+    CHECK(leap_vdb_writer_save(w, tmp_file("far_refused.vdb"), &err) != LEAP_OK);
+    CHECK(strlen(err.msg) > 0);
+    leap_vdb_writer_destroy(w);
+}
+
+/* ---- bad input -------------------------------------------------------------------- */
+
+static long file_size(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0 ? (long)st.st_size : -1;
+}
+
+static unsigned char *read_all(const char *path, long *size)
+{
+    *size = file_size(path);
+    FILE *f = fopen(path, "rb");
+    if (!f || *size <= 0) {
+        if (f) fclose(f);
+        return NULL;
+    }
+    unsigned char *data = malloc((size_t)*size);
+    if (fread(data, 1, (size_t)*size, f) != (size_t)*size) {
+        free(data);
+        data = NULL;
+    }
+    fclose(f);
+    return data;
+}
+
+static void write_all(const char *path, const void *data, size_t n)
+{
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (!f) return;
+    if (n) CHECK(fwrite(data, 1, n, f) == n);
+    fclose(f);
+}
+
+/* Opens and fully loads every scalar grid of `path`; returns the first error, LEAP_OK if all
+ * succeeded. Every failure must carry a message. */
+static leap_result try_everything(const char *path, char *msg, size_t cap)
+{
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    leap_result r = leap_vdb_open(path, &f, &err);
+    if (r != LEAP_OK) {
+        CHECK(f == NULL);
+        snprintf(msg, cap, "%s", err.msg);
+        return r;
+    }
+    for (int i = 0; i < leap_vdb_grid_count(f) && r == LEAP_OK; ++i) {
+        leap_grid_info info;
+        r = leap_vdb_grid_info(f, i, &info, &err);
+        if (r != LEAP_OK || !info.scalar) continue;
+        leap_grid *g = NULL;
+        r = leap_vdb_load_grid(f, i, &g, &err);
+        if (r == LEAP_OK) {
+            size_t n = leap_grid_brick_count(g);
+            leap_brick *b = calloc(n ? n : 1, sizeof *b);
+            r = leap_grid_bricks(g, b, &err);
+            free(b);
+            leap_grid_destroy(g);
+        }
+    }
+    leap_vdb_close(f);
+    snprintf(msg, cap, "%s", err.msg);
+    return r;
+}
+
+static void test_bad_files(void)
+{
+    char msg[256];
+    leap_error err = {{0}};
+    leap_vdb_file *f = (leap_vdb_file *)&err;
+
+    CHECK(leap_vdb_open(tmp_file("does_not_exist.vdb"), &f, &err) == LEAP_ERR_IO);
+    CHECK(f == NULL);
+    CHECK(strlen(err.msg) > 0 && strchr(err.msg, '\n') == NULL);
+    printf("missing: %s\n", err.msg);
+
+    err.msg[0] = 0;
+    CHECK(leap_vdb_open(LEAP_TEST_TMP, &f, &err) == LEAP_ERR_IO);
+    CHECK(strlen(err.msg) > 0);
+    printf("directory: %s\n", err.msg);
+
+    const char *empty = tmp_file("zero.vdb");
+    write_all(empty, "", 0);
+    err.msg[0] = 0;
+    CHECK(leap_vdb_open(empty, &f, &err) == LEAP_ERR_FORMAT);
+    CHECK(strlen(err.msg) > 0);
+    printf("zero bytes: %s\n", err.msg);
+
+    const char *text = tmp_file("text.vdb");
+    const char *words = "This is not a VDB file, just some words that go on for a while.\n";
+    write_all(text, words, strlen(words));
+    err.msg[0] = 0;
+    CHECK(leap_vdb_open(text, &f, &err) == LEAP_ERR_FORMAT);
+    CHECK(strlen(err.msg) > 0 && strchr(err.msg, '\n') == NULL);
+    printf("text: %s\n", err.msg);
+
+    /* A real file with two grids (float, compressed; int32) as the source of broken copies. */
+    const char *good = tmp_file("good.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (!w) return;
+    const int g0 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    const int g1 = add_grid(w, "labels", LEAP_VDB_INT32, 0.0, NULL, 0);
+    unsigned s = 99u;
+    for (int n = 0; n < 400; ++n) {
+        s = s * 1664525u + 1013904223u;
+        const int x = (int)(s >> 20) % 40, y = (int)(s >> 12) % 40, z = (int)(s >> 4) % 40;
+        leap_vdb_writer_set(w, g0, x, y, z, (double)(s % 1000) / 1000.0);
+        leap_vdb_writer_set(w, g1, x, y, z, (double)(s % 7));
+    }
+    const int32_t lo[3] = {64, 64, 64}, hi[3] = {71, 71, 71};
+    leap_vdb_writer_fill(w, g0, lo, hi, 1.0, 1);
+    if (!save(w, good)) return;
+    CHECK(try_everything(good, msg, sizeof msg) == LEAP_OK);
+
+    long size = 0;
+    unsigned char *data = read_all(good, &size);
+    CHECK(data != NULL && size > 64);
+    if (!data) return;
+
+    /* Truncated copies: every cut must fail cleanly. */
+    const char *cut = tmp_file("truncated.vdb");
+    int cut_ok = 0, cut_tried = 0;
+    /* Every length in the header and at the end, and about 100 lengths in between. */
+    const long step = size / 97 > 0 ? size / 97 : 1;
+    for (long len = 1; len < size; len = (len < 256 || len >= size - 16) ? len + 1 : (len + step < size - 16 ? len + step : size - 16)) {
+        write_all(cut, data, (size_t)len);
+        ++cut_tried;
+        msg[0] = 0;
+        leap_result r = try_everything(cut, msg, sizeof msg);
+        if (r == LEAP_OK) {
+            ++cut_ok;
+            fprintf(stderr, "truncated at %ld of %ld bytes: loaded without error\n", len, size);
+        } else {
+            CHECK_MSG(strlen(msg) > 0 && strchr(msg, '\n') == NULL, "cut %ld: empty or multi-line message", len);
+            CHECK_MSG(r == LEAP_ERR_FORMAT || r == LEAP_ERR_IO || r == LEAP_ERR_OOM, "cut %ld: %s", len,
+                      leap_result_name(r));
+        }
+    }
+    CHECK_MSG(cut_ok == 0, "%d of %d truncated copies loaded", cut_ok, cut_tried);
+    write_all(cut, data, (size_t)(size - 1));
+    try_everything(cut, msg, sizeof msg);
+    printf("truncated: %s\n", msg);
+
+    /* Header bytes flipped: the magic number, then the version fields. */
+    const char *flip = tmp_file("flipped.vdb");
+    for (int at = 0; at < 16; ++at) {
+        unsigned char *copy = malloc((size_t)size);
+        memcpy(copy, data, (size_t)size);
+        copy[at] ^= 0xFF;
+        write_all(flip, copy, (size_t)size);
+        free(copy);
+        msg[0] = 0;
+        leap_result r = try_everything(flip, msg, sizeof msg);
+        if (at < 8) CHECK_MSG(r == LEAP_ERR_FORMAT, "flip at %d: %s", at, leap_result_name(r));
+        if (r != LEAP_OK) CHECK(strlen(msg) > 0);
+        if (at == 0) printf("flipped header: %s\n", msg);
+    }
+
+    free(data);
+
+    /* Random bit flips in the tree data of a one-grid file must never crash (the result may
+     * be OK or an error). The metadata at the start is left alone: OpenVDB trusts its string
+     * lengths and a flipped one makes it allocate gigabytes before failing. */
+    const char *one = tmp_file("one.vdb");
+    w = new_writer();
+    if (!w) return;
+    const int g2 = add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1);
+    for (int n = 0; n < 400; ++n) {
+        s = s * 1664525u + 1013904223u;
+        const int x = (int)(s >> 20) % 40, y = (int)(s >> 12) % 40, z = (int)(s >> 4) % 40;
+        leap_vdb_writer_set(w, g2, x, y, z, (double)(s % 1000) / 1000.0);
+    }
+    leap_vdb_writer_fill(w, g2, lo, hi, 1.0, 1);
+    if (!save(w, one)) return;
+    data = read_all(one, &size);
+    CHECK(data != NULL && size > 4096);
+    if (!data) return;
+    unsigned seed = 7u;
+    int corrupt_ok = 0;
+    for (int trial = 0; trial < 200; ++trial) {
+        unsigned char *copy = malloc((size_t)size);
+        memcpy(copy, data, (size_t)size);
+        for (int k = 0; k < 4; ++k) {
+            seed = seed * 1664525u + 1013904223u;
+            copy[size / 4 + (long)((seed >> 8) % (unsigned)(size - size / 4))] ^= (unsigned char)(1u << (seed % 8));
+        }
+        write_all(flip, copy, (size_t)size);
+        free(copy);
+        msg[0] = 0;
+        leap_result r = try_everything(flip, msg, sizeof msg);
+        if (r == LEAP_OK) ++corrupt_ok;
+        else CHECK(strlen(msg) > 0);
+    }
+    printf("random corruption: %d of 200 copies still loaded\n", corrupt_ok);
+    free(data);
+
+    /* Writing into a missing directory is an I/O error. */
+    w = new_writer();
+    if (w) {
+        add_grid(w, "x", LEAP_VDB_FLOAT, 0, NULL, 0);
+        err.msg[0] = 0;
+        CHECK(leap_vdb_writer_save(w, tmp_file("no/such/dir/x.vdb"), &err) == LEAP_ERR_IO);
+        CHECK(strlen(err.msg) > 0);
+        leap_vdb_writer_destroy(w);
+    }
+
+    /* NULL-accepting destroys. */
+    leap_vdb_close(NULL);
+    leap_grid_destroy(NULL);
+    leap_grid_reader_destroy(NULL);
+    leap_vdb_writer_destroy(NULL);
+}
+
+/* ---- shipped volumes -------------------------------------------------------------- */
+
+static void test_shipped_volumes(void)
+{
+    const char *names[5] = {"sphere.vdb", "blobs.vdb", "shell.vdb", "labels.vdb", "rotated.vdb"};
+    for (int v = 0; v < 5; ++v) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, names[v]);
+        if (file_size(path) < 0) {
+            printf("%s: not present, skipped\n", path);
+            continue;
+        }
+        const double t0 = now_seconds();
+        leap_grid *g = load(path, NULL);
+        if (!g) continue;
+        const double t1 = now_seconds();
+        const leap_grid_info *info = leap_grid_get_info(g);
+        CHECK(info->scalar == 1);
+        CHECK(info->bbox_min[0] <= info->bbox_max[0] && info->bbox_min[1] <= info->bbox_max[1] &&
+              info->bbox_min[2] <= info->bbox_max[2]);
+        CHECK(info->active_voxels > 0);
+        CHECK(info->value_min <= info->value_max);
+        CHECK(info->nonfinite_values == 0);
+        size_t n = 0;
+        leap_brick *b = get_bricks(g, &n);
+        CHECK(n > 0);
+        printf("%s: grid '%s' (%s), %llu leaves, tiles %llu/%llu/%llu, %zu bricks, %llu voxels, "
+               "values [%g, %g], load %.3f s, bricks %.3f s\n",
+               names[v], info->name, info->value_type, (unsigned long long)info->leaf_count,
+               (unsigned long long)info->active_tiles[0], (unsigned long long)info->active_tiles[1],
+               (unsigned long long)info->active_tiles[2], n, (unsigned long long)info->active_voxels,
+               info->value_min, info->value_max, t1 - t0, now_seconds() - t1);
+        free(b);
+        leap_grid_destroy(g);
+    }
+}
+
+int main(void)
+{
+    if (mkdir(LEAP_TEST_TMP, 0755) != 0 && errno != EEXIST) {
+        fprintf(stderr, "cannot create %s: %s\n", LEAP_TEST_TMP, strerror(errno));
+        return 1;
+    }
+    test_value_types();
+    test_grid_selection();
+    test_transforms();
+    test_tiles();
+    test_tile_apron();
+    test_leaf_apron();
+    test_ordering();
+    test_nonfinite();
+    test_empty();
+    test_extreme_coordinates();
+    test_bad_files();
+    test_shipped_volumes();
+    return check_exit_code();
+}

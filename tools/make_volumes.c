@@ -1,0 +1,300 @@
+/* Writes leap's demo volumes (.vdb) into a directory. Every volume is deterministic: the
+ * only randomness comes from a fixed-seed generator defined here. */
+#include "leap/vdb.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+static const char usage[] =
+    "usage: leap_make_volumes DIR\n"
+    "Writes the demo volumes into DIR (created if missing):\n"
+    "  sphere.vdb   fog sphere, radius 40 voxels, constant core stored as 8^3 active tiles\n"
+    "  blobs.vdb    60 small gaussian blobs scattered over a ~1000^3 voxel box\n"
+    "  shell.vdb    hollow spherical shell, radius 50, 4 voxels thick\n"
+    "  labels.vdb   int32 label grid 'labels' with 8 solid regions (boxes, spheres, ellipsoids)\n"
+    "  rotated.vdb  torus 'density' with a rotated, anisotropic, translated transform, plus a\n"
+    "               double grid 'temperature' and a vec3 grid 'velocity'\n";
+
+/* xorshift64* : small, fast and good enough for placing blobs. */
+typedef struct rng { uint64_t s; } rng;
+
+static double rng_uniform(rng *r)
+{
+    r->s ^= r->s >> 12;
+    r->s ^= r->s << 25;
+    r->s ^= r->s >> 27;
+    return (double)((r->s * 2685821657736338717ull) >> 11) * (1.0 / 9007199254740992.0);
+}
+
+static double smoothstep01(double t)
+{
+    t = t < 0.0 ? 0.0 : t > 1.0 ? 1.0 : t;
+    return t * t * (3.0 - 2.0 * t);
+}
+
+static const char *out_dir;
+
+static int save(leap_vdb_writer *w, const char *name)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s", out_dir, name);
+    leap_error err = {{0}};
+    leap_result r = leap_vdb_writer_save(w, path, &err);
+    leap_vdb_writer_destroy(w);
+    if (r != LEAP_OK) {
+        fprintf(stderr, "leap_make_volumes: %s\n", err.msg);
+        return 0;
+    }
+    struct stat st;
+    printf("%-12s %8lld bytes\n", name, stat(path, &st) == 0 ? (long long)st.st_size : -1ll);
+    return 1;
+}
+
+static leap_vdb_writer *new_writer(void)
+{
+    leap_error err = {{0}};
+    leap_vdb_writer *w = NULL;
+    if (leap_vdb_writer_create(&w, &err) != LEAP_OK) fprintf(stderr, "leap_make_volumes: %s\n", err.msg);
+    return w;
+}
+
+static int add_grid(leap_vdb_writer *w, const char *name, leap_vdb_type type, const double m[4][4], int fog)
+{
+    leap_error err = {{0}};
+    int g = leap_vdb_writer_add_grid(w, name, type, 0.0, m, fog, &err);
+    if (g < 0) fprintf(stderr, "leap_make_volumes: %s\n", err.msg);
+    return g;
+}
+
+/* Fog sphere of radius 40: density 1 inside radius 26, falling smoothly to 0 at 40. The
+ * 8^3 blocks that lie wholly inside the constant core are filled as active tiles. */
+static int make_sphere(void)
+{
+    leap_vdb_writer *w = new_writer();
+    if (!w) return 0;
+    const int g = add_grid(w, "density", LEAP_VDB_FLOAT, NULL, 1);
+    if (g < 0) {
+        leap_vdb_writer_destroy(w);
+        return 0;
+    }
+    const double radius = 40.0, core = 26.0;
+    for (int bz = -48; bz < 48; bz += 8)
+        for (int by = -48; by < 48; by += 8)
+            for (int bx = -48; bx < 48; bx += 8) {
+                /* The farthest voxel of the block from the centre decides whether it is core. */
+                const double fx = fmax(fabs((double)bx), fabs(bx + 7.0)), fy = fmax(fabs((double)by), fabs(by + 7.0)),
+                             fz = fmax(fabs((double)bz), fabs(bz + 7.0));
+                if (sqrt(fx * fx + fy * fy + fz * fz) <= core) {
+                    const int32_t lo[3] = {bx, by, bz}, hi[3] = {bx + 7, by + 7, bz + 7};
+                    leap_vdb_writer_fill(w, g, lo, hi, 1.0, 1);
+                    continue;
+                }
+                for (int z = bz; z < bz + 8; ++z)
+                    for (int y = by; y < by + 8; ++y)
+                        for (int x = bx; x < bx + 8; ++x) {
+                            const double r = sqrt((double)x * x + (double)y * y + (double)z * z);
+                            const double d = 1.0 - smoothstep01((r - core) / (radius - core));
+                            if (r < radius && d > 0.0) leap_vdb_writer_set(w, g, x, y, z, d);
+                        }
+            }
+    return save(w, "sphere.vdb");
+}
+
+/* 60 gaussian blobs (radius 3-6 voxels) at random, well separated places in a 1000^3 box:
+ * many small leaves far apart, the fragmented case. */
+static int make_blobs(void)
+{
+    leap_vdb_writer *w = new_writer();
+    if (!w) return 0;
+    const int g = add_grid(w, "density", LEAP_VDB_FLOAT, NULL, 1);
+    if (g < 0) {
+        leap_vdb_writer_destroy(w);
+        return 0;
+    }
+    rng r = {0x9E3779B97F4A7C15ull};
+    enum { N = 60 };
+    double c[N][3], rad[N];
+    for (int n = 0; n < N; ++n) {
+        for (int tries = 0; tries < 1000; ++tries) {
+            for (int a = 0; a < 3; ++a) c[n][a] = floor(8.0 + rng_uniform(&r) * 984.0);
+            int clear = 1;
+            for (int m = 0; m < n && clear; ++m) {
+                const double dx = c[n][0] - c[m][0], dy = c[n][1] - c[m][1], dz = c[n][2] - c[m][2];
+                clear = dx * dx + dy * dy + dz * dz > 20.0 * 20.0;
+            }
+            if (clear) break;
+        }
+        rad[n] = 3.0 + 3.0 * rng_uniform(&r);
+    }
+    for (int n = 0; n < N; ++n) {
+        /* Gaussian with sigma = radius / 2, shifted so that it reaches 0 at the radius. */
+        const double s2 = 2.0 * (rad[n] / 2.0) * (rad[n] / 2.0), edge = exp(-rad[n] * rad[n] / s2);
+        const double peak = 0.5 + 0.5 * rng_uniform(&r);
+        const int e = (int)ceil(rad[n]);
+        for (int z = -e; z <= e; ++z)
+            for (int y = -e; y <= e; ++y)
+                for (int x = -e; x <= e; ++x) {
+                    const double d2 = (double)x * x + (double)y * y + (double)z * z;
+                    const double v = peak * (exp(-d2 / s2) - edge) / (1.0 - edge);
+                    if (v > 0.0)
+                        leap_vdb_writer_set(w, g, (int)c[n][0] + x, (int)c[n][1] + y, (int)c[n][2] + z, v);
+                }
+    }
+    return save(w, "blobs.vdb");
+}
+
+/* Hollow sphere: radius 50, density peaking at the mid-surface and 0 two voxels either side. */
+static int make_shell(void)
+{
+    leap_vdb_writer *w = new_writer();
+    if (!w) return 0;
+    const int g = add_grid(w, "density", LEAP_VDB_FLOAT, NULL, 1);
+    if (g < 0) {
+        leap_vdb_writer_destroy(w);
+        return 0;
+    }
+    const double radius = 50.0, half = 2.0;
+    for (int z = -53; z <= 53; ++z)
+        for (int y = -53; y <= 53; ++y)
+            for (int x = -53; x <= 53; ++x) {
+                const double r = sqrt((double)x * x + (double)y * y + (double)z * z);
+                const double t = fabs(r - radius) / half;
+                if (t < 1.0) leap_vdb_writer_set(w, g, x, y, z, 1.0 - t * t);
+            }
+    return save(w, "shell.vdb");
+}
+
+/* Segmentation-like int32 labels in a ~100^3 box, background 0. Boxes go through fill, so
+ * their aligned 8^3 blocks become tiles; spheres and ellipsoids are voxelised. */
+static int make_labels(void)
+{
+    leap_vdb_writer *w = new_writer();
+    if (!w) return 0;
+    const int g = add_grid(w, "labels", LEAP_VDB_INT32, NULL, 0);
+    if (g < 0) {
+        leap_vdb_writer_destroy(w);
+        return 0;
+    }
+    static const int32_t boxes[3][6] = {
+        {4, 4, 4, 35, 27, 19},     /* label 1 */
+        {60, 56, 4, 95, 95, 15},   /* label 4 */
+        {44, 40, 40, 55, 59, 95},  /* label 7: a column */
+    };
+    static const int box_labels[3] = {1, 4, 7};
+    for (int b = 0; b < 3; ++b) leap_vdb_writer_fill(w, g, &boxes[b][0], &boxes[b][3], box_labels[b], 1);
+    /* Ellipsoids: centre, radii, label (spheres have equal radii). */
+    static const double ell[5][7] = {
+        {75, 22, 30, 17, 17, 17, 2},
+        {24, 70, 40, 20, 12, 9, 3},
+        {78, 75, 72, 14, 14, 14, 5},
+        {22, 28, 76, 10, 18, 14, 6},
+        {50, 12, 70, 8, 8, 20, 8},
+    };
+    for (int e = 0; e < 5; ++e) {
+        const double *q = ell[e];
+        for (int z = (int)(q[2] - q[5]); z <= (int)(q[2] + q[5]); ++z)
+            for (int y = (int)(q[1] - q[4]); y <= (int)(q[1] + q[4]); ++y)
+                for (int x = (int)(q[0] - q[3]); x <= (int)(q[0] + q[3]); ++x) {
+                    const double dx = (x - q[0]) / q[3], dy = (y - q[1]) / q[4], dz = (z - q[2]) / q[5];
+                    if (dx * dx + dy * dy + dz * dz <= 1.0) leap_vdb_writer_set(w, g, x, y, z, q[6]);
+                }
+    }
+    return save(w, "labels.vdb");
+}
+
+static void matmul(double a[4][4], double b[4][4], double out[4][4])
+{
+    double r[4][4];
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            r[i][j] = 0.0;
+            for (int k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
+        }
+    memcpy(out, r, sizeof r);
+}
+
+static void rotation(int axis, double deg, double m[4][4])
+{
+    memset(m, 0, 16 * sizeof(double));
+    for (int i = 0; i < 4; ++i) m[i][i] = 1.0;
+    const double c = cos(deg * M_PI / 180.0), s = sin(deg * M_PI / 180.0);
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    m[a][a] = c;
+    m[a][b] = -s;
+    m[b][a] = s;
+    m[b][b] = c;
+}
+
+/* A torus in index space, shown through world = T * Rx(30) * Ry(20) * S(0.5, 1, 2). Three
+ * grids share the transform: 'density' (float), 'temperature' (double), 'velocity' (vec3). */
+static int make_rotated(void)
+{
+    double rx[4][4], ry[4][4], m[4][4];
+    rotation(0, 30.0, rx);
+    rotation(1, 20.0, ry);
+    matmul(rx, ry, m);
+    const double scale[3] = {0.5, 1.0, 2.0};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m[i][j] *= scale[j];
+    m[0][3] = 12.5;
+    m[1][3] = -7.0;
+    m[2][3] = 3.25;
+
+    leap_vdb_writer *w = new_writer();
+    if (!w) return 0;
+    const int gd = add_grid(w, "density", LEAP_VDB_FLOAT, m, 1);
+    const int gt = add_grid(w, "temperature", LEAP_VDB_DOUBLE, m, 0);
+    const int gv = add_grid(w, "velocity", LEAP_VDB_VEC3F, m, 0);
+    if (gd < 0 || gt < 0 || gv < 0) {
+        leap_vdb_writer_destroy(w);
+        return 0;
+    }
+    /* Index-space torus about the z axis, stretched in x so that it looks round-ish in world
+     * space despite the 0.5 voxel size, and flattened in z for the 2.0 voxel size. */
+    const double major = 30.0, minor = 9.0;
+    for (int z = -6; z <= 6; ++z)
+        for (int y = -42; y <= 42; ++y)
+            for (int x = -84; x <= 84; ++x) {
+                const double wx = 0.5 * x, wz = 2.0 * z;
+                const double ring = sqrt(wx * wx + (double)y * y) - major;
+                const double d = sqrt(ring * ring + wz * wz) / minor;
+                if (d >= 1.0) continue;
+                const double density = 1.0 - smoothstep01(d);
+                if (density <= 0.0) continue;
+                leap_vdb_writer_set(w, gd, x, y, z, density);
+                leap_vdb_writer_set(w, gt, x, y, z, 300.0 + 200.0 * density + 0.5 * y);
+                if ((x & 3) == 0 && (y & 3) == 0) leap_vdb_writer_set(w, gv, x, y, z, atan2(y, wx));
+            }
+    return save(w, "rotated.vdb");
+}
+
+int main(int argc, char **argv)
+{
+    if (argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        fputs(usage, stdout);
+        return 0;
+    }
+    if (argc != 2 || argv[1][0] == '-') {
+        fputs(usage, stderr);
+        return 2;
+    }
+    out_dir = argv[1];
+    if (mkdir(out_dir, 0755) != 0 && errno != EEXIST) {
+        fprintf(stderr, "leap_make_volumes: cannot create '%s': %s\n", out_dir, strerror(errno));
+        return 1;
+    }
+    int ok = make_sphere();
+    ok = make_blobs() && ok;
+    ok = make_shell() && ok;
+    ok = make_labels() && ok;
+    ok = make_rotated() && ok;
+    return ok ? 0 : 1;
+}
