@@ -47,22 +47,34 @@ uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32
                                 uint32_t *level, uint32_t child[8], uint64_t count[3]);
 
 #define NONE 0xFFFFFFFFu
+#define F_EMITTED 1u
+#define F_CHILDREN 2u
+#define F_PAIR 4u      /* merged x-pair */
+#define F_QUARTER 8u   /* merged quarter */
 
+/* Build-time node of the compressed tree. Box = [lo, lo + 2^ext) cells per axis. */
 typedef struct vnode {
-    int64_t lo[3], hi[3];  /* box in cells */
+    uint32_t lo[3];
+    uint8_t ext[3];
+    uint8_t level;         /* tree level, 0 = root */
+    uint8_t cls, pcls, flags, pad;
     uint32_t child[8];     /* vnode per octant of this node, or NONE */
-    uint32_t level;        /* tree level, 0 = root */
-    uint32_t cls, pcls;
-    uint32_t id;
-    uint8_t emitted;
-    uint8_t merged;        /* 0, 1 = x-pair, 2 = quarter */
-    uint8_t has_children;
 } vnode;
 
+/* Final node, breadth-first: the children of a node are the `mask` octants, stored in octant
+ * order from `first` on. */
+typedef struct bnode {
+    uint32_t lo[3];
+    uint8_t ext[3];
+    uint8_t level;
+    uint8_t cls, pcls, flags, mask;
+    uint32_t first;
+    uint32_t id;
+} bnode;
+
 struct leap_boxes {
-    vnode *v;
+    bnode *n;
     uint32_t count;
-    uint32_t root;
     uint32_t boxes, boxes_unmerged, max_depth;
     double build_ms;
 };
@@ -84,21 +96,23 @@ static double now_ms(void)
     return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
 }
 
+static int reserve(vbuilder *b, size_t need)
+{
+    if (need <= b->cap) return 1;
+    size_t n = b->cap ? b->cap : 256;
+    while (n < need) n *= 2;
+    vnode *q = realloc(b->v, n * sizeof *q);
+    if (!q) return 0;
+    b->v = q;
+    b->cap = n;
+    return 1;
+}
+
 static uint32_t new_vnode(vbuilder *b)
 {
-    if (b->count >= NONE - 1) {
+    if (b->count >= NONE - 1 || !reserve(b, b->count + 1)) {
         b->oom = 1;
         return NONE;
-    }
-    if (b->count == b->cap) {
-        size_t n = b->cap ? b->cap * 2 : 256;
-        vnode *q = realloc(b->v, n * sizeof *q);
-        if (!q) {
-            b->oom = 1;
-            return NONE;
-        }
-        b->v = q;
-        b->cap = n;
     }
     vnode *v = &b->v[b->count];
     memset(v, 0, sizeof *v);
@@ -106,29 +120,30 @@ static uint32_t new_vnode(vbuilder *b)
     return (uint32_t)b->count++;
 }
 
-/* Is slot s a box that may be merged: a direct child (level), emitted, no descendants? */
-static int mergeable(const vbuilder *b, uint32_t s, uint32_t level, int merged)
+/* Is slot s a box that may be merged: a direct child (level), emitted, no descendants, and
+ * of the given merge state? */
+static int mergeable(const vbuilder *b, uint32_t s, uint32_t level, unsigned state)
 {
     if (s == NONE) return 0;
     const vnode *v = &b->v[s];
-    return v->emitted && !v->has_children && v->level == level && v->merged == merged;
+    return (v->flags & ~(F_PAIR | F_QUARTER)) == F_EMITTED &&
+           (v->flags & (F_PAIR | F_QUARTER)) == state && v->level == level;
 }
 
-static uint32_t merge_two(vbuilder *b, uint32_t s0, uint32_t s1, int merged)
+/* Merges box s0 with its sibling on the + side along `axis` into a new vnode. */
+static uint32_t merge_two(vbuilder *b, uint32_t s0, int axis, unsigned state)
 {
     uint32_t m = new_vnode(b);
     if (m == NONE) return NONE;
     vnode *v = &b->v[m];
-    const vnode *a = &b->v[s0], *c = &b->v[s1];
-    for (int i = 0; i < 3; ++i) {
-        v->lo[i] = a->lo[i] < c->lo[i] ? a->lo[i] : c->lo[i];
-        v->hi[i] = a->hi[i] > c->hi[i] ? a->hi[i] : c->hi[i];
-    }
+    const vnode *a = &b->v[s0];
+    memcpy(v->lo, a->lo, sizeof v->lo);
+    memcpy(v->ext, a->ext, sizeof v->ext);
+    v->ext[axis]++;
     v->level = a->level;
     v->cls = a->cls;
     v->pcls = a->pcls;
-    v->emitted = 1;
-    v->merged = (uint8_t)merged;
+    v->flags = (uint8_t)(F_EMITTED | state);
     return m;
 }
 
@@ -138,16 +153,16 @@ static void merge_slots(vbuilder *b, uint32_t slot[8], uint32_t child_level)
         uint32_t s0 = slot[2 * j], s1 = slot[2 * j + 1];
         if (!mergeable(b, s0, child_level, 0) || !mergeable(b, s1, child_level, 0)) continue;
         if (b->v[s0].cls != b->v[s1].cls) continue;
-        uint32_t m = merge_two(b, s0, s1, 1);
+        uint32_t m = merge_two(b, s0, 0, F_PAIR);
         if (m == NONE) return;
         slot[2 * j] = m;
         slot[2 * j + 1] = NONE;
     }
     for (int h = 0; h < 2; ++h) {
         uint32_t s0 = slot[4 * h], s1 = slot[4 * h + 2];
-        if (!mergeable(b, s0, child_level, 1) || !mergeable(b, s1, child_level, 1)) continue;
+        if (!mergeable(b, s0, child_level, F_PAIR) || !mergeable(b, s1, child_level, F_PAIR)) continue;
         if (b->v[s0].cls != b->v[s1].cls) continue;
-        uint32_t m = merge_two(b, s0, s1, 2);
+        uint32_t m = merge_two(b, s0, 1, F_QUARTER);
         if (m == NONE) return;
         slot[4 * h] = m;
         slot[4 * h + 2] = NONE;
@@ -156,7 +171,7 @@ static void merge_slots(vbuilder *b, uint32_t slot[8], uint32_t child_level)
 
 /* Builds the vnodes of the subtree of `ref` (a node of edge 2^height cells at org). Returns
  * the vnode that stands for it, or NONE when it emits nothing. */
-static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const int64_t org[3],
+static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3],
                        uint32_t pcls, int is_root)
 {
     if (b->oom) return NONE;
@@ -170,9 +185,8 @@ static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const int64_t
         uint32_t child[8];
         leap_occ_internal_node(b->occ, ref, NULL, NULL, child, NULL);
         for (int k = 0; k < 8; ++k) {
-            int64_t corg[3];
-            for (int a = 0; a < 3; ++a)
-                corg[a] = org[a] + ((int64_t)(k >> a & 1) << (height - 1));
+            uint32_t corg[3];
+            for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (height - 1));
             slot[k] = vbuild(b, child[k], height - 1, corg, cls, 0);
             if (b->oom) return NONE;
         }
@@ -191,34 +205,14 @@ static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const int64_t
     uint32_t vi = new_vnode(b);
     if (vi == NONE) return NONE;
     vnode *v = &b->v[vi];
-    for (int a = 0; a < 3; ++a) {
-        v->lo[a] = org[a];
-        v->hi[a] = org[a] + ((int64_t)1 << height);
-    }
+    memcpy(v->lo, org, sizeof v->lo);
+    v->ext[0] = v->ext[1] = v->ext[2] = (uint8_t)height;
     memcpy(v->child, slot, sizeof slot);
-    v->level = level;
-    v->cls = cls;
-    v->pcls = is_root ? LEAP_CLASS_EMPTY : pcls;
-    v->emitted = (uint8_t)emitted;
-    v->has_children = used > 0;
+    v->level = (uint8_t)level;
+    v->cls = (uint8_t)cls;
+    v->pcls = (uint8_t)(is_root ? LEAP_CLASS_EMPTY : pcls);
+    v->flags = (uint8_t)((emitted ? F_EMITTED : 0u) | (used ? F_CHILDREN : 0u));
     return vi;
-}
-
-/* Copies the vnodes reachable from `vi` into dst in pre-order (slots 0..7), numbering the
- * emitted ones; returns the new index. */
-static uint32_t compact(const vnode *src, uint32_t vi, vnode *dst, uint32_t *n, uint32_t *ids,
-                        uint32_t *max_level)
-{
-    const uint32_t di = (*n)++;
-    dst[di] = src[vi];
-    if (dst[di].emitted) {
-        dst[di].id = (*ids)++;
-        if (dst[di].level > *max_level) *max_level = dst[di].level;
-    }
-    for (int k = 0; k < 8; ++k)
-        if (src[vi].child[k] != NONE)
-            dst[di].child[k] = compact(src, src[vi].child[k], dst, n, ids, max_level);
-    return di;
 }
 
 leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, leap_boxes **out,
@@ -231,25 +225,63 @@ leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, lea
     memset(&b, 0, sizeof b);
     b.occ = occ;
     b.merge = merge_siblings != 0;
+    leap_occupancy_stats ost;
+    leap_occupancy_get_stats(occ, &ost);
+    if (!reserve(&b, ost.nodes / 4 + 64)) b.oom = 1;
+    const uint32_t org[3] = {0, 0, 0};
     const uint32_t root_ref = leap_occ_internal_root(occ, &b.depth);
-    const int64_t org[3] = {0, 0, 0};
-    const uint32_t root = vbuild(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY, 1);
+    const uint32_t root = b.oom ? NONE : vbuild(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY, 1);
+
+    /* count the reachable vnodes, then lay them out breadth-first */
+    uint32_t *queue = NULL;
     leap_boxes *bx = NULL;
     if (!b.oom && root != NONE) {
         bx = calloc(1, sizeof *bx);
-        if (bx) bx->v = malloc(b.count * sizeof *bx->v);
-        if (!bx || !bx->v) b.oom = 1;
+        queue = malloc(b.count * sizeof *queue);
+        if (!bx || !queue) b.oom = 1;
+    }
+    if (!b.oom && root != NONE) {
+        uint32_t n = 0;
+        queue[n++] = root;
+        for (uint32_t i = 0; i < n; ++i)
+            for (int k = 0; k < 8; ++k)
+                if (b.v[queue[i]].child[k] != NONE) queue[n++] = b.v[queue[i]].child[k];
+        bx->n = malloc(n * sizeof *bx->n);
+        if (!bx->n) b.oom = 1;
+        bx->count = n;
     }
     if (b.oom || root == NONE) {
         free(b.v);
-        if (bx) free(bx->v);
+        free(queue);
+        if (bx) free(bx->n);
         free(bx);
         return leap_fail(err, LEAP_ERR_OOM, "boxes: out of memory");
     }
-    uint32_t n = 0, ids = 0, max_level = 0;
-    bx->root = compact(b.v, root, bx->v, &n, &ids, &max_level);
+    uint32_t next = 1, ids = 0, max_level = 0;
+    for (uint32_t i = 0; i < bx->count; ++i) {
+        const vnode *v = &b.v[queue[i]];
+        bnode *d = &bx->n[i];
+        memcpy(d->lo, v->lo, sizeof d->lo);
+        memcpy(d->ext, v->ext, sizeof d->ext);
+        d->level = v->level;
+        d->cls = v->cls;
+        d->pcls = v->pcls;
+        d->flags = v->flags;
+        d->mask = 0;
+        d->first = next;
+        for (int k = 0; k < 8; ++k)
+            if (v->child[k] != NONE) {
+                d->mask |= (uint8_t)(1u << k);
+                ++next;
+            }
+        d->id = NONE;
+        if (v->flags & F_EMITTED) {
+            d->id = ids++;
+            if (v->level > max_level) max_level = v->level;
+        }
+    }
+    free(queue);
     free(b.v);
-    bx->count = n;
     bx->boxes = ids;
     bx->boxes_unmerged = b.unmerged;
     bx->max_depth = max_level;
@@ -261,7 +293,7 @@ leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, lea
 void leap_boxes_destroy(leap_boxes *boxes)
 {
     if (!boxes) return;
-    free(boxes->v);
+    free(boxes->n);
     free(boxes);
 }
 
@@ -278,7 +310,7 @@ void leap_boxes_get_stats(const leap_boxes *boxes, leap_boxes_stats *out)
 }
 
 typedef struct order_ctx {
-    const vnode *v;
+    const bnode *n;
     double eye[3];
     int ortho;
     uint32_t ortho_oct;
@@ -287,21 +319,21 @@ typedef struct order_ctx {
     uint32_t counter, pos;
 } order_ctx;
 
-static void visit(order_ctx *c, uint32_t vi)
+static void visit(order_ctx *c, uint32_t ni)
 {
-    const vnode *v = &c->v[vi];
+    const bnode *v = &c->n[ni];
     uint32_t my = 0;
-    if (v->emitted) {
+    const int emitted = (v->flags & F_EMITTED) != 0;
+    if (emitted) {
         my = c->pos++;
         leap_box_gpu *g = &c->out[my];
-        g->lo.x = (float)((double)v->lo[0] * LEAP_CELL);
-        g->lo.y = (float)((double)v->lo[1] * LEAP_CELL);
-        g->lo.z = (float)((double)v->lo[2] * LEAP_CELL);
-        g->lo.w = 0.0f;
-        g->hi.x = (float)((double)v->hi[0] * LEAP_CELL);
-        g->hi.y = (float)((double)v->hi[1] * LEAP_CELL);
-        g->hi.z = (float)((double)v->hi[2] * LEAP_CELL);
-        g->hi.w = 0.0f;
+        float lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) {
+            lo[a] = (float)((double)v->lo[a] * LEAP_CELL);
+            hi[a] = (float)(((double)v->lo[a] + (double)((uint64_t)1 << v->ext[a])) * LEAP_CELL);
+        }
+        g->lo.x = lo[0], g->lo.y = lo[1], g->lo.z = lo[2], g->lo.w = 0.0f;
+        g->hi.x = hi[0], g->hi.y = hi[1], g->hi.z = hi[2], g->hi.w = 0.0f;
         g->info.x = c->counter++;
         g->info.y = 0;
         g->info.z = v->cls;
@@ -311,21 +343,25 @@ static void visit(order_ctx *c, uint32_t vi)
             c->meta[my].id = v->id;
         }
     }
-    if (v->has_children) {
+    if (v->mask) {
         uint32_t oct = c->ortho_oct;
         if (!c->ortho) {
+            /* a node with children is a cube: its centre is lo + 2^(ext-1) cells */
             oct = 0;
             for (int a = 0; a < 3; ++a) {
-                const double centre = (double)(v->lo[a] + v->hi[a]) * (LEAP_CELL / 2);
+                const double centre = ((double)v->lo[a] + (double)((uint64_t)1 << v->ext[a]) * 0.5) * LEAP_CELL;
                 if (c->eye[a] >= centre) oct |= 1u << a;
             }
         }
+        uint32_t slot_index[8];
+        uint32_t idx = v->first;
+        for (int k = 0; k < 8; ++k) slot_index[k] = (v->mask >> k & 1u) ? idx++ : NONE;
         for (uint32_t i = 0; i < 8; ++i) {
-            const uint32_t ch = v->child[i ^ oct];
+            const uint32_t ch = slot_index[i ^ oct];
             if (ch != NONE) visit(c, ch);
         }
     }
-    if (v->emitted) c->out[my].info.y = c->counter++;
+    if (emitted) c->out[my].info.y = c->counter++;
 }
 
 double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int ortho,
@@ -335,7 +371,7 @@ double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int
     if (!boxes || !out) return 0.0;
     order_ctx c;
     memset(&c, 0, sizeof c);
-    c.v = boxes->v;
+    c.n = boxes->n;
     c.ortho = ortho != 0;
     c.out = out;
     c.meta = meta;
@@ -343,6 +379,6 @@ double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int
         c.eye[a] = eye_or_dir[a];
         if (eye_or_dir[a] < 0.0) c.ortho_oct |= 1u << a;
     }
-    visit(&c, boxes->root);
+    visit(&c, 0);
     return now_ms() - t0;
 }

@@ -1,22 +1,27 @@
 /* Occupancy histogram tree over 8^3-voxel cells (see include/leap/occupancy.h).
  *
- * Build (from brick min/max only, never from voxels):
- *   1. Range items. Every brick contributes [value_min, value_max] to each cell whose closed
- *      footprint [8c, 8c+8]^3 meets the brick's voxels. The cells whose footprint lies inside
- *      a tile ("tile interior") are not enumerated: they form one box item holding the tile
- *      value alone. Items are clipped to the cell grid [0, cells).
- *   2. Top-down octree over the items. Each node partitions its cell items by octant
- *      (an MSD radix pass on the Morton bits of that level), so the item array ends up in
- *      Morton order and duplicates of one cell meet at level 0, where their ranges are
- *      united. A node holding no item is implicit (background). A node with no cell item
- *      that is covered by every box item touching it is one leaf (the box ranges). A node
- *      whose eight children are leaves or implicit with one identical range collapses into
- *      a single leaf (or becomes implicit when that range is the background's).
+ * Build (from brick min/max only, never from voxels). A cell's range is the union of the
+ * ranges of the bricks whose voxels meet its closed footprint [8c, 8c+8]^3, except that the
+ * cells whose footprint lies inside a tile (the tile interior) hold the tile value alone.
+ * Items, clipped to the cell grid [0, cells):
+ *   - an aligned brick of size 8 (leaf or 8^3 tile) at cell b is one "small" item: its
+ *     footprint cells are b-1 .. b per axis (eight cells, not enumerated);
+ *   - any other brick (tiles of 16+ voxels) is one "big" item: footprint box plus interior
+ *     box; neither the interior nor the shell is enumerated.
+ * The octree is built top-down from the root (edge 2^depth cells, anchored at cell 0): each
+ * node hands its items to the children their footprints meet (a small item goes to two,
+ * four or eight children only where it straddles a split plane), so the work is a radix
+ * partition on the Morton bits of each level and the items of one cell meet at level 0,
+ * where their ranges are united. A node with no item, or outside the grid, is implicit
+ * (background). A node without small items that lies inside the interior of every big item
+ * reaching it is one leaf (the tile values). A node whose eight children are leaves or
+ * implicit with one identical range collapses into one leaf (implicit if that range is the
+ * background's).
  *
  * Representation. A child reference (uint32) is either OCC_REF_IMPLICIT (background), or
  * OCC_REF_LEAF | range index (a uniform leaf of the child's size), or the index of a stored
  * internal node. Internal nodes are stored in pre-order, so every child index is larger
- * than its parent's and counts can be rebuilt by one reverse sweep.
+ * than its parent's and counts are rebuilt by one reverse sweep.
  *
  * Counts are uint64 and saturate at UINT64_MAX. A root edge of 2^21 cells (16.7M voxels per
  * axis) holds 2^63 cells and still counts exactly; only larger roots can saturate, and then
@@ -128,91 +133,92 @@ static int grow(void **p, size_t *cap, size_t need, size_t elem)
 
 /* ---- build ---------------------------------------------------------------------------- */
 
-typedef struct cell_item {
-    uint32_t c[3];
+/* A brick of size 8 aligned with the cells, at cell b: its closed-footprint cells are
+ * b - 1 .. b on each axis (the cell at b and the cell one step towards -). Almost all bricks
+ * are of this kind (leaves, 8^3 tiles), so each is kept as one item, not as eight cells. */
+typedef struct small_item {
+    int32_t b[3];
     float lo, hi;
-} cell_item;
+} small_item;
 
-typedef struct box_item {
-    uint32_t lo[3], hi[3]; /* inclusive cells */
-    float v;
-} box_item;
+/* Any other brick (tiles of 16+ voxels, unaligned bricks): footprint cells [flo, fhi] and the
+ * tile interior [ilo, ihi] (holding the tile value alone), both clipped to the grid. */
+typedef struct big_item {
+    uint32_t flo[3], fhi[3];
+    uint32_t ilo[3], ihi[3];
+    int interior;
+    float lo, hi, v;
+} big_item;
 
 typedef struct builder {
     leap_occupancy *occ;
-    cell_item *items, *tmp;
-    size_t item_count, item_cap;
-    box_item *boxes;
-    size_t box_count, box_cap;
-    uint32_t *blist;           /* stack of box indices, one slice per recursion level */
+    uint32_t cells[3];
+    small_item *arena;         /* root items, then the children lists of the current path */
+    size_t arena_count, arena_cap;
+    big_item *big;
+    size_t big_count, big_cap;
+    uint32_t *blist;           /* stack of big item indices, one slice per recursion level */
     size_t blist_count, blist_cap;
     int oom;
 } builder;
 
-static void push_cell(builder *b, uint32_t x, uint32_t y, uint32_t z, float lo, float hi)
+/* Footprint of a brick in cells, clipped to the grid: the cells c whose closed footprint
+ * [8c, 8c+8] meets the voxels [o, o+s-1], and (tiles) the cells whose footprint lies inside
+ * them. Returns 0 when the footprint misses the grid. */
+static int brick_footprint(const leap_brick *br, const int32_t origin[3], const uint32_t cells[3],
+                           int64_t flo[3], int64_t fhi[3], int64_t ilo[3], int64_t ihi[3],
+                           int *interior)
 {
-    if (!grow((void **)&b->items, &b->item_cap, b->item_count + 1, sizeof *b->items)) {
+    *interior = br->is_tile != 0;
+    if (br->size <= 0) return 0;
+    for (int a = 0; a < 3; ++a) {
+        const int64_t o = (int64_t)br->origin[a] - origin[a], s = br->size;
+        flo[a] = ceil_div(o - 8, 8);
+        fhi[a] = floor_div(o + s - 1, 8);
+        ilo[a] = ceil_div(o, 8);
+        ihi[a] = floor_div(o + s - 9, 8);
+        if (flo[a] < 0) flo[a] = 0;
+        if (fhi[a] > (int64_t)cells[a] - 1) fhi[a] = (int64_t)cells[a] - 1;
+        if (flo[a] > fhi[a]) return 0;
+        if (ilo[a] < flo[a]) ilo[a] = flo[a];
+        if (ihi[a] > fhi[a]) ihi[a] = fhi[a];
+        if (ilo[a] > ihi[a]) *interior = 0;
+    }
+    return 1;
+}
+
+static void add_brick(builder *b, const leap_brick *br, const int32_t origin[3])
+{
+    int64_t flo[3], fhi[3], ilo[3], ihi[3];
+    int interior;
+    if (!brick_footprint(br, origin, b->cells, flo, fhi, ilo, ihi, &interior)) return;
+    int small = br->size == 8;
+    for (int a = 0; a < 3 && small; ++a) small = ((int64_t)br->origin[a] - origin[a]) % 8 == 0;
+    if (small) {
+        if (!grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) {
+            b->oom = 1;
+            return;
+        }
+        small_item *it = &b->arena[b->arena_count++];
+        for (int a = 0; a < 3; ++a)
+            it->b[a] = (int32_t)(((int64_t)br->origin[a] - origin[a]) / 8);
+        it->lo = br->value_min;
+        it->hi = br->value_max;
+        return;
+    }
+    if (!grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) {
         b->oom = 1;
         return;
     }
-    cell_item *it = &b->items[b->item_count++];
-    it->c[0] = x, it->c[1] = y, it->c[2] = z;
-    it->lo = lo, it->hi = hi;
-}
-
-/* Adds the items of one brick. */
-static void add_brick(builder *b, const leap_brick *br, const int32_t origin[3],
-                      const uint32_t cells[3])
-{
-    if (br->size <= 0) return;
-    int64_t lo[3], hi[3], ilo[3], ihi[3];
-    int interior = br->is_tile != 0;
+    big_item *it = &b->big[b->big_count++];
     for (int a = 0; a < 3; ++a) {
-        int64_t o = (int64_t)br->origin[a] - origin[a];
-        int64_t s = br->size;
-        /* closed footprint [8c, 8c+8] meets voxels [o, o+s-1] */
-        lo[a] = ceil_div(o - 8, 8);
-        hi[a] = floor_div(o + s - 1, 8);
-        /* footprint inside [o, o+s-1] */
-        ilo[a] = ceil_div(o, 8);
-        ihi[a] = floor_div(o + s - 9, 8);
-        if (ilo[a] > ihi[a]) interior = 0;
-        if (lo[a] < 0) lo[a] = 0;
-        if (hi[a] > (int64_t)cells[a] - 1) hi[a] = (int64_t)cells[a] - 1;
-        if (lo[a] > hi[a]) return; /* entirely outside the grid */
+        it->flo[a] = (uint32_t)flo[a], it->fhi[a] = (uint32_t)fhi[a];
+        it->ilo[a] = (uint32_t)ilo[a], it->ihi[a] = (uint32_t)ihi[a];
     }
-    const float vlo = br->value_min, vhi = br->value_max;
-    if (interior) {
-        /* clip the interior to the grid; it may vanish */
-        int64_t clo[3], chi[3];
-        int inside = 1;
-        for (int a = 0; a < 3; ++a) {
-            clo[a] = ilo[a] < 0 ? 0 : ilo[a];
-            chi[a] = ihi[a] > (int64_t)cells[a] - 1 ? (int64_t)cells[a] - 1 : ihi[a];
-            if (clo[a] > chi[a]) inside = 0;
-        }
-        if (inside) {
-            if (!grow((void **)&b->boxes, &b->box_cap, b->box_count + 1, sizeof *b->boxes)) {
-                b->oom = 1;
-                return;
-            }
-            box_item *bx = &b->boxes[b->box_count++];
-            for (int a = 0; a < 3; ++a) bx->lo[a] = (uint32_t)clo[a], bx->hi[a] = (uint32_t)chi[a];
-            bx->v = br->tile_value;
-        }
-    }
-    for (int64_t z = lo[2]; z <= hi[2]; ++z)
-        for (int64_t y = lo[1]; y <= hi[1]; ++y) {
-            int in_zy = interior && z >= ilo[2] && z <= ihi[2] && y >= ilo[1] && y <= ihi[1];
-            for (int64_t x = lo[0]; x <= hi[0]; ++x) {
-                if (in_zy && x >= ilo[0] && x <= ihi[0]) {
-                    x = ihi[0]; /* skip the interior run */
-                    continue;
-                }
-                push_cell(b, (uint32_t)x, (uint32_t)y, (uint32_t)z, vlo, vhi);
-                if (b->oom) return;
-            }
-        }
+    it->interior = interior;
+    it->lo = br->value_min;
+    it->hi = br->value_max;
+    it->v = br->tile_value;
 }
 
 static uint32_t add_leaf(builder *b, float lo, float hi)
@@ -240,18 +246,19 @@ static void unite(float *lo, float *hi, float a, float b)
     if (b > *hi) *hi = b;
 }
 
-static int box_meets(const box_item *bx, const uint32_t org[3], uint64_t edge)
+static int big_meets(const big_item *it, const uint32_t org[3], uint64_t edge)
 {
     for (int a = 0; a < 3; ++a)
-        if ((uint64_t)bx->hi[a] < org[a] || (uint64_t)bx->lo[a] >= (uint64_t)org[a] + edge)
+        if ((uint64_t)it->fhi[a] < org[a] || (uint64_t)it->flo[a] >= (uint64_t)org[a] + edge)
             return 0;
     return 1;
 }
 
-static int box_covers(const box_item *bx, const uint32_t org[3], uint64_t edge)
+static int big_covers(const big_item *it, const uint32_t org[3], uint64_t edge)
 {
+    if (!it->interior) return 0;
     for (int a = 0; a < 3; ++a)
-        if (bx->lo[a] > org[a] || (uint64_t)bx->hi[a] + 1 < (uint64_t)org[a] + edge) return 0;
+        if (it->ilo[a] > org[a] || (uint64_t)it->ihi[a] + 1 < (uint64_t)org[a] + edge) return 0;
     return 1;
 }
 
@@ -269,31 +276,35 @@ static int ref_range(const leap_occupancy *occ, uint32_t ref, float *lo, float *
     return 0;
 }
 
-/* Builds the subtree of the node (level, org) over cell items [begin, end) and the box
- * items listed in blist[lb, le); returns its child reference. */
-static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t begin, size_t end,
+/* Builds the subtree of the node (level, org) from the small items arena[sb, se) (those whose
+ * footprint meets the node) and the big items listed in blist[lb, le); returns its child
+ * reference. */
+static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t sb, size_t se,
                       size_t lb, size_t le)
 {
     if (b->oom) return OCC_REF_IMPLICIT;
     leap_occupancy *occ = b->occ;
     const uint64_t edge = (uint64_t)1 << level;
-    if (begin == end) {
+    for (int a = 0; a < 3; ++a)
+        if (org[a] >= b->cells[a]) return OCC_REF_IMPLICIT; /* outside the grid: background */
+    if (sb == se) {
         if (lb == le) return OCC_REF_IMPLICIT;
         float lo = INFINITY, hi = -INFINITY;
         int covered = 1;
         for (size_t i = lb; i < le && covered; ++i) {
-            const box_item *bx = &b->boxes[b->blist[i]];
-            covered = box_covers(bx, org, edge);
-            unite(&lo, &hi, bx->v, bx->v);
+            const big_item *it = &b->big[b->blist[i]];
+            covered = big_covers(it, org, edge);
+            unite(&lo, &hi, it->v, it->v);
         }
         if (covered) return add_leaf(b, lo, hi);
     }
     if (level == 0) {
         float lo = INFINITY, hi = -INFINITY;
-        for (size_t i = begin; i < end; ++i) unite(&lo, &hi, b->items[i].lo, b->items[i].hi);
+        for (size_t i = sb; i < se; ++i) unite(&lo, &hi, b->arena[i].lo, b->arena[i].hi);
         for (size_t i = lb; i < le; ++i) {
-            const box_item *bx = &b->boxes[b->blist[i]];
-            unite(&lo, &hi, bx->v, bx->v);
+            const big_item *it = &b->big[b->blist[i]];
+            if (big_covers(it, org, 1)) unite(&lo, &hi, it->v, it->v);
+            else unite(&lo, &hi, it->lo, it->hi);
         }
         return add_leaf(b, lo, hi);
     }
@@ -307,41 +318,53 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
     const size_t ni = occ->node_count++;
     const size_t r0 = occ->range_count;
 
-    /* partition the cell items by octant */
-    const uint32_t sh = level - 1;
-    size_t start[9] = {0};
-    {
-        size_t cnt[8] = {0};
-        for (size_t i = begin; i < end; ++i) {
-            const uint32_t *c = b->items[i].c;
-            ++cnt[((c[0] >> sh) & 1u) | ((c[1] >> sh) & 1u) << 1 | ((c[2] >> sh) & 1u) << 2];
-        }
-        start[0] = begin;
-        int single = -1;
-        for (int k = 0; k < 8; ++k) {
-            start[k + 1] = start[k] + cnt[k];
-            if (cnt[k] == end - begin) single = k;
-        }
-        if (single < 0 && end > begin) {
-            size_t pos[8];
-            for (int k = 0; k < 8; ++k) pos[k] = start[k];
-            for (size_t i = begin; i < end; ++i) {
-                const uint32_t *c = b->items[i].c;
-                int k = (int)(((c[0] >> sh) & 1u) | ((c[1] >> sh) & 1u) << 1 | ((c[2] >> sh) & 1u) << 2);
-                b->tmp[pos[k]++] = b->items[i];
-            }
-            memcpy(b->items + begin, b->tmp + begin, (end - begin) * sizeof *b->items);
-        }
+    /* Children lists of the small items, appended to the arena. A footprint [b-1, b] meets
+     * the lower half of an axis when b <= mid and the upper half when b >= mid, so an item
+     * goes to one child, or to two, four or eight when it straddles the split planes. */
+    const uint32_t half = (uint32_t)(edge >> 1);
+    int64_t mid[3];
+    for (int a = 0; a < 3; ++a) mid[a] = (int64_t)org[a] + half;
+    size_t cnt[8] = {0};
+    for (size_t i = sb; i < se; ++i) {
+        const int32_t *p = b->arena[i].b;
+        unsigned opt[3];
+        for (int a = 0; a < 3; ++a) opt[a] = (p[a] < mid[a] ? 1u : 0u) | (p[a] >= mid[a] ? 2u : 0u);
+        for (int k = 0; k < 8; ++k)
+            if ((opt[0] >> (k & 1) & 1u) && (opt[1] >> (k >> 1 & 1) & 1u) && (opt[2] >> (k >> 2) & 1u))
+                ++cnt[k];
     }
+    size_t total = 0;
+    for (int k = 0; k < 8; ++k) total += cnt[k];
+    const size_t base = b->arena_count;
+    if (!grow((void **)&b->arena, &b->arena_cap, base + total, sizeof *b->arena)) {
+        b->oom = 1;
+        return OCC_REF_IMPLICIT;
+    }
+    size_t start[9], pos[8];
+    start[0] = base;
+    for (int k = 0; k < 8; ++k) start[k + 1] = start[k] + cnt[k], pos[k] = start[k];
+    for (size_t i = sb; i < se; ++i) {
+        const small_item it = b->arena[i];
+        unsigned opt[3];
+        for (int a = 0; a < 3; ++a) opt[a] = (it.b[a] < mid[a] ? 1u : 0u) | (it.b[a] >= mid[a] ? 2u : 0u);
+        if (opt[0] != 3u && opt[1] != 3u && opt[2] != 3u) {
+            b->arena[pos[(opt[0] >> 1) | (opt[1] >> 1) << 1 | (opt[2] >> 1) << 2]++] = it;
+            continue;
+        }
+        for (int k = 0; k < 8; ++k)
+            if ((opt[0] >> (k & 1) & 1u) && (opt[1] >> (k >> 1 & 1) & 1u) && (opt[2] >> (k >> 2) & 1u))
+                b->arena[pos[k]++] = it;
+    }
+    b->arena_count = base + total;
 
     uint32_t child[8];
     for (int k = 0; k < 8; ++k) {
         uint32_t corg[3];
-        for (int a = 0; a < 3; ++a) corg[a] = org[a] + (((uint32_t)k >> a & 1u) << sh);
+        for (int a = 0; a < 3; ++a) corg[a] = org[a] + (((uint32_t)k >> a & 1u) ? half : 0u);
         const size_t cb = b->blist_count;
         for (size_t i = lb; i < le; ++i) {
             uint32_t bi = b->blist[i];
-            if (!box_meets(&b->boxes[bi], corg, edge >> 1)) continue;
+            if (!big_meets(&b->big[bi], corg, half)) continue;
             if (!grow((void **)&b->blist, &b->blist_cap, b->blist_count + 1, sizeof *b->blist)) {
                 b->oom = 1;
                 return OCC_REF_IMPLICIT;
@@ -352,6 +375,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
         b->blist_count = cb;
         if (b->oom) return OCC_REF_IMPLICIT;
     }
+    b->arena_count = base;
 
     /* collapse eight uniform children with one range */
     float lo0, hi0;
@@ -446,25 +470,30 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     builder b;
     memset(&b, 0, sizeof b);
     b.occ = occ;
+    memcpy(b.cells, desc->cells, sizeof b.cells);
     const int empty = desc->cells[0] == 0 || desc->cells[1] == 0 || desc->cells[2] == 0;
+    if (!empty && desc->brick_count &&
+        !grow((void **)&b.arena, &b.arena_cap, desc->brick_count + desc->brick_count / 2 + 64,
+              sizeof *b.arena))
+        b.oom = 1;
     for (size_t i = 0; !empty && i < desc->brick_count && !b.oom; ++i)
-        add_brick(&b, &desc->bricks[i], desc->origin, desc->cells);
-    if (!b.oom && b.item_count) {
-        b.tmp = malloc(b.item_count * sizeof *b.tmp);
-        if (!b.tmp) b.oom = 1;
-    }
-    if (!b.oom && b.box_count) {
-        if (!grow((void **)&b.blist, &b.blist_cap, b.box_count, sizeof *b.blist)) b.oom = 1;
-        for (size_t i = 0; !b.oom && i < b.box_count; ++i) b.blist[i] = (uint32_t)i;
-        b.blist_count = b.box_count;
+        add_brick(&b, &desc->bricks[i], desc->origin);
+    /* a first guess of the tree size */
+    if (!b.oom && b.arena_count &&
+        (!grow((void **)&occ->ranges, &occ->range_cap, b.arena_count * 4 + 64, sizeof *occ->ranges) ||
+         !grow((void **)&occ->nodes, &occ->node_cap, b.arena_count + 64, sizeof *occ->nodes)))
+        b.oom = 1;
+    if (!b.oom && b.big_count) {
+        if (!grow((void **)&b.blist, &b.blist_cap, b.big_count, sizeof *b.blist)) b.oom = 1;
+        for (size_t i = 0; !b.oom && i < b.big_count; ++i) b.blist[i] = (uint32_t)i;
+        b.blist_count = b.big_count;
     }
     if (!b.oom) {
         const uint32_t org[3] = {0, 0, 0};
-        occ->root = build(&b, occ->depth, org, 0, b.item_count, 0, b.box_count);
+        occ->root = build(&b, occ->depth, org, 0, b.arena_count, 0, b.big_count);
     }
-    free(b.items);
-    free(b.tmp);
-    free(b.boxes);
+    free(b.arena);
+    free(b.big);
     free(b.blist);
     if (!b.oom && occ->range_count) {
         occ->range_cls = malloc(occ->range_count);

@@ -33,6 +33,10 @@ static const uint32_t events_frag_spv[] = {
     } while (0)
 
 #define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
+
+_Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
+_Static_assert(sizeof(leap_event_gpu) == 16, "leap_event_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 12
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 

@@ -306,6 +306,14 @@ struct TileRec {
     float value;
 };
 
+// Nearest int32 (NaN -> 0, out of range -> clamped), for writing label grids.
+int32_t to_int32(double v)
+{
+    if (!std::isfinite(v)) return 0;
+    v = std::min(std::max(std::round(v), double(INT32_MIN)), double(INT32_MAX));
+    return int32_t(v);
+}
+
 // Converts a double/int32 grid into a float tree of the same topology, tiles and background.
 template <typename GridT>
 FloatTree::Ptr convert_tree(const vdb::GridBase &g)
@@ -617,7 +625,6 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
         leaves.reserve(size_t(grid->info.leaf_count));
         for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
         const size_t nl = leaves.size(), nt = grid->tiles.size();
-        if (nl != grid->info.leaf_count) return leap_fail(err, LEAP_ERR_FORMAT, "leaf count changed");
 
         tbb::parallel_for(tbb::blocked_range<size_t>(0, nl + nt, 16), [&](const tbb::blocked_range<size_t> &r) {
             for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -730,7 +737,7 @@ int leap_vdb_writer_add_grid(leap_vdb_writer *writer, const char *name, leap_vdb
         case LEAP_VDB_FLOAT:
         case LEAP_VDB_HALF: g = vdb::FloatGrid::create(float(background)); break;
         case LEAP_VDB_DOUBLE: g = vdb::DoubleGrid::create(background); break;
-        case LEAP_VDB_INT32: g = vdb::Int32Grid::create(int32_t(std::lround(background))); break;
+        case LEAP_VDB_INT32: g = vdb::Int32Grid::create(to_int32(background)); break;
         case LEAP_VDB_VEC3F: g = vdb::Vec3SGrid::create(vdb::Vec3s(float(background))); break;
         default: return leap_fail(err, LEAP_ERR_USAGE, "grid '%s': unknown value type %d", name, int(type));
         }
@@ -754,13 +761,6 @@ int leap_vdb_writer_add_grid(leap_vdb_writer *writer, const char *name, leap_vdb
 } // extern "C"
 
 namespace {
-
-int32_t to_int32(double v)
-{
-    if (!std::isfinite(v)) return 0;
-    v = std::min(std::max(std::round(v), double(INT32_MIN)), double(INT32_MAX));
-    return int32_t(v);
-}
 
 // Applies op(grid, value) with the grid cast to its concrete type and the value converted.
 template <typename Op>

@@ -25,7 +25,26 @@ int main(void)
     CHECK(offsetof(leap_frame_gpu, top_dims) == 224);
     CHECK(offsetof(leap_frame_gpu, slot_dims) == 240);
     CHECK(offsetof(leap_frame_gpu, image) == 256);
-    CHECK(sizeof(leap_frame_gpu) == 272);
+    CHECK(offsetof(leap_frame_gpu, clip_x) == 272);
+    CHECK(offsetof(leap_frame_gpu, clip_y) == 288);
+    CHECK(offsetof(leap_frame_gpu, clip_z) == 304);
+    CHECK(offsetof(leap_frame_gpu, clip_w) == 320);
+    CHECK(offsetof(leap_frame_gpu, raster) == 336);
+    CHECK(offsetof(leap_frame_gpu, bbox_min) == 352);
+    CHECK(offsetof(leap_frame_gpu, bbox_max) == 368);
+    CHECK(offsetof(leap_frame_gpu, lists) == 384);
+    CHECK(sizeof(leap_frame_gpu) == 400);
+    CHECK(offsetof(leap_box_gpu, lo) == 0);
+    CHECK(offsetof(leap_box_gpu, hi) == 16);
+    CHECK(offsetof(leap_box_gpu, info) == 32);
+    CHECK(sizeof(leap_box_gpu) == 48);
+    CHECK(offsetof(leap_event_gpu, t) == 0);
+    CHECK(offsetof(leap_event_gpu, key) == 4);
+    CHECK(offsetof(leap_event_gpu, next) == 8);
+    CHECK(sizeof(leap_event_gpu) == 16);
+    /* Event keys hold order << 2 | class: classes fit in two bits. */
+    CHECK(LEAP_CLASS_COUNT <= 4);
+    CHECK(LEAP_MAX_SEGMENTS <= 16); /* the UNKNOWN mask is 16 bits of a uint */
     /* Page entries: the constant flag must leave room for any slot or block index. */
     CHECK((LEAP_PAGE_CONST & (LEAP_PAGE_CONST - 1)) == 0);
     CHECK(LEAP_CELL == 1 << LEAP_CELL_SHIFT && LEAP_BLOCK == 1 << LEAP_BLOCK_SHIFT);

@@ -123,6 +123,11 @@ static int make_blobs(void)
     enum { N = 60 };
     double c[N][3], rad[N];
     for (int n = 0; n < N; ++n) {
+        rad[n] = 3.0 + 3.0 * rng_uniform(&r);
+        if (n < 2) { /* two blobs in opposite corners span the box */
+            c[n][0] = c[n][1] = c[n][2] = n ? 992.0 : 8.0;
+            continue;
+        }
         for (int tries = 0; tries < 1000; ++tries) {
             for (int a = 0; a < 3; ++a) c[n][a] = floor(8.0 + rng_uniform(&r) * 984.0);
             int clear = 1;
@@ -132,7 +137,6 @@ static int make_blobs(void)
             }
             if (clear) break;
         }
-        rad[n] = 3.0 + 3.0 * rng_uniform(&r);
     }
     for (int n = 0; n < N; ++n) {
         /* Gaussian with sigma = radius / 2, shifted so that it reaches 0 at the radius. */
