@@ -16,7 +16,10 @@ void main()
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_box_gpu b = boxes[box_index];
     float t0, t1;
-    if (!leap_clip_box(ray, b.lo.xyz, b.hi.xyz, t0, t1)) return;
+    // A box touched only at the ray start (t1 == 0) is left out: with the eye on a node plane
+    // no single view order could place it for rays on both sides; the boxes the ray runs
+    // through are still entered at t = 0.
+    if (!leap_clip_box(ray, b.lo.xyz, b.hi.xyz, t0, t1) || !(t1 > 0.0)) return;
     uint pixel = pix.y * frame.image.x + pix.x;
     uint first = atomicAdd(counters[0], 2u);
     if (first + 2u > frame.lists.x) {

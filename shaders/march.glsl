@@ -93,8 +93,8 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
 // Normalised voxel value s in [0, 1] at relative index position q (voxel centres at integers).
 float leap_sample(inout leap_cell_cursor cur, vec3 q)
 {
-    // The page grid covers the domain with at least one cell to spare on every side.
-    q = clamp(q, frame.domain_min.xyz - 1.0, frame.domain_max.xyz + 1.0);
+    // No clamp: q stays within float rounding of the domain box, and the page grid has at
+    // least one spare cell on every side of it (see leap_atlas).
     ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
     if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
     if (cur.constant) return cur.value;
@@ -123,12 +123,15 @@ void leap_march_interval(leap_ray r, float ta, float tb, inout float k_next, ino
 {
     float dt = frame.march.x;
     float k = max(ceil(max(ta, 0.0) / dt), k_next);
+    // Texel coordinate of the TF table: u in [0, 1] maps onto the first to the last texel
+    // centre; folded into one multiply-add of the stored value s, then clamped.
     const float n = float(textureSize(tf_table, 0));
+    float tf_scale = frame.march.z * (n - 1.0) / n, tf_offset = (frame.march.w * (n - 1.0) + 0.5) / n;
+    float tf_lo = 0.5 / n, tf_hi = (n - 0.5) / n;
     leap_cell_cursor cur = leap_cursor_init();
     for (float t = k * dt; t <= tb; k += 1.0, t = k * dt) {
         float s = leap_sample(cur, r.origin + t * r.dir);
-        float u = clamp(s * frame.march.z + frame.march.w, 0.0, 1.0);
-        vec4 c = textureLod(tf_table, (u * (n - 1.0) + 0.5) / n, 0.0);
+        vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
         acc.samples++;
         // Branch-free: lavapipe runs all lanes through every branch any lane takes. A zero
         // opacity gives alpha == 0 exactly (pow(1, x) == 1), leaving the sums untouched.

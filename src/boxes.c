@@ -31,20 +31,25 @@
  * with nothing else at that t between them, which never change the class after that t.
  * The all-eight merge cannot occur: eight children of one class would give their parent that
  * class, and then none of them is emitted. tests/test_boxes.c checks the segment classes
- * along random rays with and without merging. */
+ * along random rays with and without merging.
+ *
+ * Event generation must skip a box whose hit ends at the ray start (t_out <= 0: the eye lies
+ * on its face and the ray leaves it). With the eye exactly on a node's centre plane, rays
+ * going to either side of the plane would need opposite orders for such a zero-length hit at
+ * t = 0; skipping it leaves only the entries of the boxes the ray actually runs through.
+ * Zero-length hits at t > 0 (grazing edges and corners) are ordered correctly and may stay.
+ * The eye passed to leap_boxes_order must be the one the events are computed from (for the
+ * GPU: the float-rounded eye), so that "eye on a plane" means the same thing on both sides.
+ *
+ * Final layout: nodes breadth-first, the children of a node stored together in octant
+ * order; ids number the emitted boxes in that (view-independent) order. */
 #include "leap/occupancy.h"
 
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-/* Internal interface of occupancy.c (child references: implicit, leaf | range, or node). */
-#define OCC_REF_IMPLICIT 0xFFFFFFFFu
-#define OCC_REF_LEAF 0x80000000u
-uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
-uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
-uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
-                                uint32_t *level, uint32_t child[8], uint64_t count[3]);
+#include "occupancy_internal.h"
 
 #define NONE 0xFFFFFFFFu
 #define F_EMITTED 1u

@@ -31,6 +31,7 @@
  * A small internal interface (leap_occ_internal_*) exposes the tree to boxes.c and to the
  * tests; it is not part of the public header. */
 #include "leap/occupancy.h"
+#include "occupancy_internal.h"
 
 #include <float.h>
 #include <math.h>
@@ -38,8 +39,6 @@
 #include <string.h>
 #include <time.h>
 
-#define OCC_REF_IMPLICIT 0xFFFFFFFFu
-#define OCC_REF_LEAF 0x80000000u
 #define OCC_MAX_REFS 0x7FFFFFF0u
 #define N_TABLE LEAP_TF_TABLE_SIZE
 /* Extra widening of a u interval, on top of the 16-bit quantisation and one table entry. */
@@ -74,11 +73,6 @@ struct leap_occupancy {
     double build_ms, classify_ms;
 };
 
-/* Internal interface (defined at the end of this file; declared again in boxes.c). */
-uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
-uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
-uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
-                                uint32_t *level, uint32_t child[8], uint64_t count[3]);
 
 static double now_ms(void)
 {
@@ -328,7 +322,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
     for (size_t i = sb; i < se; ++i) {
         const int32_t *p = b->arena[i].b;
         unsigned opt[3];
-        for (int a = 0; a < 3; ++a) opt[a] = (p[a] < mid[a] ? 1u : 0u) | (p[a] >= mid[a] ? 2u : 0u);
+        for (int a = 0; a < 3; ++a) opt[a] = (p[a] <= mid[a] ? 1u : 0u) | (p[a] >= mid[a] ? 2u : 0u);
         for (int k = 0; k < 8; ++k)
             if ((opt[0] >> (k & 1) & 1u) && (opt[1] >> (k >> 1 & 1) & 1u) && (opt[2] >> (k >> 2) & 1u))
                 ++cnt[k];
@@ -346,7 +340,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
     for (size_t i = sb; i < se; ++i) {
         const small_item it = b->arena[i];
         unsigned opt[3];
-        for (int a = 0; a < 3; ++a) opt[a] = (it.b[a] < mid[a] ? 1u : 0u) | (it.b[a] >= mid[a] ? 2u : 0u);
+        for (int a = 0; a < 3; ++a) opt[a] = (it.b[a] <= mid[a] ? 1u : 0u) | (it.b[a] >= mid[a] ? 2u : 0u);
         if (opt[0] != 3u && opt[1] != 3u && opt[2] != 3u) {
             b->arena[pos[(opt[0] >> 1) | (opt[1] >> 1) << 1 | (opt[2] >> 1) << 2]++] = it;
             continue;
@@ -541,6 +535,10 @@ static uint32_t classify_range(const classifier *c, float vmin, float vmax)
     long i1 = (long)ceil(u1 * (N_TABLE - 1)) + 1;
     if (i0 < 0) i0 = 0;
     if (i1 > N_TABLE - 1) i1 = N_TABLE - 1;
+    /* The GPU clamps the table coordinate to the first / last texel centre, where filtering
+     * reads that entry alone: values wholly below / above the range see only it. */
+    if (u1 <= 0.0) i0 = i1 = 0;
+    if (u0 >= 1.0) i0 = i1 = N_TABLE - 1;
     return c->prefix[i1 + 1] - c->prefix[i0] > 0 ? LEAP_CLASS_NONEMPTY : LEAP_CLASS_EMPTY;
 }
 

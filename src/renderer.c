@@ -628,7 +628,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     if (lr) return lr;
     if (lists) {
         double eye_or_dir[3];
-        for (int i = 0; i < 3; ++i) eye_or_dir[i] = view->ortho ? view->dir0[i] : view->origin0[i];
+        /* The float values the GPU sees, so both agree on which side of a node plane the eye is. */
+        for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(view->ortho ? view->dir0[i] : view->origin0[i]);
         st.order_ms = leap_boxes_order(r->box_set, eye_or_dir, view->ortho, r->boxes.mapped, NULL);
         st.boxes = box_count;
     }

@@ -1,5 +1,5 @@
 /* Every skipping mode gives the naive image (max abs difference <= 1e-5 per channel), on every
- * shipped volume, five kinds of camera and two transfer functions (one with opacity at the
+ * shipped volume, five kinds of camera and three transfer functions (one with opacity at the
  * background value); per-pixel list overflow still gives the naive image and is counted. */
 #include "gpu_fixture.h"
 
@@ -84,9 +84,12 @@ int main(void)
         CHECK_MSG(ok, "%s", path);
         if (!ok) continue;
         CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
-        for (int tfi = 0; tfi < 2; ++tfi) {
+        for (int tfi = 0; tfi < 3; ++tfi) {
             leap_tf tf = s.tf;
             if (tfi == 1) fog_tf(&tf);
+            /* grey: opacity ramps from exactly 0 at the bottom of the range, where background
+             * values are clamped: exercises the clamped end of the classification. */
+            if (tfi == 2) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
             leap_occupancy *occ = NULL;
             leap_boxes *boxes = NULL;
             size_t nb = leap_grid_brick_count(s.grid);

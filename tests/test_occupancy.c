@@ -10,13 +10,7 @@
 #include <string.h>
 #include <time.h>
 
-/* Internal interface of occupancy.c (child references: implicit, leaf | range, or node). */
-#define OCC_REF_IMPLICIT 0xFFFFFFFFu
-#define OCC_REF_LEAF 0x80000000u
-uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
-uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
-uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
-                                uint32_t *level, uint32_t child[8], uint64_t count[3]);
+#include "../src/occupancy_internal.h"
 
 #define N LEAP_TF_TABLE_SIZE
 

@@ -1,0 +1,56 @@
+/* A scene: one grid loaded for rendering, with its GPU volume, transfer function, sample
+ * lattice and occupancy. It is the set-up that `leap render`, `segments`, `bench` and the
+ * viewer share, so they all render exactly the same thing. */
+#ifndef LEAP_SCENE_H
+#define LEAP_SCENE_H
+
+#include "leap/atlas.h"
+#include "leap/camera.h"
+#include "leap/error.h"
+#include "leap/march.h"
+#include "leap/occupancy.h"
+#include "leap/tf.h"
+#include "leap/vdb.h"
+
+typedef struct leap_scene_desc {
+    const char *path;      /* .vdb file */
+    const char *grid;      /* grid name; NULL = the first scalar grid */
+    const char *tf;        /* preset or JSON path; NULL = "labels" for int grids, else "viridis" */
+    int has_range;         /* 0 = the grid's value range */
+    double range[2];
+    double step;           /* voxels; 0 = 0.5 */
+    int no_merge;          /* 1 = do not merge same-class sibling boxes */
+} leap_scene_desc;
+
+typedef struct leap_scene {
+    leap_grid *grid;
+    const leap_grid_info *info;
+    leap_atlas *atlas;
+    leap_tf tf;
+    leap_march march;
+    leap_occupancy *occupancy;
+    leap_boxes *boxes;
+    int merge;
+    double center[3], radius;  /* world-space bounding sphere */
+    double load_ms, atlas_ms, occupancy_ms, classify_ms, boxes_ms;
+} leap_scene;
+
+/* Loads and prepares everything. Errors name the file and the problem: LEAP_ERR_IO,
+ * LEAP_ERR_FORMAT (including "no grid named X (grids: ...)"), LEAP_ERR_USAGE (bad TF),
+ * LEAP_ERR_OOM, LEAP_ERR_UNSUPPORTED. */
+leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err);
+void leap_scene_destroy(leap_scene *scene); /* accepts NULL */
+
+/* Switches the transfer function and value range: re-classifies the stored brick ranges and
+ * rebuilds the boxes (no voxel data is read). */
+leap_result leap_scene_set_tf(leap_scene *scene, const leap_tf *tf, double range_lo, double range_hi,
+                              leap_error *err);
+
+/* Number of distinct integer values in the scene's range (for the label preset). */
+int leap_scene_label_count(double range_lo, double range_hi);
+
+/* A view of the scene for a camera (index origin from the atlas). */
+leap_result leap_scene_view(const leap_scene *scene, const leap_camera *cam, int width, int height,
+                            leap_view *out, leap_error *err);
+
+#endif

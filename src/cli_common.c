@@ -1,0 +1,254 @@
+#include "cli_common.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+int cli_usage_error(const char *verb, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "leap%s%s: ", verb ? " " : "", verb ? verb : "");
+    vfprintf(stderr, fmt, ap);
+    fprintf(stderr, " (see 'leap%s%s --help')\n", verb ? " " : "", verb ? verb : "");
+    va_end(ap);
+    return EXIT_USAGE;
+}
+
+int cli_runtime_error(const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "leap: ");
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+    return EXIT_RUNTIME;
+}
+
+int cli_exit_code(leap_result r)
+{
+    return r == LEAP_OK ? 0 : r == LEAP_ERR_USAGE ? EXIT_USAGE : EXIT_RUNTIME;
+}
+
+int cli_parse_numbers(const char *s, double *out, int min_n, int n)
+{
+    int count = 0;
+    const char *p = s;
+    while (*p) {
+        if (count == n) return -1;
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v)) return -1;
+        out[count++] = v;
+        p = end;
+        if (*p == ',') {
+            ++p;
+            if (!*p) return -1;
+        } else if (*p) {
+            return -1;
+        }
+    }
+    return count >= min_n ? count : -1;
+}
+
+static int parse_size(const char *s, int *w, int *h)
+{
+    char *end;
+    errno = 0;
+    long a = strtol(s, &end, 10);
+    if (end == s || (*end != 'x' && *end != 'X')) return 0;
+    const char *q = end + 1;
+    long b = strtol(q, &end, 10);
+    if (end == q || *end || errno) return 0;
+    if (a <= 0 || b <= 0 || a > 16384 || b > 16384) return 0;
+    *w = (int)a;
+    *h = (int)b;
+    return 1;
+}
+
+double cli_now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+const char *cli_option_value(int argc, char **argv, int *i, const char *name, int *missing)
+{
+    const char *a = argv[*i];
+    size_t n = strlen(name);
+    if (strncmp(a, name, n) != 0) return NULL;
+    if (a[n] == '=') return a + n + 1;
+    if (a[n] != '\0') return NULL;
+    if (*i + 1 >= argc) {
+        *missing = 1;
+        return NULL;
+    }
+    return argv[++*i];
+}
+
+int cli_write_text_file(const char *path, const char *text)
+{
+    char tmp[4096];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp-%d", path, (int)getpid()) >= (int)sizeof tmp) return 0;
+    FILE *f = fopen(tmp, "w");
+    if (!f) return 0;
+    int ok = fputs(text, f) >= 0;
+    ok = (fclose(f) == 0) && ok;
+    if (ok) ok = rename(tmp, path) == 0;
+    if (!ok) remove(tmp);
+    return ok;
+}
+
+int cli_dir_writable(const char *path)
+{
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", path);
+    char *slash = strrchr(dir, '/');
+    if (!slash) snprintf(dir, sizeof dir, ".");
+    else if (slash == dir) dir[1] = '\0';
+    else *slash = '\0';
+    struct stat st;
+    return stat(dir, &st) == 0 && S_ISDIR(st.st_mode) && access(dir, W_OK) == 0;
+}
+
+const char *cli_view_options_help =
+    "volume and look:\n"
+    "  --grid NAME         grid to render (default: the first scalar grid)\n"
+    "  --tf PRESET|FILE    transfer function: grey, viridis, labels, hot, cloud, or a\n"
+    "                      ParaView JSON colour map (default: viridis; labels for int grids)\n"
+    "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
+    "  --step S            sample spacing in voxels (default 0.5)\n"
+    "  --size WxH          image size in pixels (default 512x512)\n"
+    "  --mode MODE         sparseleap (default: march only each pixel's non-empty ray\n"
+    "                      segments), bbox (skip outside the non-empty bounding box),\n"
+    "                      naive (march the whole volume box)\n"
+    "  --no-merge          do not merge same-class sibling boxes\n"
+    "  --segments N        ray segments stored per pixel (1..12, default 12); pixels with\n"
+    "                      more march their whole ray and are counted as overflowed\n"
+    "  --device NAME       Vulkan device whose name contains NAME (env LEAP_DEVICE)\n"
+    "camera (world space):\n"
+    "  --orbit AZ,EL[,DIST]  azimuth and elevation in degrees, distance in bounding-sphere\n"
+    "                      radii (default 35,25 at the distance that frames the volume)\n"
+    "  --eye X,Y,Z --target X,Y,Z [--up X,Y,Z]   explicit camera (up default 0,1,0)\n"
+    "  --fov DEG           vertical field of view (default 40)\n"
+    "  --ortho             orthographic projection (framing the bounding sphere)\n";
+
+void cli_view_options_init(cli_view_options *o)
+{
+    *o = (cli_view_options){.width = 512, .height = 512, .fov = 40.0, .mode_name = "sparseleap", .up = {0, 1, 0}};
+    o->scene.step = 0.5;
+}
+
+int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_view_options *o)
+{
+    const char *a = argv[*i], *v;
+    int missing = 0;
+#define OPT(name) ((v = cli_option_value(argc, argv, i, name, &missing)) != NULL || missing)
+#define FAIL(...) return CLI_OPTION_ERROR + cli_usage_error(verb, __VA_ARGS__)
+    if (!strcmp(a, "--ortho")) {
+        o->ortho = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--no-merge")) {
+        o->scene.no_merge = 1;
+        return 1;
+    }
+    const char *names[] = {"--grid", "--tf", "--range", "--step", "--size", "--mode", "--segments", "--device",
+                           "--orbit", "--eye", "--target", "--up", "--fov"};
+    int which = -1;
+    for (int k = 0; k < (int)(sizeof names / sizeof names[0]) && which < 0; ++k)
+        if (OPT(names[k])) which = k;
+    if (which < 0) {
+        if (a[0] == '-' && a[1] != '\0') return 0;
+        if (o->input) FAIL("unexpected argument '%s' (one volume at a time)", a);
+        o->input = o->scene.path = a;
+        return 1;
+    }
+    if (missing) FAIL("option %s needs a value", names[which]);
+    double n;
+    switch (which) {
+    case 0: o->scene.grid = v; break;
+    case 1: o->scene.tf = v; break;
+    case 2:
+        if (cli_parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
+            FAIL("--range '%s' must be LO,HI with LO < HI", v);
+        o->scene.has_range = 1;
+        break;
+    case 3:
+        if (cli_parse_numbers(v, &n, 1, 1) != 1 || !(n > 0)) FAIL("--step '%s' must be a positive number of voxels", v);
+        if (n < 1e-3 || n > 1e6) FAIL("--step %g is outside [0.001, 1e6] voxels", n);
+        o->scene.step = n;
+        break;
+    case 4:
+        if (!parse_size(v, &o->width, &o->height)) FAIL("--size '%s' is not WxH with 1 <= W, H <= 16384", v);
+        break;
+    case 5: o->mode_name = v; break;
+    case 6:
+        if (cli_parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > LEAP_MAX_SEGMENTS)
+            FAIL("--segments '%s' must be an integer in 1..%d", v, LEAP_MAX_SEGMENTS);
+        o->max_segments = (int)n;
+        break;
+    case 7: o->device = v; break;
+    case 8:
+        o->orbit_n = cli_parse_numbers(v, o->orbit, 2, 3);
+        if (o->orbit_n < 0 || (o->orbit_n == 3 && !(o->orbit[2] > 0)))
+            FAIL("--orbit '%s' must be AZ,EL[,DIST] with DIST > 0", v);
+        o->has_orbit = 1;
+        break;
+    case 9:
+        if (cli_parse_numbers(v, o->eye, 3, 3) != 3) FAIL("--eye '%s' must be X,Y,Z", v);
+        o->has_eye = 1;
+        break;
+    case 10:
+        if (cli_parse_numbers(v, o->target, 3, 3) != 3) FAIL("--target '%s' must be X,Y,Z", v);
+        o->has_target = 1;
+        break;
+    case 11:
+        if (cli_parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
+        o->has_up = 1;
+        break;
+    default:
+        if (cli_parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))
+            FAIL("--fov '%s' must be in (0, 180) degrees", v);
+        break;
+    }
+    return 1;
+#undef OPT
+#undef FAIL
+}
+
+int cli_view_options_check(const char *verb, const cli_view_options *o, int allow_reference)
+{
+    if (!o->input) return cli_usage_error(verb, "no input volume given");
+    if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
+    if (o->has_eye != o->has_target) return cli_usage_error(verb, "--eye and --target go together");
+    if (o->has_up && !o->has_eye) return cli_usage_error(verb, "--up needs --eye and --target");
+    int reference = allow_reference && strcmp(o->mode_name, "reference") == 0;
+    if (!reference && leap_mode_from_name(o->mode_name) < 0)
+        return cli_usage_error(verb, "unknown --mode '%s' (sparseleap, bbox, naive%s)", o->mode_name,
+                               allow_reference ? ", reference" : "");
+    return 0;
+}
+
+leap_result cli_camera(const cli_view_options *o, const leap_scene *s, leap_camera *cam, leap_error *err)
+{
+    if (o->has_eye) {
+        *cam = (leap_camera){.fov_deg = o->fov, .ortho = o->ortho, .ortho_height = 2 * s->radius};
+        memcpy(cam->eye, o->eye, sizeof cam->eye);
+        memcpy(cam->target, o->target, sizeof cam->target);
+        memcpy(cam->up, o->up, sizeof cam->up);
+        return LEAP_OK;
+    }
+    double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
+    double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
+    return leap_camera_orbit(s->center, s->radius, az, el, dist, o->fov, o->ortho, cam, err);
+}

@@ -1,0 +1,206 @@
+/* `leap info`: what a .vdb file holds, and its occupancy under transfer functions. */
+#include <cjson/cJSON.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "cli_common.h"
+
+static const char *info_help =
+    "usage: leap info VOLUME.vdb [--json] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
+    "\n"
+    "Lists every grid: value type, class, transform, active bounding box, voxel, leaf and\n"
+    "tile counts, value range, memory. Scalar grids are loaded to count their contents.\n"
+    "  --json         machine-readable output on stdout\n"
+    "  --tf T         for each transfer function (preset or JSON file), in order: cell\n"
+    "                 classes, occupancy tree nodes, emitted boxes, and the time to\n"
+    "                 re-classify and rebuild the boxes when switching to it\n"
+    "  --range LO,HI  value range for --tf (default: each grid's range)\n";
+
+static cJSON *info_json(const leap_grid_info *gi, int loaded)
+{
+    cJSON *g = cJSON_CreateObject();
+    cJSON_AddStringToObject(g, "name", gi->name);
+    cJSON_AddStringToObject(g, "value_type", gi->value_type);
+    cJSON_AddStringToObject(g, "class", gi->grid_class);
+    cJSON_AddBoolToObject(g, "scalar", gi->scalar);
+    cJSON_AddBoolToObject(g, "saved_as_half", gi->saved_as_half);
+    cJSON_AddItemToObject(g, "voxel_size", cJSON_CreateDoubleArray(gi->voxel_size, 3));
+    cJSON *m = cJSON_AddArrayToObject(g, "index_to_world");
+    for (int r = 0; r < 4; ++r) cJSON_AddItemToArray(m, cJSON_CreateDoubleArray(gi->index_to_world[r], 4));
+    double translation[3] = {gi->index_to_world[0][3], gi->index_to_world[1][3], gi->index_to_world[2][3]};
+    cJSON_AddItemToObject(g, "translation", cJSON_CreateDoubleArray(translation, 3));
+    cJSON_AddNumberToObject(g, "background", gi->background);
+    if (!loaded) return g;
+    cJSON_AddItemToObject(g, "bbox_min", cJSON_CreateIntArray(gi->bbox_min, 3));
+    cJSON_AddItemToObject(g, "bbox_max", cJSON_CreateIntArray(gi->bbox_max, 3));
+    cJSON_AddNumberToObject(g, "active_voxels", (double)gi->active_voxels);
+    cJSON_AddNumberToObject(g, "leaf_count", (double)gi->leaf_count);
+    double tiles[LEAP_TILE_LEVELS];
+    for (int i = 0; i < LEAP_TILE_LEVELS; ++i) tiles[i] = (double)gi->active_tiles[i];
+    cJSON_AddItemToObject(g, "active_tiles_8_128_4096", cJSON_CreateDoubleArray(tiles, LEAP_TILE_LEVELS));
+    cJSON_AddNumberToObject(g, "value_min", gi->value_min);
+    cJSON_AddNumberToObject(g, "value_max", gi->value_max);
+    cJSON_AddNumberToObject(g, "nonfinite_values", (double)gi->nonfinite_values);
+    cJSON_AddNumberToObject(g, "memory_bytes", (double)gi->memory_bytes);
+    return g;
+}
+
+static void print_info_text(const leap_grid_info *gi, int loaded)
+{
+    printf("grid '%s': %s, %s%s%s\n", gi->name, gi->value_type, gi->grid_class, gi->saved_as_half ? ", saved as half" : "",
+           gi->scalar ? "" : " (not renderable: not scalar)");
+    printf("  voxel size     %g x %g x %g\n", gi->voxel_size[0], gi->voxel_size[1], gi->voxel_size[2]);
+    printf("  index->world   [%g %g %g | %g]\n                 [%g %g %g | %g]\n                 [%g %g %g | %g]\n",
+           gi->index_to_world[0][0], gi->index_to_world[0][1], gi->index_to_world[0][2], gi->index_to_world[0][3],
+           gi->index_to_world[1][0], gi->index_to_world[1][1], gi->index_to_world[1][2], gi->index_to_world[1][3],
+           gi->index_to_world[2][0], gi->index_to_world[2][1], gi->index_to_world[2][2], gi->index_to_world[2][3]);
+    printf("  background     %g\n", gi->background);
+    if (!loaded) return;
+    if (gi->bbox_min[0] > gi->bbox_max[0]) printf("  bbox           empty\n");
+    else
+        printf("  bbox           [%d %d %d] .. [%d %d %d] (%d x %d x %d)\n", gi->bbox_min[0], gi->bbox_min[1],
+               gi->bbox_min[2], gi->bbox_max[0], gi->bbox_max[1], gi->bbox_max[2], gi->bbox_max[0] - gi->bbox_min[0] + 1,
+               gi->bbox_max[1] - gi->bbox_min[1] + 1, gi->bbox_max[2] - gi->bbox_min[2] + 1);
+    printf("  active voxels  %llu\n", (unsigned long long)gi->active_voxels);
+    printf("  leaves         %llu\n", (unsigned long long)gi->leaf_count);
+    printf("  active tiles   %llu (8^3), %llu (128^3), %llu (4096^3)\n", (unsigned long long)gi->active_tiles[0],
+           (unsigned long long)gi->active_tiles[1], (unsigned long long)gi->active_tiles[2]);
+    printf("  values         %g .. %g%s\n", gi->value_min, gi->value_max, gi->nonfinite_values ? " (finite)" : "");
+    if (gi->nonfinite_values)
+        printf("  non-finite     %llu values (NaN read as background, +-Inf as the finite max/min)\n",
+               (unsigned long long)gi->nonfinite_values);
+    printf("  memory         %.2f MiB\n", gi->memory_bytes / 1048576.0);
+}
+
+/* Occupancy under each transfer function in turn: the first is a fresh build, each later
+ * one a switch (re-classify the stored brick ranges, rebuild the boxes). */
+static int info_tfs(const char *path, const char *grid_name, const char *const *tfs, int ntf, const double *range,
+                    cJSON *json_grid)
+{
+    leap_error err = {{0}};
+    leap_scene_desc sd = {.path = path, .grid = grid_name, .tf = tfs[0], .has_range = range != NULL};
+    if (range) sd.range[0] = range[0], sd.range[1] = range[1];
+    double t = cli_now_ms();
+    leap_scene *s = NULL;
+    if (leap_scene_create(&sd, &s, &err)) return cli_runtime_error("%s", err.msg);
+    double first_ms = s->occupancy_ms + s->classify_ms + s->boxes_ms;
+    (void)t;
+    cJSON *arr = json_grid ? cJSON_AddArrayToObject(json_grid, "transfer_functions") : NULL;
+    int rc = 0;
+    for (int i = 0; i < ntf && !rc; ++i) {
+        double ms = first_ms;
+        if (i > 0) {
+            leap_tf tf;
+            if (leap_tf_from_arg(tfs[i], leap_scene_label_count(s->march.range_lo, s->march.range_hi), &tf, &err)) {
+                rc = cli_runtime_error("%s", err.msg);
+                break;
+            }
+            t = cli_now_ms();
+            if (leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err)) {
+                rc = cli_runtime_error("%s", err.msg);
+                break;
+            }
+            ms = cli_now_ms() - t;
+        }
+        leap_occupancy_stats os;
+        leap_boxes_stats bs;
+        leap_occupancy_get_stats(s->occupancy, &os);
+        leap_boxes_get_stats(s->boxes, &bs);
+        if (arr) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddStringToObject(o, "name", s->tf.name);
+            cJSON_AddNumberToObject(o, "cells_empty", (double)os.cells[LEAP_CLASS_EMPTY]);
+            cJSON_AddNumberToObject(o, "cells_nonempty", (double)os.cells[LEAP_CLASS_NONEMPTY]);
+            cJSON_AddNumberToObject(o, "cells_unknown", (double)os.cells[LEAP_CLASS_UNKNOWN]);
+            cJSON_AddNumberToObject(o, "tree_nodes", os.nodes);
+            cJSON_AddNumberToObject(o, "tree_depth", os.depth);
+            cJSON_AddNumberToObject(o, "boxes", bs.boxes);
+            cJSON_AddNumberToObject(o, "boxes_without_merging", bs.boxes_unmerged);
+            cJSON_AddNumberToObject(o, i ? "switch_ms" : "build_ms", ms);
+            cJSON_AddNumberToObject(o, "classify_ms", s->classify_ms);
+            cJSON_AddNumberToObject(o, "boxes_ms", s->boxes_ms);
+            cJSON_AddItemToArray(arr, o);
+        } else {
+            printf("  tf %-12s cells: %llu empty, %llu non-empty, %llu unknown; tree %u nodes, depth %u; "
+                   "boxes %u (%u unmerged); %s %.2f ms (classify %.2f, boxes %.2f)\n",
+                   s->tf.name, (unsigned long long)os.cells[LEAP_CLASS_EMPTY],
+                   (unsigned long long)os.cells[LEAP_CLASS_NONEMPTY], (unsigned long long)os.cells[LEAP_CLASS_UNKNOWN],
+                   os.nodes, os.depth, bs.boxes, bs.boxes_unmerged, i ? "switch" : "build", ms, s->classify_ms,
+                   s->boxes_ms);
+        }
+    }
+    leap_scene_destroy(s);
+    return rc;
+}
+
+int cli_info(int argc, char **argv)
+{
+    const char *input = NULL;
+    int json = 0, ntf = 0, has_range = 0;
+    const char *tfs[16];
+    double range[2];
+    for (int i = 2; i < argc; ++i) {
+        int missing = 0;
+        const char *v;
+        if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
+            fputs(info_help, stdout);
+            return 0;
+        } else if ((v = cli_option_value(argc, argv, &i, "--tf", &missing)) || missing) {
+            if (missing) return cli_usage_error("info", "option --tf needs a value");
+            if (ntf == 16) return cli_usage_error("info", "at most 16 --tf options");
+            tfs[ntf++] = v;
+        } else if ((v = cli_option_value(argc, argv, &i, "--range", &missing)) || missing) {
+            if (missing || cli_parse_numbers(v, range, 2, 2) != 2 || !(range[1] > range[0]))
+                return cli_usage_error("info", "--range must be LO,HI with LO < HI");
+            has_range = 1;
+        } else if (!strcmp(argv[i], "--json")) {
+            json = 1;
+        } else if (argv[i][0] == '-' && argv[i][1]) {
+            return cli_usage_error("info", "unknown option '%s'", argv[i]);
+        } else if (!input) {
+            input = argv[i];
+        } else {
+            return cli_usage_error("info", "unexpected argument '%s'", argv[i]);
+        }
+    }
+    if (!input) return cli_usage_error("info", "no input volume given");
+    leap_error err = {{0}};
+    leap_vdb_file *file = NULL;
+    if (leap_vdb_open(input, &file, &err)) return cli_runtime_error("%s", err.msg);
+    cJSON *root = json ? cJSON_CreateObject() : NULL;
+    cJSON *grids = json ? cJSON_AddArrayToObject(root, "grids") : NULL;
+    if (json) cJSON_AddStringToObject(root, "file", input);
+    else printf("%s: %d grid%s\n", input, leap_vdb_grid_count(file), leap_vdb_grid_count(file) == 1 ? "" : "s");
+    int rc = 0;
+    for (int i = 0; i < leap_vdb_grid_count(file) && !rc; ++i) {
+        leap_grid_info gi;
+        leap_grid *grid = NULL;
+        int loaded = 0;
+        if (leap_vdb_grid_info(file, i, &gi, &err)) {
+            rc = cli_runtime_error("%s", err.msg);
+            break;
+        }
+        if (gi.scalar) {
+            if (leap_vdb_load_grid(file, i, &grid, &err)) {
+                rc = cli_runtime_error("%s", err.msg);
+                break;
+            }
+            gi = *leap_grid_get_info(grid);
+            loaded = 1;
+        }
+        cJSON *jg = json ? info_json(&gi, loaded) : NULL;
+        if (jg) cJSON_AddItemToArray(grids, jg);
+        else print_info_text(&gi, loaded);
+        if (grid && ntf) rc = info_tfs(input, gi.name, tfs, ntf, has_range ? range : NULL, jg);
+        leap_grid_destroy(grid);
+    }
+    leap_vdb_close(file);
+    if (json && !rc) {
+        char *text = cJSON_Print(root);
+        puts(text);
+        cJSON_free(text);
+    }
+    cJSON_Delete(root);
+    return rc;
+}
+

@@ -1,0 +1,266 @@
+/* `leap render`: one image of a volume, with optional stats. */
+#include <cjson/cJSON.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli_common.h"
+#include "leap/image.h"
+#include "leap/reference.h"
+
+static const char *render_help_head =
+    "usage: leap render VOLUME.vdb -o OUT.{png,exr,tif} [options]\n"
+    "\n"
+    "Renders one image. --mode reference renders with the CPU double-precision reference\n"
+    "instead (the oracle the GPU modes are tested against).\n"
+    "\n";
+
+static const char *render_help_tail =
+    "output:\n"
+    "  -o, --output FILE   .png/.tif: RGB composited over black; .exr: premultiplied RGBA\n"
+    "                      float plus 'depth' (world distance to the first sample with\n"
+    "                      opacity above 0.05, inf if none) and 'samples' channels\n"
+    "  --stats FILE.json   per-stage times, samples, events and segments per pixel,\n"
+    "                      occupancy, memory, device\n"
+    "  -q, --quiet         no summary line on stderr\n";
+
+typedef struct stage_times {
+    double load, atlas, occupancy, classify, boxes, setup, upload, order, render, readback, write;
+} stage_times;
+
+static leap_result write_output(const char *path, int w, int h, const float *rgba, const float *depth,
+                                const float *samples, leap_error *err)
+{
+    size_t n = (size_t)w * h;
+    const char *ext = strrchr(path, '.');
+    int exr = ext && (!strcmp(ext, ".exr") || !strcmp(ext, ".EXR"));
+    int channels = exr ? 6 : 3;
+    float *px = malloc(n * channels * sizeof(float));
+    if (!px) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the output image");
+    for (size_t i = 0; i < n; ++i) {
+        if (exr) {
+            memcpy(px + 6 * i, rgba + 4 * i, 4 * sizeof(float));
+            px[6 * i + 4] = depth[i];
+            px[6 * i + 5] = samples[i];
+        } else {
+            memcpy(px + 3 * i, rgba + 4 * i, 3 * sizeof(float)); /* premultiplied over black */
+        }
+    }
+    static const char *exr_names[] = {"R", "G", "B", "A", "depth", "samples"};
+    leap_result r = leap_image_write(path, w, h, channels, exr ? exr_names : NULL, px, err);
+    free(px);
+    return r;
+}
+
+static char *stats_json(const cli_view_options *o, const leap_scene *s, const leap_renderer *renderer,
+                        const stage_times *t, const leap_frame_stats *fs, int mode)
+{
+    cJSON *root = cJSON_CreateObject();
+    cJSON_AddStringToObject(root, "input", o->input);
+    cJSON_AddStringToObject(root, "grid", s->info->name);
+    cJSON_AddStringToObject(root, "mode", o->mode_name);
+    cJSON_AddStringToObject(root, "transfer_function", s->tf.name);
+    cJSON_AddNumberToObject(root, "width", o->width);
+    cJSON_AddNumberToObject(root, "height", o->height);
+    cJSON_AddNumberToObject(root, "step", s->march.step);
+    cJSON *ms = cJSON_AddObjectToObject(root, "ms");
+    const char *names[] = {"load", "atlas", "occupancy_build", "classify", "boxes", "device_setup", "upload",
+                           "order", "render", "readback", "write"};
+    const double *vals = &t->load;
+    for (int i = 0; i < 11; ++i) cJSON_AddNumberToObject(ms, names[i], vals[i]);
+    if (renderer) {
+        cJSON *g = cJSON_AddObjectToObject(root, "gpu_ms");
+        cJSON_AddNumberToObject(g, "raster", fs->gpu_raster_ms);
+        cJSON_AddNumberToObject(g, "resolve", fs->gpu_resolve_ms);
+        cJSON_AddNumberToObject(g, "composite", fs->gpu_composite_ms);
+    }
+    cJSON *spp = cJSON_AddObjectToObject(root, "samples_per_pixel");
+    cJSON_AddNumberToObject(spp, "mean", fs->samples_mean);
+    cJSON_AddNumberToObject(spp, "max", fs->samples_max);
+    cJSON_AddNumberToObject(root, "total_samples", (double)fs->total_samples);
+    if (renderer) {
+        cJSON_AddNumberToObject(root, "naive_samples", (double)fs->naive_samples);
+        cJSON_AddNumberToObject(root, "ideal_speedup",
+                                fs->total_samples ? (double)fs->naive_samples / (double)fs->total_samples : 0);
+        cJSON_AddNumberToObject(root, "ns_per_sample",
+                                fs->total_samples ? fs->gpu_composite_ms * 1e6 / (double)fs->total_samples : 0);
+    }
+    leap_occupancy_stats os;
+    leap_boxes_stats bs;
+    leap_occupancy_get_stats(s->occupancy, &os);
+    leap_boxes_get_stats(s->boxes, &bs);
+    cJSON *oc = cJSON_AddObjectToObject(root, "occupancy");
+    cJSON_AddNumberToObject(oc, "tree_nodes", os.nodes);
+    cJSON_AddNumberToObject(oc, "tree_depth", os.depth);
+    cJSON_AddNumberToObject(oc, "cells_empty", (double)os.cells[LEAP_CLASS_EMPTY]);
+    cJSON_AddNumberToObject(oc, "cells_nonempty", (double)os.cells[LEAP_CLASS_NONEMPTY]);
+    cJSON_AddNumberToObject(oc, "cells_unknown", (double)os.cells[LEAP_CLASS_UNKNOWN]);
+    cJSON_AddNumberToObject(oc, "boxes", bs.boxes);
+    cJSON_AddNumberToObject(oc, "boxes_without_merging", bs.boxes_unmerged);
+    if (mode == LEAP_RENDER_SPARSELEAP) {
+        cJSON *l = cJSON_AddObjectToObject(root, "lists");
+        cJSON_AddNumberToObject(l, "events_per_pixel_mean", fs->events_mean);
+        cJSON_AddNumberToObject(l, "events_per_pixel_max", fs->events_max);
+        cJSON_AddNumberToObject(l, "segments_per_pixel_mean", fs->segments_mean);
+        cJSON_AddNumberToObject(l, "segments_per_pixel_max", fs->segments_max);
+        cJSON_AddNumberToObject(l, "overflowed_pixels", fs->overflow_pixels);
+    }
+    cJSON *mem = cJSON_AddObjectToObject(root, "memory_bytes");
+    cJSON_AddNumberToObject(mem, "gpu_volume", renderer ? (double)leap_renderer_volume_bytes(renderer) : 0);
+    cJSON_AddNumberToObject(mem, "atlas", (double)leap_atlas_gpu_bytes(s->atlas));
+    cJSON_AddNumberToObject(mem, "openvdb_tree", (double)s->info->memory_bytes);
+    double dense = 1;
+    for (int i = 0; i < 3; ++i)
+        dense *= s->info->bbox_max[i] >= s->info->bbox_min[i] ? s->info->bbox_max[i] - s->info->bbox_min[i] + 1.0 : 0;
+    cJSON_AddNumberToObject(mem, "dense_bbox_16bit", dense * 2);
+    cJSON_AddNumberToObject(root, "bricks_in_atlas", s->atlas->slot_count);
+    cJSON_AddStringToObject(root, "device", renderer ? leap_renderer_device_name(renderer) : "CPU reference (double)");
+    if (renderer) cJSON_AddStringToObject(root, "driver", leap_renderer_driver_name(renderer));
+    char *text = cJSON_Print(root);
+    cJSON_Delete(root);
+    return text;
+}
+
+int cli_render(int argc, char **argv)
+{
+    cli_view_options o;
+    cli_view_options_init(&o);
+    const char *output = NULL, *stats = NULL;
+    int quiet = 0;
+    for (int i = 2; i < argc; ++i) {
+        const char *a = argv[i], *v;
+        int missing = 0;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            fputs(render_help_head, stdout);
+            fputs(cli_view_options_help, stdout);
+            fputs(render_help_tail, stdout);
+            return 0;
+        }
+        if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
+            quiet = 1;
+            continue;
+        }
+        if ((v = cli_option_value(argc, argv, &i, "-o", &missing)) || missing ||
+            (v = cli_option_value(argc, argv, &i, "--output", &missing)) || missing) {
+            if (missing) return cli_usage_error("render", "option %s needs a value", a);
+            output = v;
+            continue;
+        }
+        if ((v = cli_option_value(argc, argv, &i, "--stats", &missing)) || missing) {
+            if (missing) return cli_usage_error("render", "option --stats needs a value");
+            stats = v;
+            continue;
+        }
+        int c = cli_view_option(argc, argv, &i, "render", &o);
+        if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
+        if (c == 0) return cli_usage_error("render", "unknown option '%s'", a);
+    }
+    int rc = cli_view_options_check("render", &o, 1);
+    if (rc) return rc;
+    if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
+    if (!leap_image_can_write(output))
+        return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+    if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
+    if (stats && !cli_dir_writable(stats))
+        return cli_runtime_error("%s: directory does not exist or is not writable", stats);
+
+    leap_error err = {{0}};
+    leap_scene *scene = NULL;
+    leap_renderer *renderer = NULL;
+    float *rgba = NULL, *depth = NULL, *samples = NULL;
+    leap_frame_stats fs = {0};
+    stage_times times = {0};
+    leap_result r = leap_scene_create(&o.scene, &scene, &err);
+    if (r) return cli_runtime_error("%s", err.msg);
+    times.load = scene->load_ms;
+    times.atlas = scene->atlas_ms;
+    times.occupancy = scene->occupancy_ms;
+    times.classify = scene->classify_ms;
+    times.boxes = scene->boxes_ms;
+
+    leap_camera cam;
+    leap_view view;
+    rc = EXIT_RUNTIME;
+    if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_view(scene, &cam, o.width, o.height, &view, &err))) {
+        rc = cli_exit_code(r);
+        fprintf(stderr, "leap: %s\n", err.msg);
+        goto done;
+    }
+    size_t n = (size_t)o.width * o.height;
+    rgba = malloc(n * 4 * sizeof(float));
+    depth = malloc(n * sizeof(float));
+    samples = malloc(n * sizeof(float));
+    if (!rgba || !depth || !samples) {
+        fprintf(stderr, "leap: out of memory for a %dx%d image\n", o.width, o.height);
+        goto done;
+    }
+    int mode = leap_mode_from_name(o.mode_name);
+    if (mode < 0) { /* reference */
+        double t = cli_now_ms();
+        leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .view = &view, .march = &scene->march};
+        if (leap_reference_render(&rd, rgba, depth, samples, &err)) {
+            fprintf(stderr, "leap: reference renderer: %s\n", err.msg);
+            goto done;
+        }
+        times.render = cli_now_ms() - t;
+        for (size_t i = 0; i < n; ++i) {
+            uint32_t s = (uint32_t)samples[i];
+            fs.total_samples += s;
+            if (s > fs.samples_max) fs.samples_max = s;
+        }
+        fs.samples_mean = (double)fs.total_samples / n;
+    } else {
+        double t = cli_now_ms();
+        leap_renderer_desc rd = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments};
+        if (leap_renderer_create(&rd, &renderer, &err)) {
+            fprintf(stderr, "leap: %s\n", err.msg);
+            goto done;
+        }
+        times.setup = cli_now_ms() - t;
+        t = cli_now_ms();
+        if (leap_renderer_set_volume(renderer, scene->atlas, &err) || leap_renderer_set_tf(renderer, &scene->tf, &err)) {
+            fprintf(stderr, "leap: %s: %s\n", o.input, err.msg);
+            goto done;
+        }
+        times.upload = cli_now_ms() - t;
+        leap_renderer_set_occupancy(renderer, scene->occupancy, scene->boxes);
+        if ((r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err))) {
+            rc = cli_exit_code(r);
+            fprintf(stderr, "leap: %s\n", err.msg);
+            goto done;
+        }
+        times.upload += fs.upload_ms - fs.order_ms;
+        times.order = fs.order_ms;
+        times.render = fs.render_ms;
+        times.readback = fs.readback_ms;
+    }
+
+    double t = cli_now_ms();
+    if (write_output(output, o.width, o.height, rgba, depth, samples, &err)) {
+        fprintf(stderr, "leap: %s\n", err.msg);
+        goto done;
+    }
+    times.write = cli_now_ms() - t;
+    if (stats) {
+        char *text = stats_json(&o, scene, renderer, &times, &fs, mode);
+        int ok = text && cli_write_text_file(stats, text);
+        cJSON_free(text);
+        if (!ok) {
+            remove(output);
+            fprintf(stderr, "leap: %s: cannot write the stats file\n", stats);
+            goto done;
+        }
+    }
+    if (!quiet)
+        fprintf(stderr, "leap: wrote %s (%dx%d, %s, %.1f ms render, %.1f samples/pixel)\n", output, o.width, o.height,
+                o.mode_name, times.render, fs.samples_mean);
+    rc = 0;
+done:
+    free(rgba);
+    free(depth);
+    free(samples);
+    leap_renderer_destroy(renderer);
+    leap_scene_destroy(scene);
+    return rc;
+}

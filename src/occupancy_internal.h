@@ -1,0 +1,17 @@
+/* Tree access that occupancy.c gives boxes.c and the tests; not part of the public API.
+ * Child references: OCC_REF_IMPLICIT (background subtree), OCC_REF_LEAF | range index, or a
+ * stored node index. */
+#ifndef LEAP_OCCUPANCY_INTERNAL_H
+#define LEAP_OCCUPANCY_INTERNAL_H
+
+#include "leap/occupancy.h"
+
+#define OCC_REF_IMPLICIT 0xFFFFFFFFu
+#define OCC_REF_LEAF 0x80000000u
+
+uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
+uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
+uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
+                                uint32_t *level, uint32_t child[8], uint64_t count[3]);
+
+#endif

@@ -1,0 +1,145 @@
+/* Scene set-up shared by every command: grid, atlas, transfer function, occupancy, boxes. */
+#include "leap/scene.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
+
+static leap_result open_grid(const char *path, const char *name, leap_grid **grid, leap_error *err)
+{
+    leap_vdb_file *file = NULL;
+    leap_result r = leap_vdb_open(path, &file, err);
+    if (r) return r;
+    int index = leap_vdb_find_grid(file, name);
+    if (index < 0) {
+        char names[512] = "";
+        leap_error ignore;
+        for (int i = 0; i < leap_vdb_grid_count(file); ++i) {
+            leap_grid_info gi;
+            if (leap_vdb_grid_info(file, i, &gi, &ignore) == LEAP_OK &&
+                strlen(names) + strlen(gi.name) + 16 < sizeof names) {
+                strcat(names, i ? ", " : "");
+                strcat(names, gi.name);
+                strcat(names, gi.scalar ? "" : " (not scalar)");
+            }
+        }
+        leap_vdb_close(file);
+        if (name)
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: no grid named '%s' (grids: %s)", path, name,
+                             names[0] ? names : "none");
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: no scalar grid to render (grids: %s)", path,
+                         names[0] ? names : "none");
+    }
+    r = leap_vdb_load_grid(file, index, grid, err);
+    leap_vdb_close(file);
+    return r;
+}
+
+int leap_scene_label_count(double lo, double hi)
+{
+    return (int)fmin(fmax(hi - lo + 1, 1), 65536);
+}
+
+static leap_result build_occupancy(leap_scene *s, leap_error *err)
+{
+    double t = now_ms();
+    size_t n = leap_grid_brick_count(s->grid);
+    leap_brick *bricks = malloc((n ? n : 1) * sizeof *bricks);
+    if (!bricks) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", n);
+    leap_result r = leap_grid_bricks(s->grid, bricks, err);
+    leap_occupancy_desc od = {
+        .bricks = bricks,
+        .brick_count = n,
+        .background = (float)s->info->background,
+        .value_min = s->atlas->value_min,
+        .value_max = s->atlas->value_max,
+    };
+    for (int i = 0; i < 3; ++i) {
+        od.origin[i] = s->atlas->origin[i];
+        od.cells[i] = s->atlas->cells[i];
+    }
+    if (!r) r = leap_occupancy_create(&od, &s->occupancy, err);
+    free(bricks);
+    s->occupancy_ms = now_ms() - t;
+    return r;
+}
+
+leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, double hi, leap_error *err)
+{
+    if (tf != &s->tf) s->tf = *tf;
+    s->march.range_lo = lo;
+    s->march.range_hi = hi;
+    double t = now_ms();
+    leap_result r = leap_occupancy_classify(s->occupancy, &s->tf, lo, hi, err);
+    s->classify_ms = now_ms() - t;
+    if (r) return r;
+    t = now_ms();
+    leap_boxes_destroy(s->boxes);
+    s->boxes = NULL;
+    r = leap_boxes_create(s->occupancy, s->merge, &s->boxes, err);
+    s->boxes_ms = now_ms() - t;
+    return r;
+}
+
+leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err)
+{
+    *out = NULL;
+    leap_scene *s = calloc(1, sizeof *s);
+    if (!s) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
+    s->merge = !desc->no_merge;
+    double t = now_ms();
+    leap_result r = open_grid(desc->path, desc->grid, &s->grid, err);
+    s->load_ms = now_ms() - t;
+    if (!r) {
+        s->info = leap_grid_get_info(s->grid);
+        s->march.step = desc->step > 0 ? desc->step : 0.5;
+        double lo = desc->has_range ? desc->range[0] : s->info->value_min;
+        double hi = desc->has_range ? desc->range[1] : s->info->value_max;
+        const char *tf = desc->tf ? desc->tf : strcmp(s->info->value_type, "int32") == 0 ? "labels" : "viridis";
+        r = leap_tf_from_arg(tf, leap_scene_label_count(lo, hi), &s->tf, err);
+        s->march.range_lo = lo;
+        s->march.range_hi = hi;
+    }
+    if (!r) {
+        t = now_ms();
+        leap_atlas_desc ad = {.grid = s->grid};
+        r = leap_atlas_create(&ad, &s->atlas, err);
+        s->atlas_ms = now_ms() - t;
+    }
+    if (!r) {
+        leap_atlas_march_domain(s->atlas, &s->march);
+        leap_camera_bounds(s->info->index_to_world, s->info->bbox_min, s->info->bbox_max, s->center, &s->radius);
+        r = build_occupancy(s, err);
+    }
+    if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
+    if (r) {
+        leap_scene_destroy(s);
+        return r;
+    }
+    *out = s;
+    return LEAP_OK;
+}
+
+void leap_scene_destroy(leap_scene *s)
+{
+    if (!s) return;
+    leap_boxes_destroy(s->boxes);
+    leap_occupancy_destroy(s->occupancy);
+    leap_atlas_destroy(s->atlas);
+    leap_grid_destroy(s->grid);
+    free(s);
+}
+
+leap_result leap_scene_view(const leap_scene *s, const leap_camera *cam, int width, int height, leap_view *out,
+                            leap_error *err)
+{
+    return leap_view_make(cam, width, height, s->info->index_to_world, s->march.index_origin, out, err);
+}
