@@ -384,6 +384,38 @@ const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r)
     return r->lists_valid ? r->pixel_lists.mapped : NULL;
 }
 
+uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_event *out, uint32_t cap)
+{
+    if (!r->lists_valid || x < 0 || y < 0 || (uint32_t)x >= r->fb_width || (uint32_t)y >= r->fb_height) return 0;
+    const uint32_t *heads = r->heads.mapped;
+    const leap_event_gpu *ev = r->events_pool.mapped;
+    uint32_t n = 0, guard = r->event_pool;
+    for (uint32_t e = heads[(size_t)y * r->fb_width + x]; e != 0 && e <= r->event_pool && guard--; e = ev[e - 1].next, ++n)
+        if (n < cap) out[n] = (leap_event){ev[e - 1].t, ev[e - 1].key >> 2, ev[e - 1].key & 3u};
+    return n;
+}
+
+uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap_segment *out, uint32_t cap,
+                                      int *overflow)
+{
+    if (overflow) *overflow = 0;
+    if (!r->lists_valid || x < 0 || y < 0 || (uint32_t)x >= r->fb_width || (uint32_t)y >= r->fb_height) return 0;
+    size_t pixel = (size_t)y * r->fb_width + x;
+    const uint32_t *pl = (const uint32_t *)r->pixel_lists.mapped + 4 * pixel;
+    const float *seg = (const float *)r->segments.mapped + 2 * pixel * r->max_segments;
+    if (overflow) *overflow = (pl[0] & LEAP_PIXEL_OVERFLOW) != 0;
+    uint32_t n = pl[0] & LEAP_PIXEL_COUNT_MASK;
+    for (uint32_t i = 0; i < n && i < cap; ++i)
+        out[i] = (leap_segment){seg[2 * i], seg[2 * i + 1], (pl[2] >> i) & 1u ? LEAP_CLASS_UNKNOWN : LEAP_CLASS_NONEMPTY};
+    return n;
+}
+
+const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count)
+{
+    *count = r->lists_valid && r->box_set ? leap_boxes_count(r->box_set) : 0;
+    return r->boxes.mapped;
+}
+
 static leap_vec4 v4(const double v[3], double w)
 {
     return (leap_vec4){(float)v[0], (float)v[1], (float)v[2], (float)w};

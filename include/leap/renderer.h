@@ -73,9 +73,24 @@ void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, co
 /* Bytes of device memory held for the volume (atlas texture + page table). */
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r);
 
-/* Per-pixel list facts of the last sparseleap frame (for dumps): events, segment count and
- * overflow flag per pixel, as in shaders/shared.h LEAP_PIXEL_*. NULL before any frame. */
+/* Per-pixel list facts of the last sparseleap frame (for dumps): 4 uints per pixel as in
+ * shaders/shared.h LEAP_PIXEL_* (segment count | flags, events, UNKNOWN mask, 0). NULL when the
+ * last frame was not a sparseleap frame. */
 const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r);
+
+/* The ray events the GPU recorded for pixel (x, y) in the last sparseleap frame, in list order
+ * (unsorted): cls is the class after the event, order the box's entry or exit number in the
+ * box order of that frame (leap_renderer_boxes). Writes at most cap; returns the total. */
+uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_event *out, uint32_t cap);
+
+/* The segments the resolve pass stored for pixel (x, y) in the last sparseleap frame (marched
+ * classes only: NONEMPTY or UNKNOWN). *overflow is set when the pixel marched its whole ray
+ * instead. Writes at most cap; returns the count. */
+uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap_segment *out, uint32_t cap,
+                                      int *overflow);
+
+/* The boxes of the last sparseleap frame in the view order used (count in *count). */
+const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count);
 
 /* Renders one frame. march: step and value range (index origin and domain must come from
  * the uploaded atlas). Outputs are caller-owned, view->width * view->height pixels, any
