@@ -14,5 +14,6 @@ layout(std430, set = 0, binding = LEAP_BINDING_EVENTS) buffer Events { leap_even
 layout(std430, set = 0, binding = LEAP_BINDING_COUNTERS) buffer Counters { uint counters[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_SEGMENTS) buffer Segments { vec2 segments[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_PIXELS) buffer Pixels { uvec4 pixel_lists[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint tree[]; };
 
 #endif

@@ -9,6 +9,53 @@
 // same ray; they differ only in which intervals of it they visit.
 layout(local_size_x = LEAP_COMPOSITE_GROUP, local_size_y = LEAP_COMPOSITE_GROUP) in;
 
+// Class of the occupancy-tree leaf holding cell c, and that leaf's cube [lo, lo + size) in
+// cells, found by descending from the root.
+uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
+{
+    size = 1 << frame.lists.w;
+    lo = ivec3(0);
+    if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, ivec3(size)))) {
+        lo = c; // outside the tree (float rounding at the domain): treat as non-empty
+        size = 1;
+        return LEAP_CLASS_NONEMPTY;
+    }
+    uint node = 0u;
+    for (;;) {
+        size >>= 1;
+        ivec3 upper = ivec3(greaterThanEqual(c, lo + size));
+        lo += upper * size;
+        uint word = tree[node * 8u + uint(upper.x + 2 * upper.y + 4 * upper.z)];
+        if ((word & LEAP_TREE_LEAF) != 0u) return word & 3u;
+        node = word;
+    }
+}
+
+// The octree mode: walks the lattice, looking up the tree leaf of the next sample; an EMPTY
+// leaf skips every sample before its exit, any other leaf marches every sample up to its exit.
+// Restarting the descent from the root at each leaf replaces the PUSH/POP stack.
+void leap_march_octree(leap_ray ray, float t_enter, float t_exit, inout float k_next, inout leap_accum acc)
+{
+    float dt = frame.march.x;
+    k_next = ceil(max(t_enter, 0.0) / dt);
+    for (float t = k_next * dt; t <= t_exit && !leap_accum_done(acc); t = k_next * dt) {
+        // The same float position and cell the sampler would use for this sample.
+        ivec3 cell = ivec3(floor(ray.origin + t * ray.dir)) >> LEAP_CELL_SHIFT;
+        ivec3 lo;
+        int size;
+        uint cls = leap_tree_leaf(cell, lo, size);
+        float b0, b1;
+        if (!leap_clip_box(ray, vec3(lo * LEAP_CELL), vec3((lo + size) * LEAP_CELL), b0, b1)) b1 = t;
+        if (cls == LEAP_CLASS_EMPTY && b1 > t) {
+            k_next = max(ceil(b1 / dt), k_next + 1.0);
+        } else {
+            // Non-empty, or a sample on the exit face (rounding): march up to the leaf's exit;
+            // the sample at t is always taken, so every step makes progress.
+            leap_march_interval(ray, t, min(max(b1, t), t_exit), k_next, acc);
+        }
+    }
+}
+
 void main()
 {
     uvec2 pix = gl_GlobalInvocationID.xy;
@@ -22,6 +69,8 @@ void main()
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
         if (mode == LEAP_MODE_NAIVE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
             leap_march_interval(ray, t_enter, t_exit, k_next, acc);
+        } else if (mode == LEAP_MODE_OCTREE) {
+            leap_march_octree(ray, t_enter, t_exit, k_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;
             if (leap_clip_box(ray, frame.bbox_min.xyz, frame.bbox_max.xyz, b0, b1))

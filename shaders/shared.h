@@ -35,6 +35,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_COUNTERS 9   /* storage uint[4]: x = event pool entries used */
 #define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel max_segments (t0, t1) */
 #define LEAP_BINDING_PIXELS 11    /* storage uvec4[] per pixel: see LEAP_PIXEL_* */
+#define LEAP_BINDING_TREE 12      /* storage uint[]: occupancy tree, 8 words per node */
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 
@@ -63,6 +64,10 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_MODE_NAIVE 0      /* every lattice sample in the domain box */
 #define LEAP_MODE_BBOX 1       /* only inside the bounding box of non-empty cells */
 #define LEAP_MODE_SPARSELEAP 2 /* only inside each pixel's non-empty ray segments */
+#define LEAP_MODE_OCTREE 3     /* per-ray traversal of the occupancy tree, skipping EMPTY nodes */
+
+/* Occupancy tree words (binding LEAP_BINDING_TREE): leaf flag | class, or a child node index. */
+#define LEAP_TREE_LEAF 0x80000000u
 
 /* Per-pixel list facts (binding LEAP_BINDING_PIXELS), x: segment count | flags;
  * y: events; z: bit i set = segment i is UNKNOWN; w: 0. */
@@ -116,7 +121,8 @@ LEAP_STRUCT(leap_frame_gpu) {
                                  pixel (ortho), y = box growth in pixels for raster coverage */
     LEAP_VEC4 bbox_min;       /* 352: xyz, non-empty bounds (bbox mode) */
     LEAP_VEC4 bbox_max;       /* 368 */
-    LEAP_UVEC4 lists;         /* 384: x = event pool capacity, y = segments per pixel, z = box count */
+    LEAP_UVEC4 lists;         /* 384: x = event pool capacity, y = segments per pixel, z = box count,
+                                 w = occupancy tree depth (root edge = 2^w cells) */
 } LEAP_STRUCT_END(leap_frame_gpu) /* 400 bytes */
 
 /* One ray event in the pool; a pixel's events form a linked list. */

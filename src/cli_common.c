@@ -130,7 +130,8 @@ const char *cli_view_options_help =
     "  --size WxH          image size in pixels (default 512x512)\n"
     "  --mode MODE         sparseleap (default: march only each pixel's non-empty ray\n"
     "                      segments), bbox (skip outside the non-empty bounding box),\n"
-    "                      naive (march the whole volume box)\n"
+    "                      octree (per-ray traversal of the occupancy tree), naive\n"
+    "                      (march the whole volume box)\n"
     "  --no-merge          do not merge same-class sibling boxes\n"
     "  --segments N        ray segments stored per pixel (1..12, default 12); pixels with\n"
     "                      more march their whole ray and are counted as overflowed\n"
@@ -234,7 +235,7 @@ int cli_view_options_check(const char *verb, const cli_view_options *o, int allo
     if (o->has_up && !o->has_eye) return cli_usage_error(verb, "--up needs --eye and --target");
     int reference = allow_reference && strcmp(o->mode_name, "reference") == 0;
     if (!reference && leap_mode_from_name(o->mode_name) < 0)
-        return cli_usage_error(verb, "unknown --mode '%s' (sparseleap, bbox, naive%s)", o->mode_name,
+        return cli_usage_error(verb, "unknown --mode '%s' (sparseleap, octree, bbox, naive%s)", o->mode_name,
                                allow_reference ? ", reference" : "");
     return 0;
 }

@@ -737,3 +737,34 @@ size_t leap_resolve_events(leap_event *events, size_t count, uint32_t outside, l
     }
     return segs;
 }
+
+size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth)
+{
+    uint32_t root = leap_occ_internal_root(occ, depth);
+    if ((root & OCC_REF_LEAF) || root == OCC_REF_IMPLICIT) {
+        for (size_t k = 0; k < 8 && k < cap; ++k) words[k] = LEAP_TREE_LEAF | ref_class(occ, root);
+        return 8;
+    }
+    /* Breadth first, so every parent precedes its children; order[] maps output nodes to
+     * stored nodes. */
+    uint32_t *order = malloc((occ->node_count + 1) * sizeof *order);
+    if (!order) return 0;
+    size_t nodes = 1;
+    order[0] = root;
+    for (size_t next = 0; next < nodes; ++next) {
+        uint32_t child[8];
+        leap_occ_internal_node(occ, order[next], NULL, NULL, child, NULL);
+        for (int k = 0; k < 8; ++k) {
+            uint32_t w;
+            if ((child[k] & OCC_REF_LEAF) || child[k] == OCC_REF_IMPLICIT) {
+                w = LEAP_TREE_LEAF | ref_class(occ, child[k]);
+            } else {
+                w = (uint32_t)nodes;
+                order[nodes++] = child[k];
+            }
+            if (8 * next + k < cap) words[8 * next + k] = w;
+        }
+    }
+    free(order);
+    return 8 * nodes;
+}

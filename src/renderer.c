@@ -37,7 +37,7 @@ static const uint32_t events_frag_spv[] = {
 _Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 _Static_assert(sizeof(leap_event_gpu) == 16, "leap_event_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 12
+#define BINDING_COUNT 13
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
 enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
@@ -60,7 +60,8 @@ struct leap_renderer {
     leap_buffer pages;
     leap_image tf;
     leap_buffer out_rgba, out_aux;
-    leap_buffer boxes, heads, events_pool, counters, segments, pixel_lists;
+    leap_buffer boxes, heads, events_pool, counters, segments, pixel_lists, tree;
+    uint32_t tree_depth;
     size_t pixels_allocated;
     /* From the uploaded atlas. */
     int has_volume;
@@ -85,6 +86,7 @@ const char *leap_mode_name(leap_mode mode)
     case LEAP_RENDER_NAIVE: return "naive";
     case LEAP_RENDER_BBOX: return "bbox";
     case LEAP_RENDER_SPARSELEAP: return "sparseleap";
+    case LEAP_RENDER_OCTREE: return "octree";
     default: return "unknown";
     }
 }
@@ -261,6 +263,7 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, (VkDeviceSize)r->event_pool * sizeof(leap_event_gpu),
                                          VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->events_pool, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_box_gpu), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, 32, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
     return lr;
 }
 
@@ -310,6 +313,7 @@ void leap_renderer_destroy(leap_renderer *r)
         VkDevice dev = gpu->device;
         vkDeviceWaitIdle(dev);
         destroy_frame_buffers(r);
+        leap_gpu_buffer_destroy(gpu, &r->tree);
         leap_gpu_buffer_destroy(gpu, &r->boxes);
         leap_gpu_buffer_destroy(gpu, &r->events_pool);
         leap_gpu_buffer_destroy(gpu, &r->counters);
@@ -508,7 +512,7 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
     f->bbox_min = v4(lo, 0);
     f->bbox_max = v4(hi, 0);
-    f->lists = (leap_uvec4){r->event_pool, r->max_segments, box_count, 0};
+    f->lists = (leap_uvec4){r->event_pool, r->max_segments, box_count, r->tree_depth};
 }
 
 static leap_result ensure_frame_buffers(leap_renderer *r, const leap_view *view, leap_error *err)
@@ -554,6 +558,23 @@ static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *er
     return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
 }
 
+/* Uploads the occupancy tree as it is classified now (octree mode). */
+static leap_result upload_tree(leap_renderer *r, leap_error *err)
+{
+    size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &r->tree_depth);
+    if (words == 0) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the occupancy tree");
+    if (words * 4 > MAX_BUFFER_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the 128 MiB buffer limit", words / 8);
+    if (r->tree.size < words * 4) {
+        vkDeviceWaitIdle(r->gpu->device);
+        leap_gpu_buffer_destroy(r->gpu, &r->tree);
+        leap_result lr = leap_gpu_buffer_create(r->gpu, words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
+        if (lr) return lr;
+    }
+    leap_occupancy_flatten(r->occupancy, r->tree.mapped, words, &r->tree_depth);
+    return LEAP_OK;
+}
+
 static void write_descriptors(leap_renderer *r)
 {
     VkDescriptorBufferInfo buf[BINDING_COUNT];
@@ -563,6 +584,7 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_HEADS] = &r->heads,
         [LEAP_BINDING_EVENTS] = &r->events_pool, [LEAP_BINDING_COUNTERS] = &r->counters,
         [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
+        [LEAP_BINDING_TREE] = &r->tree,
     };
     VkDescriptorImageInfo img[2] = {
         {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
@@ -657,6 +679,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     leap_result lr = ensure_frame_buffers(r, view, err);
     uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
+    if (!lr && mode == LEAP_RENDER_OCTREE) lr = upload_tree(r, err);
     if (lr) return lr;
     if (lists) {
         double eye_or_dir[3];

@@ -116,7 +116,7 @@ int main(void)
                 double alpha = 0;
                 for (int i = 0; i < W * H; ++i) alpha += naive[4 * i + 3];
                 CHECK_MSG(alpha > 0.5, "%s %s: naive image is empty", volumes[v].file, camera_names[c]);
-                for (int m = LEAP_RENDER_BBOX; m <= LEAP_RENDER_SPARSELEAP; ++m) {
+                for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
                     CHECK_OK(leap_renderer_render(renderer, &view, &s.march, (leap_mode)m, img, NULL, NULL, &st, &err),
                              &err);
                     image_diff d = compare_rgba(img, naive, W * H);

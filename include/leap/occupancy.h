@@ -73,6 +73,13 @@ uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell
  * cell boxes). Returns 0 (and leaves lo/hi alone) when there are none. */
 int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);
 
+/* The tree for per-ray traversal on the GPU (the octree mode): node i is words[8i .. 8i+7],
+ * one word per octant k = x | y << 1 | z << 2: LEAP_TREE_LEAF | class for a single-class
+ * subtree, else the index of the child node. Node 0 is the root, a cube of 2^depth cells
+ * anchored at cell 0. Returns the number of words the tree needs (writes at most cap); 0 on
+ * out of memory. */
+size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth);
+
 /* ---- occupancy geometry -------------------------------------------------------------- */
 
 /* The emitted boxes: the root's box plus every node (stored or implicit) whose class differs

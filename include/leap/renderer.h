@@ -17,6 +17,7 @@ typedef enum leap_mode {
     LEAP_RENDER_NAIVE = LEAP_MODE_NAIVE,           /* every lattice sample in the domain box */
     LEAP_RENDER_BBOX = LEAP_MODE_BBOX,             /* only inside the non-empty cells' bounds */
     LEAP_RENDER_SPARSELEAP = LEAP_MODE_SPARSELEAP, /* only inside per-pixel non-empty segments */
+    LEAP_RENDER_OCTREE = LEAP_MODE_OCTREE,         /* per-ray traversal of the occupancy tree */
     LEAP_RENDER_MODE_COUNT
 } leap_mode;
 
