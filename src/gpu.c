@@ -107,6 +107,8 @@ static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap
         .pApplicationInfo = &app,
         .enabledLayerCount = use_validation ? 1 : 0,
         .ppEnabledLayerNames = &validation,
+        .enabledExtensionCount = desc ? desc->instance_extension_count : 0,
+        .ppEnabledExtensionNames = desc ? desc->instance_extensions : NULL,
     };
     VkResult r = vkCreateInstance(&ici, NULL, &gpu->instance);
     if (r != VK_SUCCESS)
@@ -154,6 +156,8 @@ static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap
         .queueCreateInfoCount = 1,
         .pQueueCreateInfos = &qci,
         .pEnabledFeatures = &features,
+        .enabledExtensionCount = desc && desc->swapchain ? 1 : 0,
+        .ppEnabledExtensionNames = (const char *const[]){VK_KHR_SWAPCHAIN_EXTENSION_NAME},
     };
     VK_CHECK(vkCreateDevice(gpu->physical, &dci, NULL, &gpu->device));
     vkGetDeviceQueue(gpu->device, gpu->queue_family, 0, &gpu->queue);

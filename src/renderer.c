@@ -278,6 +278,11 @@ leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer *
     r->max_segments = desc && desc->max_segments ? desc->max_segments : LEAP_MAX_SEGMENTS;
     if (r->max_segments > LEAP_MAX_SEGMENTS) r->max_segments = LEAP_MAX_SEGMENTS;
     leap_gpu_desc gd = {.device_name = desc ? desc->device_name : NULL};
+    if (desc) {
+        gd.instance_extensions = desc->instance_extensions;
+        gd.instance_extension_count = desc->instance_extension_count;
+        gd.swapchain = desc->swapchain;
+    }
     leap_result lr = leap_gpu_create(&gd, &r->gpu, err);
     if (!lr) {
         snprintf(r->driver, sizeof r->driver, "%s %s", r->gpu->driver_name, r->gpu->driver_info);
@@ -334,6 +339,7 @@ void leap_renderer_destroy(leap_renderer *r)
     free(r);
 }
 
+struct leap_gpu *leap_renderer_gpu(leap_renderer *r) { return r->gpu; }
 const char *leap_renderer_device_name(const leap_renderer *r) { return r->gpu->props.deviceName; }
 const char *leap_renderer_driver_name(const leap_renderer *r) { return r->driver; }
 

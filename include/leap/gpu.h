@@ -14,6 +14,9 @@ typedef struct leap_gpu_desc {
     const char *device_name; /* substring of the device name to pick; NULL = env
                                 LEAP_DEVICE, else the first hardware GPU, else lavapipe */
     int validation;          /* 1 = enable VK_LAYER_KHRONOS_validation if installed */
+    const char *const *instance_extensions; /* e.g. from glfwGetRequiredInstanceExtensions */
+    uint32_t instance_extension_count;
+    int swapchain;           /* 1 = enable VK_KHR_swapchain on the device (presenting) */
 } leap_gpu_desc;
 
 typedef struct leap_gpu {

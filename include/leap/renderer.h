@@ -30,6 +30,9 @@ typedef struct leap_renderer_desc {
     uint32_t event_pool;     /* events the pool holds per frame; 0 = as many as fit in 128 MiB */
     uint32_t max_segments;   /* stored segments per pixel, 1..LEAP_MAX_SEGMENTS; 0 = maximum.
                                 A pixel with more falls back to marching its whole ray. */
+    const char *const *instance_extensions; /* window-system extensions (the viewer) */
+    uint32_t instance_extension_count;
+    int swapchain;           /* 1 = the device can present (VK_KHR_swapchain) */
 } leap_renderer_desc;
 
 typedef struct leap_renderer leap_renderer;
@@ -56,6 +59,9 @@ typedef struct leap_frame_stats {
 
 leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer **out, leap_error *err);
 void leap_renderer_destroy(leap_renderer *r); /* accepts NULL */
+
+/* The Vulkan context, for a present step on the same device (the viewer). */
+struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
 
 /* Device and driver, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" / "llvmpipe Mesa 22.3.6". */
 const char *leap_renderer_device_name(const leap_renderer *r);
