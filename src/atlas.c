@@ -1,5 +1,6 @@
 /* Host-side build of the brick atlas and its page table (see include/leap/atlas.h). */
 #include "leap/atlas.h"
+#include "util.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -21,26 +22,7 @@ typedef struct builder {
     size_t slots_cap;
 } builder;
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 static int32_t floor_div8(int32_t v) { return (int32_t)floor(v / 8.0); }
-
-static int grow(void **p, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return 1;
-    size_t n = *cap ? *cap : 64;
-    while (n < need) n *= 2;
-    void *q = realloc(*p, n * elem);
-    if (!q) return 0;
-    *p = q;
-    *cap = n;
-    return 1;
-}
 
 static uint16_t quantize(const leap_atlas *a, float v)
 {
@@ -64,7 +46,7 @@ static leap_result set_cell(builder *b, const uint32_t c[3], uint32_t entry, lea
     if (a->pages[t] & LEAP_PAGE_CONST) {
         if (a->pages[t] == entry) return LEAP_OK;
         size_t cap = b->blocks_cap;
-        if (!grow((void **)&b->blocks, &cap, a->block_count + 1, sizeof(uint32_t *)))
+        if (!leap__grow((void **)&b->blocks, &cap, a->block_count + 1, sizeof(uint32_t *)))
             return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
         b->blocks_cap = (uint32_t)cap;
         uint32_t *cells = malloc(BLOCK_CELLS * sizeof *cells);
@@ -101,7 +83,7 @@ static int add_cells(key_list *l, const leap_atlas *a, const int64_t lo[3], cons
     for (int64_t z = l0[2]; z <= h0[2]; ++z)
         for (int64_t y = l0[1]; y <= h0[1]; ++y)
             for (int64_t x = l0[0]; x <= h0[0]; ++x) {
-                if (!grow((void **)&l->keys, &l->cap, l->count + 1, sizeof(uint64_t))) return 0;
+                if (!leap__grow((void **)&l->keys, &l->cap, l->count + 1, sizeof(uint64_t))) return 0;
                 l->keys[l->count++] = (uint64_t)x + a->cells[0] * ((uint64_t)y + (uint64_t)a->cells[1] * (uint64_t)z);
             }
     return 1;
@@ -174,7 +156,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (uniform && !dense) {
             entry = const_entry(q[0]);
         } else {
-            if (!grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t))) {
+            if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t))) {
                 r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
                 break;
             }
@@ -341,7 +323,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
 {
     *out = NULL;
     if (!desc || !desc->grid) return leap_fail(err, LEAP_ERR_USAGE, "atlas: no grid given");
-    double t0 = now_ms();
+    double t0 = leap__now_ms();
     builder *b = calloc(1, sizeof *b);
     leap_atlas *a = calloc(1, sizeof *a);
     if (!b || !a) {
@@ -359,7 +341,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         leap_atlas_destroy(a);
         return r;
     }
-    a->build_ms = now_ms() - t0;
+    a->build_ms = leap__now_ms() - t0;
     *out = a;
     return LEAP_OK;
 }

@@ -44,6 +44,7 @@
  * Final layout: nodes breadth-first, the children of a node stored together in octant
  * order; ids number the emitted boxes in that (view-independent) order. */
 #include "leap/occupancy.h"
+#include "util.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -93,13 +94,6 @@ typedef struct vbuilder {
     uint32_t unmerged;
     int oom;
 } vbuilder;
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 static int reserve(vbuilder *b, size_t need)
 {
@@ -225,7 +219,7 @@ leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, lea
 {
     if (out) *out = NULL;
     if (!occ || !out) return leap_fail(err, LEAP_ERR_USAGE, "boxes: missing occupancy or output");
-    const double t0 = now_ms();
+    const double t0 = leap__now_ms();
     vbuilder b;
     memset(&b, 0, sizeof b);
     b.occ = occ;
@@ -290,7 +284,7 @@ leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, lea
     bx->boxes = ids;
     bx->boxes_unmerged = b.unmerged;
     bx->max_depth = max_level;
-    bx->build_ms = now_ms() - t0;
+    bx->build_ms = leap__now_ms() - t0;
     *out = bx;
     return LEAP_OK;
 }
@@ -372,7 +366,7 @@ static void visit(order_ctx *c, uint32_t ni)
 double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int ortho,
                         leap_box_gpu *out, leap_box_meta *meta)
 {
-    const double t0 = now_ms();
+    const double t0 = leap__now_ms();
     if (!boxes || !out) return 0.0;
     order_ctx c;
     memset(&c, 0, sizeof c);
@@ -385,5 +379,5 @@ double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int
         if (eye_or_dir[a] < 0.0) c.ortho_oct |= 1u << a;
     }
     visit(&c, 0);
-    return now_ms() - t0;
+    return leap__now_ms() - t0;
 }

@@ -6,13 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define VK_CHECK(call)                                                                     \
-    do {                                                                                   \
-        VkResult vk_r_ = (call);                                                           \
-        if (vk_r_ != VK_SUCCESS)                                                           \
-            return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: %s failed: %s", #call,           \
-                             leap_vk_result_name(vk_r_));                                  \
-    } while (0)
 
 const char *leap_vk_result_name(VkResult r)
 {
@@ -47,13 +40,13 @@ static int device_rank(const VkPhysicalDeviceProperties *p)
 static leap_result pick_device(leap_gpu *gpu, const char *want, leap_error *err)
 {
     uint32_t count = 0;
-    VK_CHECK(vkEnumeratePhysicalDevices(gpu->instance, &count, NULL));
+    LEAP_VK_CHECK(vkEnumeratePhysicalDevices(gpu->instance, &count, NULL));
     if (count == 0)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                          "Vulkan: no device found (install mesa-vulkan-drivers for lavapipe)");
     VkPhysicalDevice devices[16];
     if (count > 16) count = 16;
-    VK_CHECK(vkEnumeratePhysicalDevices(gpu->instance, &count, devices));
+    LEAP_VK_CHECK(vkEnumeratePhysicalDevices(gpu->instance, &count, devices));
     int best = -1, best_rank = -1;
     for (uint32_t i = 0; i < count; ++i) {
         VkPhysicalDeviceProperties p;
@@ -159,7 +152,7 @@ static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap
         .enabledExtensionCount = desc && desc->swapchain ? 1 : 0,
         .ppEnabledExtensionNames = (const char *const[]){VK_KHR_SWAPCHAIN_EXTENSION_NAME},
     };
-    VK_CHECK(vkCreateDevice(gpu->physical, &dci, NULL, &gpu->device));
+    LEAP_VK_CHECK(vkCreateDevice(gpu->physical, &dci, NULL, &gpu->device));
     vkGetDeviceQueue(gpu->device, gpu->queue_family, 0, &gpu->queue);
 
     VkCommandPoolCreateInfo pci = {
@@ -167,23 +160,23 @@ static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap
         .flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT,
         .queueFamilyIndex = gpu->queue_family,
     };
-    VK_CHECK(vkCreateCommandPool(gpu->device, &pci, NULL, &gpu->command_pool));
+    LEAP_VK_CHECK(vkCreateCommandPool(gpu->device, &pci, NULL, &gpu->command_pool));
     VkCommandBufferAllocateInfo cai = {
         .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO,
         .commandPool = gpu->command_pool,
         .level = VK_COMMAND_BUFFER_LEVEL_PRIMARY,
         .commandBufferCount = 1,
     };
-    VK_CHECK(vkAllocateCommandBuffers(gpu->device, &cai, &gpu->cmd));
+    LEAP_VK_CHECK(vkAllocateCommandBuffers(gpu->device, &cai, &gpu->cmd));
     VkFenceCreateInfo fci = {.sType = VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
-    VK_CHECK(vkCreateFence(gpu->device, &fci, NULL, &gpu->fence));
+    LEAP_VK_CHECK(vkCreateFence(gpu->device, &fci, NULL, &gpu->fence));
     if (gpu->timestamp_ns > 0) {
         VkQueryPoolCreateInfo qpci = {
             .sType = VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO,
             .queryType = VK_QUERY_TYPE_TIMESTAMP,
             .queryCount = LEAP_GPU_MAX_TIMESTAMPS,
         };
-        VK_CHECK(vkCreateQueryPool(gpu->device, &qpci, NULL, &gpu->timestamps));
+        LEAP_VK_CHECK(vkCreateQueryPool(gpu->device, &qpci, NULL, &gpu->timestamps));
         gpu->timestamp_count = LEAP_GPU_MAX_TIMESTAMPS;
     }
     return LEAP_OK;
@@ -255,7 +248,7 @@ leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsa
         .usage = usage,
         .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
     };
-    VK_CHECK(vkCreateBuffer(gpu->device, &bci, NULL, &out->buffer));
+    LEAP_VK_CHECK(vkCreateBuffer(gpu->device, &bci, NULL, &out->buffer));
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(gpu->device, out->buffer, &req);
     leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
@@ -265,8 +258,8 @@ leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsa
         return r;
     }
     out->size = size;
-    VK_CHECK(vkBindBufferMemory(gpu->device, out->buffer, out->memory, 0));
-    VK_CHECK(vkMapMemory(gpu->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
+    LEAP_VK_CHECK(vkBindBufferMemory(gpu->device, out->buffer, out->memory, 0));
+    LEAP_VK_CHECK(vkMapMemory(gpu->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
     return LEAP_OK;
 }
 
@@ -284,26 +277,26 @@ void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf)
 
 leap_result leap_gpu_begin(leap_gpu *gpu, leap_error *err)
 {
-    VK_CHECK(vkResetCommandBuffer(gpu->cmd, 0));
+    LEAP_VK_CHECK(vkResetCommandBuffer(gpu->cmd, 0));
     VkCommandBufferBeginInfo bi = {
         .sType = VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO,
         .flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT,
     };
-    VK_CHECK(vkBeginCommandBuffer(gpu->cmd, &bi));
+    LEAP_VK_CHECK(vkBeginCommandBuffer(gpu->cmd, &bi));
     return LEAP_OK;
 }
 
 leap_result leap_gpu_submit_wait(leap_gpu *gpu, leap_error *err)
 {
-    VK_CHECK(vkEndCommandBuffer(gpu->cmd));
+    LEAP_VK_CHECK(vkEndCommandBuffer(gpu->cmd));
     VkSubmitInfo si = {
         .sType = VK_STRUCTURE_TYPE_SUBMIT_INFO,
         .commandBufferCount = 1,
         .pCommandBuffers = &gpu->cmd,
     };
-    VK_CHECK(vkResetFences(gpu->device, 1, &gpu->fence));
-    VK_CHECK(vkQueueSubmit(gpu->queue, 1, &si, gpu->fence));
-    VK_CHECK(vkWaitForFences(gpu->device, 1, &gpu->fence, VK_TRUE, UINT64_MAX));
+    LEAP_VK_CHECK(vkResetFences(gpu->device, 1, &gpu->fence));
+    LEAP_VK_CHECK(vkQueueSubmit(gpu->queue, 1, &si, gpu->fence));
+    LEAP_VK_CHECK(vkWaitForFences(gpu->device, 1, &gpu->fence, VK_TRUE, UINT64_MAX));
     return LEAP_OK;
 }
 
@@ -339,12 +332,12 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                          "Vulkan: a %ux%ux%u image exceeds what %s supports", ext.width, ext.height,
                          ext.depth, gpu->props.deviceName);
-    VK_CHECK(vkCreateImage(gpu->device, &ici, NULL, &out->image));
+    LEAP_VK_CHECK(vkCreateImage(gpu->device, &ici, NULL, &out->image));
     VkMemoryRequirements req;
     vkGetImageMemoryRequirements(gpu->device, out->image, &req);
     leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &out->memory, err);
     if (r) return r;
-    VK_CHECK(vkBindImageMemory(gpu->device, out->image, out->memory, 0));
+    LEAP_VK_CHECK(vkBindImageMemory(gpu->device, out->image, out->memory, 0));
     out->format = format;
     out->extent[0] = ext.width;
     out->extent[1] = ext.height;
@@ -356,7 +349,7 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
         .format = format,
         .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
     };
-    VK_CHECK(vkCreateImageView(gpu->device, &vci, NULL, &out->view));
+    LEAP_VK_CHECK(vkCreateImageView(gpu->device, &vci, NULL, &out->view));
 
     leap_buffer staging;
     r = leap_gpu_buffer_create(gpu, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err);
@@ -412,7 +405,7 @@ leap_result leap_gpu_read_timestamps(leap_gpu *gpu, uint32_t count, double *ms, 
     if (!gpu->timestamps || count == 0 || count > gpu->timestamp_count)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "Vulkan: timestamps unavailable");
     uint64_t ticks[LEAP_GPU_MAX_TIMESTAMPS];
-    VK_CHECK(vkGetQueryPoolResults(gpu->device, gpu->timestamps, 0, count, sizeof ticks, ticks,
+    LEAP_VK_CHECK(vkGetQueryPoolResults(gpu->device, gpu->timestamps, 0, count, sizeof ticks, ticks,
                                    sizeof ticks[0], VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
     for (uint32_t i = 0; i < count; ++i)
         ms[i] = (double)(ticks[i] - ticks[0]) * gpu->timestamp_ns * 1e-6;
@@ -429,7 +422,7 @@ leap_result leap_gpu_compute_pipeline(leap_gpu *gpu, const uint32_t *code, size_
         .pCode = code,
     };
     VkShaderModule module;
-    VK_CHECK(vkCreateShaderModule(gpu->device, &smci, NULL, &module));
+    LEAP_VK_CHECK(vkCreateShaderModule(gpu->device, &smci, NULL, &module));
     VkPipelineLayoutCreateInfo plci = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
         .setLayoutCount = 1,

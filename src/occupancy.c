@@ -31,6 +31,7 @@
  * A small internal interface (leap_occ_internal_*) exposes the tree to boxes.c and to the
  * tests; it is not part of the public header. */
 #include "leap/occupancy.h"
+#include "util.h"
 #include "occupancy_internal.h"
 
 #include <float.h>
@@ -74,13 +75,6 @@ struct leap_occupancy {
 };
 
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 static uint64_t sat_add(uint64_t a, uint64_t b)
 {
     uint64_t s = a + b;
@@ -109,21 +103,6 @@ static int64_t floor_div(int64_t a, int64_t b)
 }
 
 static int64_t ceil_div(int64_t a, int64_t b) { return -floor_div(-a, b); }
-
-static int grow(void **p, size_t *cap, size_t need, size_t elem)
-{
-    if (need <= *cap) return 1;
-    size_t n = *cap ? *cap : 256;
-    while (n < need) {
-        if (n > SIZE_MAX / 2 / elem) return 0;
-        n *= 2;
-    }
-    void *q = realloc(*p, n * elem);
-    if (!q) return 0;
-    *p = q;
-    *cap = n;
-    return 1;
-}
 
 /* ---- build ---------------------------------------------------------------------------- */
 
@@ -189,7 +168,7 @@ static void add_brick(builder *b, const leap_brick *br, const int32_t origin[3])
     int small = br->size == 8;
     for (int a = 0; a < 3 && small; ++a) small = ((int64_t)br->origin[a] - origin[a]) % 8 == 0;
     if (small) {
-        if (!grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) {
+        if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) {
             b->oom = 1;
             return;
         }
@@ -200,7 +179,7 @@ static void add_brick(builder *b, const leap_brick *br, const int32_t origin[3])
         it->hi = br->value_max;
         return;
     }
-    if (!grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) {
+    if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) {
         b->oom = 1;
         return;
     }
@@ -220,7 +199,7 @@ static uint32_t add_leaf(builder *b, float lo, float hi)
     leap_occupancy *occ = b->occ;
     if (lo == occ->background && hi == occ->background) return OCC_REF_IMPLICIT;
     if (occ->range_count >= OCC_MAX_REFS ||
-        !grow((void **)&occ->ranges, &occ->range_cap, occ->range_count + 1, sizeof *occ->ranges)) {
+        !leap__grow((void **)&occ->ranges, &occ->range_cap, occ->range_count + 1, sizeof *occ->ranges)) {
         b->oom = 1;
         return OCC_REF_IMPLICIT;
     }
@@ -305,7 +284,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
 
     /* this node, stored in pre-order */
     if (occ->node_count >= OCC_MAX_REFS ||
-        !grow((void **)&occ->nodes, &occ->node_cap, occ->node_count + 1, sizeof *occ->nodes)) {
+        !leap__grow((void **)&occ->nodes, &occ->node_cap, occ->node_count + 1, sizeof *occ->nodes)) {
         b->oom = 1;
         return OCC_REF_IMPLICIT;
     }
@@ -330,7 +309,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
     size_t total = 0;
     for (int k = 0; k < 8; ++k) total += cnt[k];
     const size_t base = b->arena_count;
-    if (!grow((void **)&b->arena, &b->arena_cap, base + total, sizeof *b->arena)) {
+    if (!leap__grow((void **)&b->arena, &b->arena_cap, base + total, sizeof *b->arena)) {
         b->oom = 1;
         return OCC_REF_IMPLICIT;
     }
@@ -359,7 +338,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
         for (size_t i = lb; i < le; ++i) {
             uint32_t bi = b->blist[i];
             if (!big_meets(&b->big[bi], corg, half)) continue;
-            if (!grow((void **)&b->blist, &b->blist_cap, b->blist_count + 1, sizeof *b->blist)) {
+            if (!leap__grow((void **)&b->blist, &b->blist_cap, b->blist_count + 1, sizeof *b->blist)) {
                 b->oom = 1;
                 return OCC_REF_IMPLICIT;
             }
@@ -446,7 +425,7 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     if (out) *out = NULL;
     if (!desc || !out || (desc->brick_count && !desc->bricks))
         return leap_fail(err, LEAP_ERR_USAGE, "occupancy: missing description or output");
-    const double t0 = now_ms();
+    const double t0 = leap__now_ms();
     leap_occupancy *occ = calloc(1, sizeof *occ);
     if (!occ) return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory");
     uint32_t maxc = 0;
@@ -467,18 +446,18 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     memcpy(b.cells, desc->cells, sizeof b.cells);
     const int empty = desc->cells[0] == 0 || desc->cells[1] == 0 || desc->cells[2] == 0;
     if (!empty && desc->brick_count &&
-        !grow((void **)&b.arena, &b.arena_cap, desc->brick_count + desc->brick_count / 2 + 64,
+        !leap__grow((void **)&b.arena, &b.arena_cap, desc->brick_count + desc->brick_count / 2 + 64,
               sizeof *b.arena))
         b.oom = 1;
     for (size_t i = 0; !empty && i < desc->brick_count && !b.oom; ++i)
         add_brick(&b, &desc->bricks[i], desc->origin);
     /* a first guess of the tree size */
     if (!b.oom && b.arena_count &&
-        (!grow((void **)&occ->ranges, &occ->range_cap, b.arena_count * 4 + 64, sizeof *occ->ranges) ||
-         !grow((void **)&occ->nodes, &occ->node_cap, b.arena_count + 64, sizeof *occ->nodes)))
+        (!leap__grow((void **)&occ->ranges, &occ->range_cap, b.arena_count * 4 + 64, sizeof *occ->ranges) ||
+         !leap__grow((void **)&occ->nodes, &occ->node_cap, b.arena_count + 64, sizeof *occ->nodes)))
         b.oom = 1;
     if (!b.oom && b.big_count) {
-        if (!grow((void **)&b.blist, &b.blist_cap, b.big_count, sizeof *b.blist)) b.oom = 1;
+        if (!leap__grow((void **)&b.blist, &b.blist_cap, b.big_count, sizeof *b.blist)) b.oom = 1;
         for (size_t i = 0; !b.oom && i < b.big_count; ++i) b.blist[i] = (uint32_t)i;
         b.blist_count = b.big_count;
     }
@@ -499,7 +478,7 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
         return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory building the tree");
     }
     update_counts(occ);
-    occ->build_ms = now_ms() - t0;
+    occ->build_ms = leap__now_ms() - t0;
     *out = occ;
     return LEAP_OK;
 }
@@ -549,7 +528,7 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
     if (!isfinite(range_lo) || !isfinite(range_hi))
         return leap_fail(err, LEAP_ERR_USAGE, "occupancy: TF range [%g, %g] is not finite",
                          range_lo, range_hi);
-    const double t0 = now_ms();
+    const double t0 = leap__now_ms();
     classifier local;
     classifier *cl = &local;
     cl->lo = range_lo;
@@ -565,7 +544,7 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
         occ->range_cls[i] = (uint8_t)classify_range(cl, occ->ranges[i].lo, occ->ranges[i].hi);
     occ->bg_cls = classify_range(cl, occ->background, occ->background);
     update_counts(occ);
-    occ->classify_ms = now_ms() - t0;
+    occ->classify_ms = leap__now_ms() - t0;
     return LEAP_OK;
 }
 

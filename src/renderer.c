@@ -1,6 +1,7 @@
 /* Render core: Vulkan resources for one volume, transfer function and occupancy, and the
  * frame passes: ray events (raster), segment lists (resolve), compositing. */
 #include "leap/renderer.h"
+#include "util.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -24,13 +25,6 @@ static const uint32_t events_frag_spv[] = {
 #include "events_frag.inc"
 };
 
-#define VK_CHECK(call)                                                                     \
-    do {                                                                                   \
-        VkResult vk_r_ = (call);                                                           \
-        if (vk_r_ != VK_SUCCESS)                                                           \
-            return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: %s failed: %s", #call,           \
-                             leap_vk_result_name(vk_r_));                                  \
-    } while (0)
 
 #define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
 
@@ -73,13 +67,6 @@ struct leap_renderer {
     int lists_valid;
 };
 
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 const char *leap_mode_name(leap_mode mode)
 {
     switch (mode) {
@@ -121,7 +108,7 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .subpassCount = 1,
         .pSubpasses = &subpass,
     };
-    VK_CHECK(vkCreateRenderPass(dev, &rpci, NULL, &r->render_pass));
+    LEAP_VK_CHECK(vkCreateRenderPass(dev, &rpci, NULL, &r->render_pass));
     VkShaderModule vs = make_module(dev, events_vert_spv, sizeof events_vert_spv);
     VkShaderModule fs = make_module(dev, events_frag_spv, sizeof events_frag_spv);
     VkPipelineShaderStageCreateInfo stages[2] = {
@@ -216,13 +203,13 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .bindingCount = BINDING_COUNT,
         .pBindings = b,
     };
-    VK_CHECK(vkCreateDescriptorSetLayout(dev, &dslci, NULL, &r->set_layout));
+    LEAP_VK_CHECK(vkCreateDescriptorSetLayout(dev, &dslci, NULL, &r->set_layout));
     VkPipelineLayoutCreateInfo plci = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
         .setLayoutCount = 1,
         .pSetLayouts = &r->set_layout,
     };
-    VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
+    LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
     leap_result lr = create_compute(r, composite_spv, sizeof composite_spv, &r->composite, err);
     if (!lr) lr = create_compute(r, resolve_spv, sizeof resolve_spv, &r->resolve, err);
     if (!lr) lr = create_events_pipeline(r, err);
@@ -237,7 +224,7 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
         .maxLod = 0.0f,
     };
-    VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->linear_sampler));
+    LEAP_VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->linear_sampler));
     VkDescriptorPoolSize sizes[] = {
         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
         {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
@@ -249,14 +236,14 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .poolSizeCount = 3,
         .pPoolSizes = sizes,
     };
-    VK_CHECK(vkCreateDescriptorPool(dev, &dpci, NULL, &r->pool));
+    LEAP_VK_CHECK(vkCreateDescriptorPool(dev, &dpci, NULL, &r->pool));
     VkDescriptorSetAllocateInfo dsai = {
         .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
         .descriptorPool = r->pool,
         .descriptorSetCount = 1,
         .pSetLayouts = &r->set_layout,
     };
-    VK_CHECK(vkAllocateDescriptorSets(dev, &dsai, &r->set));
+    LEAP_VK_CHECK(vkAllocateDescriptorSets(dev, &dsai, &r->set));
     lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_frame_gpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &r->frame, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
                                          &r->counters, err);
@@ -546,7 +533,7 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_view *view,
         .height = (uint32_t)view->height,
         .layers = 1,
     };
-    VK_CHECK(vkCreateFramebuffer(r->gpu->device, &fci, NULL, &r->framebuffer));
+    LEAP_VK_CHECK(vkCreateFramebuffer(r->gpu->device, &fci, NULL, &r->framebuffer));
     r->fb_width = (uint32_t)view->width;
     r->fb_height = (uint32_t)view->height;
     r->pixels_allocated = pixels;
@@ -681,7 +668,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     if (lists && !r->box_set)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: sparseleap needs occupancy boxes");
     size_t pixels = (size_t)view->width * view->height;
-    double t0 = now_ms();
+    double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
     uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
@@ -696,7 +683,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     }
     fill_frame(r, view, march, mode, box_count, r->frame.mapped);
     write_descriptors(r);
-    double t1 = now_ms();
+    double t1 = leap__now_ms();
     st.upload_ms = t1 - t0;
 
     leap_gpu *gpu = r->gpu;
@@ -721,7 +708,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                    VK_ACCESS_HOST_READ_BIT);
     if ((lr = leap_gpu_submit_wait(gpu, err))) return lr;
-    double t2 = now_ms();
+    double t2 = leap__now_ms();
     st.render_ms = t2 - t1;
     double ts[TS_COUNT];
     if (gpu->timestamps && leap_gpu_read_timestamps(gpu, TS_COUNT, ts, err) == LEAP_OK) {
@@ -751,7 +738,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         }
     }
     r->lists_valid = lists;
-    st.readback_ms = now_ms() - t2;
+    st.readback_ms = leap__now_ms() - t2;
     st.samples_mean = (double)st.total_samples / (double)pixels;
     st.events_mean = (double)events / (double)pixels;
     st.segments_mean = (double)segs / (double)pixels;

@@ -1,17 +1,11 @@
 /* Scene set-up shared by every command: grid, atlas, transfer function, occupancy, boxes. */
 #include "leap/scene.h"
+#include "util.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
 
 static leap_result open_grid(const char *path, const char *name, leap_grid **grid, leap_error *err)
 {
@@ -50,7 +44,7 @@ int leap_scene_label_count(double lo, double hi)
 
 static leap_result build_occupancy(leap_scene *s, leap_error *err)
 {
-    double t = now_ms();
+    double t = leap__now_ms();
     size_t n = leap_grid_brick_count(s->grid);
     leap_brick *bricks = malloc((n ? n : 1) * sizeof *bricks);
     if (!bricks) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", n);
@@ -68,7 +62,7 @@ static leap_result build_occupancy(leap_scene *s, leap_error *err)
     }
     if (!r) r = leap_occupancy_create(&od, &s->occupancy, err);
     free(bricks);
-    s->occupancy_ms = now_ms() - t;
+    s->occupancy_ms = leap__now_ms() - t;
     return r;
 }
 
@@ -77,15 +71,15 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
     if (tf != &s->tf) s->tf = *tf;
     s->march.range_lo = lo;
     s->march.range_hi = hi;
-    double t = now_ms();
+    double t = leap__now_ms();
     leap_result r = leap_occupancy_classify(s->occupancy, &s->tf, lo, hi, err);
-    s->classify_ms = now_ms() - t;
+    s->classify_ms = leap__now_ms() - t;
     if (r) return r;
-    t = now_ms();
+    t = leap__now_ms();
     leap_boxes_destroy(s->boxes);
     s->boxes = NULL;
     r = leap_boxes_create(s->occupancy, s->merge, &s->boxes, err);
-    s->boxes_ms = now_ms() - t;
+    s->boxes_ms = leap__now_ms() - t;
     return r;
 }
 
@@ -95,9 +89,9 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     leap_scene *s = calloc(1, sizeof *s);
     if (!s) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
     s->merge = !desc->no_merge;
-    double t = now_ms();
+    double t = leap__now_ms();
     leap_result r = open_grid(desc->path, desc->grid, &s->grid, err);
-    s->load_ms = now_ms() - t;
+    s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);
         s->march.step = desc->step > 0 ? desc->step : 0.5;
@@ -109,10 +103,10 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         s->march.range_hi = hi;
     }
     if (!r) {
-        t = now_ms();
+        t = leap__now_ms();
         leap_atlas_desc ad = {.grid = s->grid};
         r = leap_atlas_create(&ad, &s->atlas, err);
-        s->atlas_ms = now_ms() - t;
+        s->atlas_ms = leap__now_ms() - t;
     }
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);

@@ -62,6 +62,16 @@ void leap_gpu_destroy(leap_gpu *gpu); /* accepts NULL */
 
 const char *leap_vk_result_name(VkResult r);
 
+/* Returns LEAP_ERR_VULKAN with the call and the VkResult's name from a function that has a
+ * `leap_error *err` in scope, when `call` does not give VK_SUCCESS. */
+#define LEAP_VK_CHECK(call)                                                                \
+    do {                                                                                   \
+        VkResult leap_vk_r_ = (call);                                                      \
+        if (leap_vk_r_ != VK_SUCCESS)                                                      \
+            return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: %s failed: %s", #call,           \
+                             leap_vk_result_name(leap_vk_r_));                             \
+    } while (0)
+
 /* Host-visible, coherent, persistently mapped buffer. */
 leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsageFlags usage,
                                    leap_buffer *out, leap_error *err);
