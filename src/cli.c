@@ -8,7 +8,9 @@
 
 int cli_render(int argc, char **argv);
 int cli_info(int argc, char **argv);
+int cli_segments(int argc, char **argv);
 int cli_bench(int argc, char **argv);
+int cli_view(int argc, char **argv);
 
 static const char *main_help =
     "usage: leap <command> [options]\n"
@@ -18,7 +20,9 @@ static const char *main_help =
     "commands:\n"
     "  render VOLUME.vdb -o OUT.{png,exr,tif}   render one image\n"
     "  info VOLUME.vdb [--json] [--tf T ...]    describe the grids in a file\n"
+    "  segments VOLUME.vdb --pixel X,Y | -o DIR explain the ray events and segment lists\n"
     "  bench VOLUME.vdb ... -o DIR              time every mode against the reference\n"
+    "  view VOLUME.vdb                          interactive window (orbit, modes, transfer functions)\n"
     "\n"
     "Run 'leap <command> --help' for the options of a command.\n"
     "Exit codes: 0 success, 1 runtime failure, 2 usage error.\n";
@@ -40,6 +44,8 @@ int leap_cli_main(int argc, char **argv)
     }
     if (!strcmp(verb, "render")) return cli_render(argc, argv);
     if (!strcmp(verb, "info")) return cli_info(argc, argv);
+    if (!strcmp(verb, "segments")) return cli_segments(argc, argv);
     if (!strcmp(verb, "bench")) return cli_bench(argc, argv);
+    if (!strcmp(verb, "view")) return cli_view(argc, argv);
     return cli_usage_error(NULL, "unknown command '%s'", verb);
 }

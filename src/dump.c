@@ -175,6 +175,27 @@ static int event_cmp(const void *pa, const void *pb)
     return a->order < b->order ? -1 : a->order > b->order;
 }
 
+/* 1 if t lies within float rounding (of a ray computed in float) of a lattice point. */
+static int near_lattice(double t, double step)
+{
+    double k = floor(t / step + 0.5);
+    return fabs(t - k * step) <= 1e-4 * fmax(1.0, fabs(t));
+}
+
+/* Interval ends of the marched part of the ray that sit on a lattice point up to rounding:
+ * each can make the float march take one sample more or less than the double count. */
+static uint32_t near_lattice_ends(const leap_dump_pixel *p, double step)
+{
+    uint32_t n = near_lattice(p->t_enter, step) + near_lattice(p->t_exit, step);
+    if (p->flags & LEAP_DUMP_OVERFLOW) return n;
+    for (uint32_t i = 0; i < p->segment_count; ++i) {
+        const leap_dump_segment *s = &p->segments[i];
+        n += s->t0 > p->t_enter && s->t0 < p->t_exit && near_lattice(s->t0, step);
+        n += s->t1 > p->t_enter && s->t1 < p->t_exit && near_lattice(s->t1, step);
+    }
+    return n;
+}
+
 leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pixel *p, leap_error *err)
 {
     if (x < 0 || y < 0 || x >= f->view.width || y >= f->view.height)
@@ -249,7 +270,13 @@ leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pi
         /* Early termination leaves the transmittance below the threshold: opacity above 1 - T. */
         int stopped = p->alpha >= 0.0f && p->alpha > 1.0 - LEAP_ERT_TRANSMITTANCE - 1e-5 &&
                       (uint32_t)p->samples < p->lattice_samples;
-        p->flags |= stopped ? LEAP_DUMP_EARLY_STOP : LEAP_DUMP_MISMATCH;
+        uint32_t diff = (uint32_t)abs((int32_t)p->lattice_samples - p->samples);
+        if (stopped)
+            p->flags |= LEAP_DUMP_EARLY_STOP;
+        else if (p->in_domain && diff <= near_lattice_ends(p, step))
+            p->flags |= LEAP_DUMP_ROUNDING;
+        else
+            p->flags |= LEAP_DUMP_MISMATCH;
     }
     return LEAP_OK;
 }
@@ -489,6 +516,11 @@ int leap_dump_heatmap_width(int width)
 {
     int b = bar_width(width);
     return width + b / 2 + b;
+}
+
+int leap_dump_heatmap_bar_x(int width)
+{
+    return width + bar_width(width) / 2;
 }
 
 leap_result leap_dump_write_heatmap(const char *path, int width, int height, const float *values,

@@ -48,8 +48,10 @@ typedef struct leap_dump_segment {
 /* Pixel flags (leap_dump_pixel.flags, and the binary dump's pixel records). */
 #define LEAP_DUMP_OVERFLOW 1u    /* lists overflowed: the pixel marched its whole ray */
 #define LEAP_DUMP_EARLY_STOP 2u  /* early ray termination stopped before the last lattice point */
-#define LEAP_DUMP_MISMATCH 4u    /* renderer samples differ from the lattice count without ERT */
+#define LEAP_DUMP_MISMATCH 4u    /* renderer samples differ from the lattice count, unexplained */
 #define LEAP_DUMP_UNMATCHED 8u   /* an event's order matched no box */
+#define LEAP_DUMP_ROUNDING 16u   /* renderer samples differ by lattice points that lie within float
+                                    rounding of a segment or domain end (the GPU's ray is float) */
 
 typedef struct leap_dump_pixel {
     int x, y;
@@ -140,6 +142,8 @@ void leap_dump_colormap(double u, float rgb[3]);
 
 /* Width of a heat-map image for a map `width` pixels wide: the map, a gap, and the colour bar. */
 int leap_dump_heatmap_width(int width);
+/* First column of the colour bar in that image (the bar runs to the right edge). */
+int leap_dump_heatmap_bar_x(int width);
 #define LEAP_DUMP_NO_DATA_GREY 0.25f /* colour (grey level) of pixels without a value */
 
 /* Writes values (width x height, row 0 at the top) as a PNG (or any leap_image_write format)
