@@ -72,6 +72,8 @@ struct leap_occupancy {
     uint64_t root_count[LEAP_CLASS_COUNT];
     uint32_t root_cls;
     double build_ms, classify_ms;
+    int bounds_found;            /* cached by classify: bounds of NONEMPTY/UNKNOWN cells */
+    double bounds_lo[3], bounds_hi[3];
 };
 
 
@@ -490,6 +492,8 @@ typedef struct classifier {
     uint32_t prefix[N_TABLE + 1]; /* prefix[i] = number of entries < i with opacity > 0 */
 } classifier;
 
+static int compute_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);
+
 static uint32_t classify_range(const classifier *c, float vmin, float vmax)
 {
     if (vmin != vmin || vmax != vmax) return LEAP_CLASS_NONEMPTY;
@@ -544,6 +548,7 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
         occ->range_cls[i] = (uint8_t)classify_range(cl, occ->ranges[i].lo, occ->ranges[i].hi);
     occ->bg_cls = classify_range(cl, occ->background, occ->background);
     update_counts(occ);
+    occ->bounds_found = compute_bounds(occ, occ->bounds_lo, occ->bounds_hi);
     occ->classify_ms = leap__now_ms() - t0;
     return LEAP_OK;
 }
@@ -605,9 +610,10 @@ static void bounds_walk(const leap_occupancy *occ, uint32_t ref, uint32_t level,
     }
 }
 
-int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
+/* Bounds of the non-empty cells under the current classification (walks the tree). */
+static int compute_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
 {
-    if (!occ || occ->cells[0] == 0 || occ->cells[1] == 0 || occ->cells[2] == 0) return 0;
+    if (occ->cells[0] == 0 || occ->cells[1] == 0 || occ->cells[2] == 0) return 0;
     if (occ->bg_cls != LEAP_CLASS_EMPTY) {
         /* every stored leaf lies inside the grid */
         for (int a = 0; a < 3; ++a) lo[a] = 0.0, hi[a] = (double)occ->cells[a] * LEAP_CELL;
@@ -619,6 +625,13 @@ int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], doub
     bounds_walk(occ, occ->root, occ->depth, org, l, h, &found);
     if (!found) return 0;
     for (int a = 0; a < 3; ++a) lo[a] = l[a], hi[a] = h[a];
+    return 1;
+}
+
+int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
+{
+    if (!occ || !occ->bounds_found) return 0;
+    for (int a = 0; a < 3; ++a) lo[a] = occ->bounds_lo[a], hi[a] = occ->bounds_hi[a];
     return 1;
 }
 
