@@ -34,12 +34,12 @@ uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
 // The octree mode: walks the lattice, looking up the tree leaf of the next sample; an EMPTY
 // leaf skips every sample before its exit, any other leaf marches every sample up to its exit.
 // Restarting the descent from the root at each leaf replaces the PUSH/POP stack.
-void leap_march_octree(leap_ray ray, float t_enter, float t_exit, inout float k_next, inout leap_accum acc)
+void leap_march_octree(leap_ray ray, leap_lattice lat, float t_enter, float t_exit, inout float j_next,
+                       inout leap_accum acc)
 {
-    float dt = frame.march.x;
-    k_next = ceil(max(t_enter, 0.0) / dt);
-    for (float t = k_next * dt; t <= t_exit && !leap_accum_done(acc); t = k_next * dt) {
-        // The same float position and cell the sampler would use for this sample.
+    j_next = leap_lattice_first(lat, t_enter);
+    for (float t = lat.t0 + j_next * lat.dt; t <= t_exit && !leap_accum_done(acc); t = lat.t0 + j_next * lat.dt) {
+        // The same float position and cell the sampler uses for this sample.
         ivec3 cell = ivec3(floor(ray.origin + t * ray.dir)) >> LEAP_CELL_SHIFT;
         ivec3 lo;
         int size;
@@ -47,11 +47,11 @@ void leap_march_octree(leap_ray ray, float t_enter, float t_exit, inout float k_
         float b0, b1;
         if (!leap_clip_box(ray, vec3(lo * LEAP_CELL), vec3((lo + size) * LEAP_CELL), b0, b1)) b1 = t;
         if (cls == LEAP_CLASS_EMPTY && b1 > t) {
-            k_next = max(ceil(b1 / dt), k_next + 1.0);
+            j_next = max(leap_lattice_first(lat, b1), j_next + 1.0);
         } else {
-            // Non-empty, or a sample on the exit face (rounding): march up to the leaf's exit;
-            // the sample at t is always taken, so every step makes progress.
-            leap_march_interval(ray, t, min(max(b1, t), t_exit), k_next, acc);
+            // Non-empty, or a sample on the exit face (rounding): march from this sample up to
+            // the leaf's exit; the sample at t is always taken, so every step makes progress.
+            leap_march_interval(ray, lat, t_enter, min(max(b1, t), t_exit), j_next, acc);
         }
     }
 }
@@ -63,31 +63,31 @@ void main()
     uint pixel = pix.y * frame.image.x + pix.x;
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
-    float t_enter, t_exit, k_next = 0.0, naive_samples = 0.0;
+    float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
     if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit)) {
+        leap_lattice lat = leap_lattice_make(t_enter);
         uint mode = frame.image.z;
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
         if (mode == LEAP_MODE_NAIVE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
-            leap_march_interval(ray, t_enter, t_exit, k_next, acc);
+            leap_march_interval(ray, lat, t_enter, t_exit, j_next, acc);
         } else if (mode == LEAP_MODE_OCTREE) {
-            leap_march_octree(ray, t_enter, t_exit, k_next, acc);
+            leap_march_octree(ray, lat, t_enter, t_exit, j_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;
             if (leap_clip_box(ray, frame.bbox_min.xyz, frame.bbox_max.xyz, b0, b1))
-                leap_march_interval(ray, max(b0, t_enter), min(b1, t_exit), k_next, acc);
+                leap_march_interval(ray, lat, max(b0, t_enter), min(b1, t_exit), j_next, acc);
         } else {
             uint count = list.x & LEAP_PIXEL_COUNT_MASK, base = pixel * frame.lists.y;
             for (uint s = 0u; s < count && !leap_accum_done(acc); ++s) {
                 vec2 seg = segments[base + s];
-                leap_march_interval(ray, max(seg.x, t_enter), min(seg.y, t_exit), k_next, acc);
+                leap_march_interval(ray, lat, max(seg.x, t_enter), min(seg.y, t_exit), j_next, acc);
             }
         }
         // What naive marching takes for this pixel: the same lattice from the domain entry
         // to the domain exit, or to the sample where early termination stopped every mode.
-        float dt = frame.march.x;
-        float k_first = ceil(max(t_enter, 0.0) / dt);
-        float k_end = leap_accum_done(acc) ? k_next : floor(t_exit / dt) + 1.0;
-        naive_samples = max(k_end - k_first, 0.0);
+        float j_first = leap_lattice_first(lat, t_enter);
+        float j_end = leap_accum_done(acc) ? j_next : leap_lattice_end(lat, t_exit);
+        naive_samples = max(j_end - j_first, 0.0);
     }
 
     acc.color.a = 1.0 - acc.transmittance;

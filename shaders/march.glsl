@@ -116,20 +116,49 @@ bool leap_accum_done(leap_accum a)
     return a.transmittance < frame.limits.x;
 }
 
-// Marches the lattice samples t_k = k * step that lie in [ta, tb], skipping indices below
-// k_next (so adjacent intervals never take a sample twice); k_next ends one past the last
-// index visited.
-void leap_march_interval(leap_ray r, float ta, float tb, inout float k_next, inout leap_accum acc)
+// The ray's sample lattice t_j = t0 + j * dt, j = 0, 1, ...: t0 is the lattice point k * dt
+// (k integer) at or just below where the ray enters the domain, computed the same way in
+// every mode, so j stays small and exact in float even far from the grid's origin.
+struct leap_lattice {
+    float t0;
+    float dt;
+};
+
+leap_lattice leap_lattice_make(float t_enter)
 {
-    float dt = frame.march.x;
-    float k = max(ceil(max(ta, 0.0) / dt), k_next);
+    leap_lattice l;
+    l.dt = frame.march.x;
+    l.t0 = floor(max(t_enter, 0.0) / l.dt) * l.dt;
+    return l;
+}
+
+// The first j whose sample is at or after ta.
+float leap_lattice_first(leap_lattice l, float ta)
+{
+    return max(ceil((ta - l.t0) / l.dt), 0.0);
+}
+
+// One past the last j whose sample is at or before tb, by the same test the march loop uses.
+float leap_lattice_end(leap_lattice l, float tb)
+{
+    float j = max(floor((tb - l.t0) / l.dt) + 1.0, 0.0);
+    if (j > 0.0 && l.t0 + (j - 1.0) * l.dt > tb) j -= 1.0;
+    if (l.t0 + j * l.dt <= tb) j += 1.0;
+    return j;
+}
+
+// Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
+// intervals never take a sample twice); j_next ends one past the last index visited.
+void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
+{
+    float j = max(leap_lattice_first(lat, ta), j_next);
     // Texel coordinate of the TF table: u in [0, 1] maps onto the first to the last texel
     // centre; folded into one multiply-add of the stored value s, then clamped.
     const float n = float(textureSize(tf_table, 0));
     float tf_scale = frame.march.z * (n - 1.0) / n, tf_offset = (frame.march.w * (n - 1.0) + 0.5) / n;
     float tf_lo = 0.5 / n, tf_hi = (n - 0.5) / n;
     leap_cell_cursor cur = leap_cursor_init();
-    for (float t = k * dt; t <= tb; k += 1.0, t = k * dt) {
+    for (float t = lat.t0 + j * lat.dt; t <= tb; j += 1.0, t = lat.t0 + j * lat.dt) {
         float s = leap_sample(cur, r.origin + t * r.dir);
         vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
         acc.samples++;
@@ -139,9 +168,9 @@ void leap_march_interval(leap_ray r, float ta, float tb, inout float k_next, ino
         float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
         acc.color.rgb += acc.transmittance * alpha * c.rgb;
         acc.transmittance *= 1.0 - alpha;
-        if (leap_accum_done(acc)) { k += 1.0; break; }
+        if (leap_accum_done(acc)) { j += 1.0; break; }
     }
-    k_next = k;
+    j_next = j;
 }
 
 #endif
