@@ -52,8 +52,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "leap/renderer.h"
@@ -63,6 +67,11 @@
 #define TOL 1e-5
 #define NM LEAP_RENDER_MODE_COUNT
 #define PI 3.14159265358979323846
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LEAP_ASAN 1
+#endif
+#endif
 
 /* Rendering order: sparseleap last, so its per-pixel lists stay readable afterwards. */
 static const int mode_order[NM] = {LEAP_RENDER_NAIVE, LEAP_RENDER_BBOX, LEAP_RENDER_OCTREE, LEAP_RENDER_SPARSELEAP};
@@ -1990,6 +1999,62 @@ static void case_overflow(gpu *g, const char *what)
     end();
 }
 
+/* Child process of case_fill_int32_end: fills one leaf in the last root node of the int32 index
+ * range (x in [2^31 - 4096, 2^31 - 1]), saves and reads it back. Exit status 0 = all well. */
+static int fill_int32_end_child(void)
+{
+    leap_error err = {{0}};
+    leap_vdb_writer *w = NULL;
+    if (leap_vdb_writer_create(&w, &err) != LEAP_OK) return 2;
+    int g = leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err);
+    const int32_t lo[3] = {2147479552, 0, 0}, hi[3] = {2147479559, 7, 7};
+    leap_vdb_writer_fill(w, g, lo, hi, 1.0, 1);
+    char path[1024];
+    tmp_path("fill_int32_end", path, sizeof path);
+    leap_result r = leap_vdb_writer_save(w, path, &err);
+    leap_vdb_writer_destroy(w);
+    if (r != LEAP_OK) {
+        fprintf(stderr, "fill near INT32_MAX: %s\n", err.msg);
+        return 3;
+    }
+    leap_vdb_file *f = NULL;
+    leap_grid *grid = NULL;
+    if (leap_vdb_open(path, &f, &err) != LEAP_OK || leap_vdb_load_grid(f, 0, &grid, &err) != LEAP_OK) return 4;
+    uint64_t n = leap_grid_get_info(grid)->active_voxels;
+    leap_grid_destroy(grid);
+    leap_vdb_close(f);
+    return n == 512 ? 0 : 5;
+}
+
+/* The writer's fill of a box in the last 4096 voxels of the int32 range: OpenVDB's fill loop
+ * advances to the next tile with tile_max + 1, which overflows there, so it never ends (and
+ * allocates without bound). Run in a child process with an address-space limit and an alarm,
+ * so that a failure costs seconds, not the machine. Must run before OpenVDB / TBB start. */
+static void case_fill_int32_end(void)
+{
+    if (!begin("vdb writer: a fill box in the last root node of the int32 index range")) return;
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+#if !defined(__SANITIZE_ADDRESS__) && !defined(LEAP_ASAN)
+        /* (AddressSanitizer reserves far more address space than this: no limit there) */
+        struct rlimit rl = {(rlim_t)1 << 31, (rlim_t)1 << 31};
+        setrlimit(RLIMIT_AS, &rl);
+#endif
+        alarm(8);
+        _exit(fill_int32_end_child());
+    }
+    int status = 0;
+    int ok = pid > 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (WIFSIGNALED(status))
+        printf("  fill of x in [2147479552, 2147479559]: child killed by signal %d (%s)\n", WTERMSIG(status),
+               WTERMSIG(status) == SIGALRM ? "still filling after 8 s" : "crashed");
+    else
+        printf("  fill of x in [2147479552, 2147479559]: child exit status %d\n", WEXITSTATUS(status));
+    CHECK_MSG(ok, "leap_vdb_writer_fill of a leaf at x = 2^31 - 4096 does not complete (status 0x%x)", status);
+    end();
+}
+
 int main(void)
 {
     double t0 = now_s();
@@ -1997,6 +2062,7 @@ int main(void)
     only = getenv("LEAP_HARD_ONLY");
     ramp_tf(&RAMP);
     mkdir(LEAP_TEST_TMP, 0755);
+    case_fill_int32_end(); /* first: forks, before OpenVDB and TBB start */
     if (!gpu_init(&G, NULL)) {
         CHECK(G.r != NULL);
         return check_exit_code();
