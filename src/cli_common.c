@@ -10,25 +10,35 @@
 #include <time.h>
 #include <unistd.h>
 
+/* Formats a message and replaces control characters (a newline in a grid name read from a
+ * damaged file, say) so that every message stays on one line. */
+static void format_line(char *buf, size_t cap, const char *fmt, va_list ap)
+{
+    vsnprintf(buf, cap, fmt, ap);
+    for (char *p = buf; *p; ++p)
+        if ((unsigned char)*p < 0x20 || *p == 0x7f) *p = '?';
+}
+
 int cli_usage_error(const char *verb, const char *fmt, ...)
 {
+    char msg[1024];
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "leap%s%s: ", verb ? " " : "", verb ? verb : "");
-    vfprintf(stderr, fmt, ap);
-    fprintf(stderr, " (see 'leap%s%s --help')\n", verb ? " " : "", verb ? verb : "");
+    format_line(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    fprintf(stderr, "leap%s%s: %s (see 'leap%s%s --help')\n", verb ? " " : "", verb ? verb : "", msg, verb ? " " : "",
+            verb ? verb : "");
     return EXIT_USAGE;
 }
 
 int cli_runtime_error(const char *fmt, ...)
 {
+    char msg[1024];
     va_list ap;
     va_start(ap, fmt);
-    fprintf(stderr, "leap: ");
-    vfprintf(stderr, fmt, ap);
-    fputc('\n', stderr);
+    format_line(msg, sizeof msg, fmt, ap);
     va_end(ap);
+    fprintf(stderr, "leap: %s\n", msg);
     return EXIT_RUNTIME;
 }
 
@@ -233,6 +243,22 @@ int cli_view_options_check(const char *verb, const cli_view_options *o, int allo
     if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
     if (o->has_eye != o->has_target) return cli_usage_error(verb, "--eye and --target go together");
     if (o->has_up && !o->has_eye) return cli_usage_error(verb, "--up needs --eye and --target");
+    if (o->has_eye) {
+        /* The camera's own checks (eye == target, zero up, up along the view), in world space
+         * like at render time, but reported here against the options. */
+        static const double identity[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+        const double origin[3] = {0, 0, 0};
+        leap_camera cam = {.fov_deg = o->fov, .ortho = o->ortho, .ortho_height = 1};
+        memcpy(cam.eye, o->eye, sizeof cam.eye);
+        memcpy(cam.target, o->target, sizeof cam.target);
+        memcpy(cam.up, o->up, sizeof cam.up);
+        leap_view view;
+        leap_error err = {{0}};
+        if (leap_view_make(&cam, 1, 1, identity, origin, &view, &err) != LEAP_OK)
+            return cli_usage_error(verb, "--eye %g,%g,%g --target %g,%g,%g --up %g,%g,%g: %s", o->eye[0], o->eye[1],
+                                   o->eye[2], o->target[0], o->target[1], o->target[2], o->up[0], o->up[1], o->up[2],
+                                   err.msg);
+    }
     int reference = allow_reference && strcmp(o->mode_name, "reference") == 0;
     if (!reference && leap_mode_from_name(o->mode_name) < 0)
         return cli_usage_error(verb, "unknown --mode '%s' (sparseleap, octree, bbox, naive%s)", o->mode_name,

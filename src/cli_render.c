@@ -1,9 +1,11 @@
 /* `leap render`: one image of a volume, with optional stats. */
 #include <cjson/cJSON.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #include "cli_common.h"
 #include "leap/image.h"
@@ -28,6 +30,20 @@ static const char *render_help_tail =
 typedef struct stage_times {
     double load, atlas, occupancy, classify, boxes, setup, upload, order, render, readback, write;
 } stage_times;
+
+/* 1 if paths a and b name the same file, whether or not it exists yet. */
+static int same_file(const char *a, const char *b)
+{
+    if (!strcmp(a, b)) return 1;
+    struct stat sa, sb;
+    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    const char *na = strrchr(a, '/'), *nb = strrchr(b, '/');
+    if (strcmp(na ? na + 1 : a, nb ? nb + 1 : b) != 0) return 0;
+    char da[PATH_MAX], db[PATH_MAX], ra[PATH_MAX], rb[PATH_MAX];
+    snprintf(da, sizeof da, "%.*s", na ? (int)(na - a) + 1 : 1, na ? a : ".");
+    snprintf(db, sizeof db, "%.*s", nb ? (int)(nb - b) + 1 : 1, nb ? b : ".");
+    return realpath(da, ra) && realpath(db, rb) && !strcmp(ra, rb);
+}
 
 static leap_result write_output(const char *path, int w, int h, const float *rgba, const float *depth,
                                 const float *samples, leap_error *err)
@@ -144,11 +160,13 @@ int cli_render(int argc, char **argv)
         if ((v = cli_option_value(argc, argv, &i, "-o", &missing)) || missing ||
             (v = cli_option_value(argc, argv, &i, "--output", &missing)) || missing) {
             if (missing) return cli_usage_error("render", "option %s needs a value", a);
+            if (output) return cli_usage_error("render", "output given twice (-o '%s', then '%s')", output, v);
             output = v;
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--stats", &missing)) || missing) {
             if (missing) return cli_usage_error("render", "option --stats needs a value");
+            if (stats) return cli_usage_error("render", "--stats given twice ('%s', then '%s')", stats, v);
             stats = v;
             continue;
         }
@@ -161,6 +179,8 @@ int cli_render(int argc, char **argv)
     if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
     if (!leap_image_can_write(output))
         return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+    if (stats && same_file(stats, output))
+        return cli_usage_error("render", "--stats '%s' is the same file as the output image", stats);
     if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
     if (stats && !cli_dir_writable(stats))
         return cli_runtime_error("%s: directory does not exist or is not writable", stats);
@@ -184,7 +204,7 @@ int cli_render(int argc, char **argv)
     rc = EXIT_RUNTIME;
     if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_view(scene, &cam, o.width, o.height, &view, &err))) {
         rc = cli_exit_code(r);
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_runtime_error("%s", err.msg);
         goto done;
     }
     size_t n = (size_t)o.width * o.height;
@@ -200,7 +220,7 @@ int cli_render(int argc, char **argv)
         double t = cli_now_ms();
         leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .view = &view, .march = &scene->march};
         if (leap_reference_render(&rd, rgba, depth, samples, &err)) {
-            fprintf(stderr, "leap: reference renderer: %s\n", err.msg);
+            cli_runtime_error("reference renderer: %s", err.msg);
             goto done;
         }
         times.render = cli_now_ms() - t;
@@ -214,20 +234,20 @@ int cli_render(int argc, char **argv)
         double t = cli_now_ms();
         leap_renderer_desc rd = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments};
         if (leap_renderer_create(&rd, &renderer, &err)) {
-            fprintf(stderr, "leap: %s\n", err.msg);
+            cli_runtime_error("%s", err.msg);
             goto done;
         }
         times.setup = cli_now_ms() - t;
         t = cli_now_ms();
         if (leap_renderer_set_volume(renderer, scene->atlas, &err) || leap_renderer_set_tf(renderer, &scene->tf, &err)) {
-            fprintf(stderr, "leap: %s: %s\n", o.input, err.msg);
+            cli_runtime_error("%s: %s", o.input, err.msg);
             goto done;
         }
         times.upload = cli_now_ms() - t;
         leap_renderer_set_occupancy(renderer, scene->occupancy, scene->boxes);
         if ((r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err))) {
             rc = cli_exit_code(r);
-            fprintf(stderr, "leap: %s\n", err.msg);
+            cli_runtime_error("%s", err.msg);
             goto done;
         }
         times.upload += fs.upload_ms - fs.order_ms;
@@ -238,7 +258,7 @@ int cli_render(int argc, char **argv)
 
     double t = cli_now_ms();
     if (write_output(output, o.width, o.height, rgba, depth, samples, &err)) {
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_runtime_error("%s", err.msg);
         goto done;
     }
     times.write = cli_now_ms() - t;
@@ -248,7 +268,7 @@ int cli_render(int argc, char **argv)
         cJSON_free(text);
         if (!ok) {
             remove(output);
-            fprintf(stderr, "leap: %s: cannot write the stats file\n", stats);
+            cli_runtime_error("%s: cannot write the stats file", stats);
             goto done;
         }
     }

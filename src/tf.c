@@ -363,6 +363,18 @@ leap_result leap_tf_load_json(const char *path, leap_tf *out, leap_error *err)
         free(text);
         return r;
     }
+    size_t after = end && end >= text ? (size_t)(end - text) : size;
+    while (after < size && (text[after] == ' ' || text[after] == '\t' || text[after] == '\n' ||
+                            text[after] == '\r'))
+        ++after;
+    if (after < size) {
+        r = leap_fail(err, LEAP_ERR_FORMAT,
+                      "%s: JSON syntax error: text after the colour map at line %d (byte %zu)", path,
+                      line_of(text, after), after);
+        free(text);
+        cJSON_Delete(root);
+        return r;
+    }
     free(text);
 
     double *rgb = NULL, *op = NULL;

@@ -14,15 +14,18 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <ios>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <new>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -39,7 +42,13 @@ using LeafT = FloatTree::LeafNodeType; // 8^3 leaf
 void init_openvdb()
 {
     static std::once_flag once;
-    std::call_once(once, [] { vdb::initialize(); });
+    std::call_once(once, [] {
+        vdb::initialize();
+        // Delayed-load metadata serves only memory-mapped delayed loading, which leap does not
+        // use, and its reader sizes buffers from counts in the file without checking them. As
+        // an unregistered type it is read as opaque bytes of a checked length (and dropped).
+        if (vdb::Metadata::isRegisteredType("__delayedload")) vdb::Metadata::unregisterType("__delayedload");
+    });
 }
 
 // Exception text on one line (OpenVDB messages may contain newlines).
@@ -59,6 +68,8 @@ leap_result guarded(leap_error *err, leap_result code, const std::string &what, 
         return f();
     } catch (const std::bad_alloc &) {
         return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", what.c_str());
+    } catch (const std::ios_base::failure &) {
+        return leap_fail(err, code, "%s: data ends early or cannot be read (truncated or corrupt file)", what.c_str());
     } catch (const vdb::Exception &e) {
         return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
     } catch (const std::exception &e) {
@@ -115,37 +126,276 @@ bool scalar_background(const vdb::GridBase &g, double *out)
     return true;
 }
 
-// Reads the grid descriptors of a .vdb file in file order, with OpenVDB's own readers
-// (io::File keeps them private and sorted by name). Their offsets also tell whether the
-// file is complete: OpenVDB does not notice some truncations by itself.
-class DescriptorReader : public vdb::io::Archive {
-public:
-    // Returns false for the old streamed format, which has no grid offsets.
-    bool read(const std::string &path, std::vector<vdb::io::GridDescriptor> &out)
-    {
-        std::ifstream is(path, std::ios_base::in | std::ios_base::binary);
-        if (!is) OPENVDB_THROW(vdb::IoError, "cannot open the file");
-        readHeader(is);
-        if (!inputHasGridOffsets()) return false;
-        // The same stream set-up as io::File::open.
-        vdb::io::StreamMetadata::Ptr meta(new vdb::io::StreamMetadata);
-        meta->setSeekable(true);
-        vdb::io::setStreamMetadataPtr(is, meta, /*transfer=*/false);
-        setFormatVersion(is);
-        setLibraryVersion(is);
-        setDataCompression(is);
-        vdb::MetaMap file_meta;
-        file_meta.readMeta(is);
-        const int32_t count = readGridCount(is);
-        for (int32_t i = 0; i < count && is; ++i) {
-            vdb::io::GridDescriptor gd;
-            gd.read(is);
-            out.push_back(gd);
-            gd.seekToEnd(is);
-        }
-        if (!is) OPENVDB_THROW(vdb::IoError, "the grid table is incomplete (truncated file)");
-        return true;
+// Damage found by the structure checks below, before OpenVDB reads the bytes.
+struct Corrupt : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// A name read from a file, made safe for a one-line message.
+std::string printable(const std::string &s)
+{
+    std::string out;
+    for (size_t i = 0; i < s.size() && i < 64; ++i) {
+        const unsigned char c = static_cast<unsigned char>(s[i]);
+        out += c >= 0x20 && c < 0x7f ? char(c) : '?';
     }
+    if (s.size() > 64) out += "...";
+    return out;
+}
+
+// Bounded reads of the byte range [pos, limit) of a file. OpenVDB allocates and fills a
+// buffer for every string and metadata value it reads, and loops over every count, before
+// it notices that the file is shorter: one flipped length byte costs gigabytes and minutes.
+// The checks below walk the same structures first and reject what does not fit.
+class Walker {
+public:
+    Walker(std::istream &is, uint64_t pos, uint64_t limit) : is_(is), pos_(pos), limit_(limit) {}
+    uint64_t pos() const { return pos_; }
+    void seek(uint64_t pos) { pos_ = pos; }
+    uint64_t left() const { return pos_ < limit_ ? limit_ - pos_ : 0; }
+    void need(uint64_t n, const std::string &what) const
+    {
+        if (n > left())
+            throw Corrupt(what + ": corrupt or truncated file (" + std::to_string(n) + " bytes needed, " +
+                          std::to_string(left()) + " left)");
+    }
+    void read(void *dst, size_t n, const std::string &what)
+    {
+        need(n, what);
+        is_.clear();
+        is_.seekg(std::streamoff(pos_));
+        is_.read(static_cast<char *>(dst), std::streamsize(n));
+        if (!is_) throw Corrupt(what + ": read error");
+        pos_ += n;
+    }
+    template <typename T>
+    T value(const std::string &what)
+    {
+        T v;
+        read(&v, sizeof v, what);
+        return v;
+    }
+    void skip(uint64_t n, const std::string &what)
+    {
+        need(n, what);
+        pos_ += n;
+    }
+    // OpenVDB's string: a uint32 length, then the bytes.
+    std::string str(const std::string &what)
+    {
+        const uint32_t n = value<uint32_t>(what);
+        need(n, what);
+        std::string s(n, '\0');
+        if (n) read(&s[0], n, what);
+        return s;
+    }
+
+private:
+    std::istream &is_;
+    uint64_t pos_, limit_;
+};
+
+// The header as io::Archive::readHeader reads it. Returns whether the file has grid offsets.
+bool walk_header(Walker &w, uint32_t *version)
+{
+    uint64_t magic = 0;
+    if (w.left() >= 8) magic = w.value<uint64_t>("magic number");
+    if (magic != uint64_t(vdb::OPENVDB_MAGIC)) throw Corrupt("not a VDB file (no VDB magic number)");
+    *version = w.value<uint32_t>("format version");
+    if (*version < vdb::OPENVDB_FILE_VERSION_SELECTIVE_COMPRESSION || *version > vdb::OPENVDB_FILE_VERSION)
+        throw Corrupt("unsupported VDB format version " + std::to_string(*version) + " (this build reads " +
+                      std::to_string(vdb::OPENVDB_FILE_VERSION_SELECTIVE_COMPRESSION) + " to " +
+                      std::to_string(vdb::OPENVDB_FILE_VERSION) + "): corrupt or too new");
+    w.skip(8, "library version");
+    const bool offsets = w.value<char>("grid offsets flag") != 0;
+    if (*version < vdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) w.skip(1, "compression flag");
+    char uuid[36];
+    w.read(uuid, sizeof uuid, "file UUID");
+    for (int i = 0; i < 36; ++i) {
+        const bool dash = i == 8 || i == 13 || i == 18 || i == 23;
+        if (dash ? uuid[i] != '-' : !std::isxdigit(static_cast<unsigned char>(uuid[i])))
+            throw Corrupt("corrupt header (file UUID)");
+    }
+    return offsets;
+}
+
+// A MetaMap as MetaMap::readMeta reads it: registered fixed-size types take their own size
+// whatever the stored size says (so the stored size must match), strings and unknown types
+// take the stored size.
+void walk_metamap(Walker &w, const std::string &what)
+{
+    const uint32_t count = w.value<uint32_t>(what);
+    for (uint32_t i = 0; i < count; ++i) {
+        const std::string entry = what + " entry " + std::to_string(i);
+        w.str(entry + " name");
+        const std::string type = w.str(entry + " type");
+        uint32_t size = w.value<uint32_t>(entry + " size");
+        if (type != "string" && vdb::Metadata::isRegisteredType(type)) {
+            const uint32_t fixed = vdb::Metadata::createMetadata(type)->size();
+            if (size != fixed)
+                throw Corrupt(entry + " (" + printable(type) + ") has size " + std::to_string(size) + ", expected " +
+                              std::to_string(fixed) + ": corrupt file");
+        }
+        w.skip(size, entry + " value");
+    }
+}
+
+// What precedes a grid's tree: compression flags, metadata, and the transform's map type
+// (the maps themselves are fixed-size, except a frustum's second map type).
+void walk_grid_prefix(Walker &w, uint32_t version, const std::string &label)
+{
+    if (version >= vdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) w.skip(4, label + " compression flags");
+    walk_metamap(w, label + " metadata");
+    const std::string map = w.str(label + " transform type");
+    if (map == "NonlinearFrustumMap") {
+        w.skip(version < vdb::OPENVDB_FILE_VERSION_FLOAT_FRUSTUM_BBOX ? 24 : 48, label + " frustum box");
+        w.skip(16, label + " frustum taper and depth");
+        w.str(label + " frustum second map type");
+    }
+}
+
+// A grid descriptor as GridDescriptor::read reads it. Returns the grid's label for messages;
+// *instance tells whether the grid shares another grid's tree.
+std::string walk_descriptor(Walker &w, uint32_t version, int index, int64_t pos[3], bool *instance)
+{
+    const std::string name = w.str("grid descriptor " + std::to_string(index) + " name");
+    const std::string label = "grid '" + printable(vdb::io::GridDescriptor::nameAsString(name)) + "'";
+    std::string type = w.str(label + " type");
+    const std::string half = "_HalfFloat"; // GridDescriptor's suffix for float grids saved as half
+    if (type.size() > half.size() && type.compare(type.size() - half.size(), half.size(), half) == 0)
+        type.resize(type.size() - half.size());
+    if (!vdb::GridBase::isRegistered(type))
+        throw Corrupt(label + " has an unknown grid type '" + printable(type) + "': corrupt file or unsupported type");
+    *instance = version >= vdb::OPENVDB_FILE_VERSION_GRID_INSTANCING && !w.str(label + " instance parent").empty();
+    for (int i = 0; i < 3; ++i) pos[i] = w.value<int64_t>(label + " offsets");
+    return label;
+}
+
+// A .vdb file read with OpenVDB's own readers (io::File keeps them private and sorts grids by
+// name), after the checks above, through streams that throw at the first failed read:
+// OpenVDB's tree readers do not check the stream and would go on building nodes from a
+// failed one. Their work is then bounded by the size of the file.
+class VdbReader : public vdb::io::Archive {
+public:
+    VdbReader(const std::string &path, uint64_t size) : path_(path), size_(size) {}
+
+    // Checks the structure, then reads the descriptors in file order and, for a file without
+    // grid offsets (written to a stream), every grid.
+    void open(std::vector<vdb::io::GridDescriptor> &descs, std::vector<vdb::GridBase::Ptr> &streamed)
+    {
+        std::ifstream raw(path_, std::ios_base::in | std::ios_base::binary);
+        if (!raw) OPENVDB_THROW(vdb::IoError, "cannot open the file");
+        Walker w(raw, 0, size_);
+        const bool offsets = walk_header(w, &version_);
+        walk_metamap(w, "file metadata");
+        const int32_t count = w.value<int32_t>("grid count");
+        if (count < 0) throw Corrupt("corrupt grid count " + std::to_string(count));
+        if (offsets) {
+            for (int i = 0; i < count; ++i) {
+                int64_t pos[3];
+                bool instance = false;
+                const std::string label = walk_descriptor(w, version_, i, pos, &instance);
+                // grid start <= tree data start <= end (an instance stores no tree: 0 there)
+                if (pos[0] < int64_t(w.pos()) || pos[2] < pos[0] ||
+                    (!(instance && pos[1] == 0) && (pos[1] < pos[0] || pos[2] < pos[1])))
+                    throw Corrupt("corrupt grid table (" + label + ")");
+                if (uint64_t(pos[2]) > size_)
+                    throw Corrupt("truncated: " + label + " ends at byte " + std::to_string(pos[2]) +
+                                  " but the file has " + std::to_string(size_) + " bytes");
+                Walker g(raw, uint64_t(pos[0]), uint64_t(pos[2]));
+                walk_grid_prefix(g, version_, label);
+                w.seek(uint64_t(pos[2]));
+            }
+        }
+
+        Stream s;
+        start(s);
+        vdb::MetaMap file_meta;
+        file_meta.readMeta(s.is);
+        if (readGridCount(s.is) != count) throw Corrupt("grid count changed while reading");
+        for (int i = 0; i < count; ++i) {
+            if (!offsets) {
+                // Each grid follows its descriptor; check both where they start.
+                Walker g(raw, uint64_t(s.is.tellg()), size_);
+                int64_t pos[3];
+                bool instance = false;
+                const std::string label = walk_descriptor(g, version_, i, pos, &instance);
+                walk_grid_prefix(g, version_, label);
+            }
+            vdb::io::GridDescriptor gd;
+            gd.read(s.is);
+            descs.push_back(gd);
+            if (offsets) {
+                gd.seekToEnd(s.is);
+                continue;
+            }
+            vdb::GridBase::Ptr grid = new_grid(gd);
+            readGrid(grid, gd, s.is);
+            if (gd.isInstance()) {
+                const int parent = find_parent(descs, gd);
+                grid->setTree(streamed[size_t(parent)]->baseTreePtr());
+            }
+            streamed.push_back(grid);
+        }
+    }
+
+    // Grid `gd` of this file: everything, or only its metadata and transform.
+    vdb::GridBase::Ptr read(const vdb::io::GridDescriptor &gd, bool full)
+    {
+        Stream s;
+        start(s);
+        gd.seekToGrid(s.is);
+        vdb::GridBase::Ptr grid = new_grid(gd);
+        if (full) {
+            readGrid(grid, gd, s.is);
+        } else {
+            readGridCompression(s.is);
+            grid->readMeta(s.is);
+            grid->readTransform(s.is);
+        }
+        return grid;
+    }
+
+    // Index of the instance parent of `gd` among `descs` (a grid that is no instance itself).
+    static int find_parent(const std::vector<vdb::io::GridDescriptor> &descs, const vdb::io::GridDescriptor &gd)
+    {
+        for (size_t i = 0; i < descs.size(); ++i)
+            if (descs[i].uniqueName() == gd.instanceParentName() && !descs[i].isInstance()) return int(i);
+        throw Corrupt("grid '" + printable(vdb::io::GridDescriptor::nameAsString(gd.uniqueName())) +
+                      "' is an instance of a missing grid: corrupt file");
+    }
+
+private:
+    struct Stream {
+        std::ifstream is;
+        vdb::io::StreamMetadata::Ptr meta; // the stream holds its address
+    };
+
+    // Opens the file and tags the stream as io::File::open does.
+    void start(Stream &s)
+    {
+        s.is.open(path_, std::ios_base::in | std::ios_base::binary);
+        if (!s.is) OPENVDB_THROW(vdb::IoError, "cannot open the file");
+        s.is.exceptions(std::ios_base::failbit | std::ios_base::badbit);
+        readHeader(s.is);
+        s.meta.reset(new vdb::io::StreamMetadata);
+        s.meta->setSeekable(true);
+        vdb::io::setStreamMetadataPtr(s.is, s.meta, /*transfer=*/false);
+        setFormatVersion(s.is);
+        setLibraryVersion(s.is);
+        setDataCompression(s.is);
+    }
+
+    static vdb::GridBase::Ptr new_grid(const vdb::io::GridDescriptor &gd)
+    {
+        vdb::GridBase::Ptr grid = vdb::GridBase::createGrid(gd.gridType());
+        grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
+        return grid;
+    }
+
+    std::string path_;
+    uint64_t size_;
+    uint32_t version_ = 0;
 };
 
 struct Range {
@@ -213,8 +463,8 @@ void range_in_box(const RootT &root, const int64_t lo[3], const int64_t hi[3], R
         b[i] = std::min(hi[i], lim_hi);
         if (a[i] > b[i]) return;
     }
-    const int64_t dim = Node2T::DIM;
-    auto align = [dim](int64_t v) { return v - (((v % dim) + dim) % dim); };
+    constexpr int64_t dim = Node2T::DIM;
+    auto align = [](int64_t v) { return v - (((v % dim) + dim) % dim); };
     for (int64_t kx = align(a[0]); kx <= b[0]; kx += dim)
         for (int64_t ky = align(a[1]); ky <= b[1]; ky += dim)
             for (int64_t kz = align(a[2]); kz <= b[2]; kz += dim) {
@@ -326,8 +576,10 @@ FloatTree::Ptr convert_tree(const vdb::GridBase &g)
 
 struct leap_vdb_file {
     std::string path;
-    std::unique_ptr<vdb::io::File> file;
-    std::vector<std::string> names; // unique names as io::File accepts them ("name[N]" for duplicates)
+    std::unique_ptr<VdbReader> reader;
+    std::vector<vdb::io::GridDescriptor> descs; // in file order
+    std::vector<vdb::GridBase::Ptr> streamed;   // every grid of a file without grid offsets
+    std::vector<std::string> names; // unique names ("name[N]" for duplicates)
     std::vector<std::string> plain; // grid names as written
     mutable std::vector<leap_grid_info> infos; // backgrounds are filled in lazily
     mutable std::vector<char> have_background;
@@ -346,6 +598,23 @@ struct leap_grid_reader {
     explicit leap_grid_reader(const FloatTree &t) : acc(t) {}
     vdb::tree::ValueAccessor<const FloatTree> acc;
 };
+
+namespace {
+
+// Grid `index` with its tree (an instance gets its parent's tree).
+vdb::GridBase::Ptr read_full_grid(const leap_vdb_file *file, size_t index)
+{
+    if (!file->streamed.empty()) return file->streamed[index]->deepCopyGrid();
+    const vdb::io::GridDescriptor &gd = file->descs[index];
+    vdb::GridBase::Ptr grid = file->reader->read(gd, true);
+    if (gd.isInstance()) {
+        const int parent = VdbReader::find_parent(file->descs, gd);
+        grid->setTree(file->reader->read(file->descs[size_t(parent)], true)->baseTreePtr());
+    }
+    return grid;
+}
+
+} // namespace
 
 struct WriterGrid {
     vdb::GridBase::Ptr grid;
@@ -377,33 +646,18 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
         init_openvdb();
         std::unique_ptr<leap_vdb_file> f(new leap_vdb_file);
         f->path = path;
-        f->file.reset(new vdb::io::File(path));
+        f->reader.reset(new VdbReader(path, uint64_t(st.st_size)));
         // No delayed loading: a grid is read completely and checked once, at load time.
-        f->file->open(false);
-        std::vector<vdb::io::GridDescriptor> descs;
-        if (DescriptorReader().read(path, descs)) {
-            for (const vdb::io::GridDescriptor &gd : descs) {
-                const std::string name = vdb::io::GridDescriptor::nameAsString(gd.uniqueName());
-                if (gd.getGridPos() < 0 || gd.getGridPos() > gd.getBlockPos() || gd.getBlockPos() > gd.getEndPos())
-                    return leap_fail(err, LEAP_ERR_FORMAT, "%s: corrupt grid table (grid '%s')", what.c_str(),
-                                     name.c_str());
-                if (gd.getEndPos() > int64_t(st.st_size))
-                    return leap_fail(err, LEAP_ERR_FORMAT, "%s: truncated: grid '%s' ends at byte %lld but the "
-                                     "file has %lld bytes", what.c_str(), name.c_str(),
-                                     (long long)gd.getEndPos(), (long long)st.st_size);
-                f->names.push_back(name);
-                f->plain.push_back(gd.gridName());
-            }
-        } else {
-            for (auto it = f->file->beginName(); it != f->file->endName(); ++it) {
-                f->names.push_back(it.gridName());
-                f->plain.push_back(vdb::io::GridDescriptor::stripSuffix(it.gridName()));
-            }
-        }
-        for (const std::string &name : f->names) {
+        f->reader->open(f->descs, f->streamed);
+        for (size_t i = 0; i < f->descs.size(); ++i) {
+            const vdb::io::GridDescriptor &gd = f->descs[i];
+            const std::string name = vdb::io::GridDescriptor::nameAsString(gd.uniqueName());
+            f->names.push_back(name);
+            f->plain.push_back(gd.gridName());
             leap_grid_info info;
             std::memset(&info, 0, sizeof info);
-            meta_to_info(*f->file->readGridMetadata(name), name, &info);
+            vdb::GridBase::ConstPtr meta = f->streamed.empty() ? f->reader->read(gd, false) : f->streamed[i];
+            meta_to_info(*meta, name, &info);
             f->infos.push_back(info);
         }
         if (f->names.empty())
@@ -417,10 +671,6 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
 void leap_vdb_close(leap_vdb_file *file)
 {
     if (!file) return;
-    try {
-        if (file->file && file->file->isOpen()) file->file->close();
-    } catch (...) {
-    }
     delete file;
 }
 
@@ -443,7 +693,7 @@ leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_i
         // loading would read less, but it trips assertions in OpenVDB on corrupt files.)
         const std::string what = "'" + file->path + "', grid '" + file->names[i] + "'";
         leap_result r = guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
-            vdb::GridBase::Ptr g = file->file->readGrid(file->names[i]);
+            vdb::GridBase::Ptr g = read_full_grid(file, i);
             double bg = 0.0;
             if (scalar_background(*g, &bg)) file->infos[i].background = bg;
             file->cached_index = index;
@@ -488,7 +738,7 @@ leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, 
         {
             std::lock_guard<std::mutex> lock(file->mutex);
             if (file->cached_index == index) base = std::move(file->cached_grid);
-            else base = file->file->readGrid(file->names[gi]);
+            else base = read_full_grid(file, gi);
             file->cached_index = -1;
             file->cached_grid.reset();
         }

@@ -1,1 +1,723 @@
-/* placeholder until implemented */
+/* Viewer state, input mapping and the script parser (no window system here). */
+#include "leap/viewer.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "leap/tf.h"
+
+#define DEG2RAD (3.14159265358979323846 / 180.0)
+#define RAD2DEG (180.0 / 3.14159265358979323846)
+
+static const char *help_text =
+    "leap view keys and mouse:\n"
+    "  left drag            orbit\n"
+    "  middle drag,\n"
+    "  shift + left drag    pan\n"
+    "  right drag, wheel    zoom\n"
+    "  arrow keys           orbit in 5 degree steps\n"
+    "  1 2 3 4              mode: naive, bbox, octree, sparseleap\n"
+    "  + -                  step size up / down (x 1.25)\n"
+    "  t                    next transfer-function preset\n"
+    "  [ ]                  shift the value window down / up\n"
+    "  { }                  widen / narrow the value window\n"
+    "  b                    boxes overlay (wireframe coloured by class)\n"
+    "  h                    heat-map overlay (segments per pixel; samples in other modes)\n"
+    "  s                    screenshot to PNG\n"
+    "  r                    reset the camera\n"
+    "  ?                    this list\n"
+    "  q, Esc               quit\n";
+
+const char *leap_viewer_help_text(void)
+{
+    return help_text;
+}
+
+static int finite3(const double a[3])
+{
+    return isfinite(a[0]) && isfinite(a[1]) && isfinite(a[2]);
+}
+
+static int preset_index(const char *name)
+{
+    const char *const *p = leap_tf_preset_names();
+    for (int i = 0; p[i]; ++i)
+        if (strcmp(p[i], name) == 0) return i;
+    return -1;
+}
+
+static int preset_count(void)
+{
+    int n = 0;
+    for (const char *const *p = leap_tf_preset_names(); *p; ++p) ++n;
+    return n;
+}
+
+static void set_tf_name(leap_viewer *v, const char *name)
+{
+    snprintf(v->tf, sizeof v->tf, "%s", name);
+    v->tf_index = preset_index(v->tf);
+}
+
+/* Orbit parameters that put the eye where `cam` has it, about cam->target. */
+static void orbit_from_camera(leap_viewer *v, const leap_camera *cam)
+{
+    double d[3], len = 0;
+    for (int i = 0; i < 3; ++i) {
+        v->target[i] = cam->target[i];
+        d[i] = cam->eye[i] - cam->target[i];
+        len += d[i] * d[i];
+    }
+    len = sqrt(len);
+    double y = len > 0 ? d[1] / len : 0;
+    if (y > 1) y = 1;
+    if (y < -1) y = -1;
+    v->el = asin(y) * RAD2DEG;
+    if (v->el > LEAP_VIEWER_MAX_ELEVATION) v->el = LEAP_VIEWER_MAX_ELEVATION;
+    if (v->el < -LEAP_VIEWER_MAX_ELEVATION) v->el = -LEAP_VIEWER_MAX_ELEVATION;
+    v->az = (d[0] == 0 && d[2] == 0) ? 0 : atan2(d[0], d[2]) * RAD2DEG;
+    v->dist_radii = len / v->radius;
+}
+
+static void camera_home(leap_viewer *v)
+{
+    const leap_viewer_desc *d = &v->home;
+    v->initial = d->camera;
+    v->fov = d->camera.fov_deg;
+    v->ortho = d->camera.ortho;
+    v->ortho_zoom = d->camera.ortho && d->camera.ortho_height > 0 ? d->camera.ortho_height / (2 * d->radius) : 1;
+    if (d->camera_is_orbit) {
+        memcpy(v->target, d->center, sizeof v->target);
+        v->az = d->az;
+        v->el = d->el;
+        v->dist_radii = d->dist_radii;
+    } else {
+        orbit_from_camera(v, &d->camera);
+    }
+    v->use_initial = 1;
+}
+
+leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_error *err)
+{
+    memset(v, 0, sizeof *v);
+    if (!(desc->radius > 0) || !isfinite(desc->radius) || !finite3(desc->center))
+        return leap_fail(err, LEAP_ERR_USAGE, "viewer: bounding radius must be positive and finite");
+    if (!(desc->step > 0) || !isfinite(desc->step))
+        return leap_fail(err, LEAP_ERR_USAGE, "viewer: step must be a positive number");
+    if (!(desc->range[1] > desc->range[0]) || !isfinite(desc->range[0]) || !isfinite(desc->range[1]))
+        return leap_fail(err, LEAP_ERR_USAGE, "viewer: value window must have lo < hi");
+    if (!desc->camera_is_orbit) {
+        double d = 0;
+        for (int i = 0; i < 3; ++i) d += pow(desc->camera.eye[i] - desc->camera.target[i], 2);
+        if (!(d > 0) || !finite3(desc->camera.eye) || !finite3(desc->camera.target))
+            return leap_fail(err, LEAP_ERR_USAGE, "viewer: eye and target must differ");
+    }
+    if (!(desc->camera.fov_deg > 0 && desc->camera.fov_deg < 180))
+        return leap_fail(err, LEAP_ERR_USAGE, "viewer: field of view must be in (0, 180) degrees");
+    v->home = *desc;
+    snprintf(v->initial_tf, sizeof v->initial_tf, "%s", desc->tf ? desc->tf : "viridis");
+    v->home.tf = v->initial_tf;
+    memcpy(v->center, desc->center, sizeof v->center);
+    v->radius = desc->radius;
+    camera_home(v);
+    v->mode = desc->mode;
+    v->step = desc->step;
+    set_tf_name(v, v->initial_tf);
+    v->range[0] = desc->range[0];
+    v->range[1] = desc->range[1];
+    v->value_min = desc->value_min;
+    v->value_max = desc->value_max;
+    v->width = desc->width > 0 ? desc->width : 1;
+    v->height = desc->height > 0 ? desc->height : 1;
+    return LEAP_OK;
+}
+
+/* ---- camera ------------------------------------------------------------------------------- */
+
+leap_result leap_viewer_camera(const leap_viewer *v, leap_camera *out, leap_error *err)
+{
+    if (v->use_initial) {
+        *out = v->initial;
+        return LEAP_OK;
+    }
+    leap_result r = leap_camera_orbit(v->target, v->radius, v->az, v->el, v->dist_radii, v->fov, v->ortho, out, err);
+    if (r) return r;
+    if (v->ortho && v->ortho_zoom != 1.0) out->ortho_height = 2.0 * v->radius * v->ortho_zoom;
+    return LEAP_OK;
+}
+
+static double wrap_degrees(double a)
+{
+    a = fmod(a, 360.0);
+    if (a > 180.0) a -= 360.0;
+    if (a <= -180.0) a += 360.0;
+    return a;
+}
+
+static double clamp(double x, double lo, double hi)
+{
+    return x < lo ? lo : x > hi ? hi : x;
+}
+
+unsigned leap_viewer_orbit(leap_viewer *v, double az, double el, double dist_radii)
+{
+    if (!isfinite(az) || !isfinite(el)) return 0;
+    v->az = wrap_degrees(az);
+    v->el = clamp(el, -LEAP_VIEWER_MAX_ELEVATION, LEAP_VIEWER_MAX_ELEVATION);
+    if (dist_radii > 0 && isfinite(dist_radii))
+        v->dist_radii = clamp(dist_radii, LEAP_VIEWER_DIST_MIN, LEAP_VIEWER_DIST_MAX);
+    v->use_initial = 0;
+    return LEAP_VIEWER_CAMERA;
+}
+
+unsigned leap_viewer_rotate(leap_viewer *v, double daz, double del)
+{
+    if (!isfinite(daz) || !isfinite(del) || (daz == 0 && del == 0)) return 0;
+    return leap_viewer_orbit(v, v->az + daz, v->el + del, -1);
+}
+
+/* Eye distance in world units. */
+static double eye_distance(const leap_viewer *v)
+{
+    if (v->dist_radii > 0) return v->dist_radii * v->radius;
+    return v->radius / sin(0.5 * v->fov * DEG2RAD);
+}
+
+unsigned leap_viewer_zoom(leap_viewer *v, double clicks)
+{
+    if (!isfinite(clicks) || clicks == 0) return 0;
+    double f = pow(LEAP_VIEWER_ZOOM_PER_CLICK, clicks);
+    if (v->ortho) {
+        v->ortho_zoom = clamp(v->ortho_zoom * f, LEAP_VIEWER_DIST_MIN, LEAP_VIEWER_DIST_MAX);
+    } else {
+        v->dist_radii = clamp(eye_distance(v) * f / v->radius, LEAP_VIEWER_DIST_MIN, LEAP_VIEWER_DIST_MAX);
+    }
+    v->use_initial = 0;
+    return LEAP_VIEWER_CAMERA;
+}
+
+unsigned leap_viewer_pan(leap_viewer *v, double dx, double dy)
+{
+    if (!isfinite(dx) || !isfinite(dy) || (dx == 0 && dy == 0)) return 0;
+    leap_camera cam;
+    leap_error ignore;
+    if (leap_viewer_camera(v, &cam, &ignore)) return 0;
+    double fwd[3], len = 0;
+    for (int i = 0; i < 3; ++i) {
+        fwd[i] = cam.target[i] - cam.eye[i];
+        len += fwd[i] * fwd[i];
+    }
+    len = sqrt(len);
+    for (int i = 0; i < 3; ++i) fwd[i] /= len;
+    double right[3] = {fwd[1] * cam.up[2] - fwd[2] * cam.up[1], fwd[2] * cam.up[0] - fwd[0] * cam.up[2],
+                       fwd[0] * cam.up[1] - fwd[1] * cam.up[0]};
+    double rl = sqrt(right[0] * right[0] + right[1] * right[1] + right[2] * right[2]);
+    if (!(rl > 0)) return 0;
+    for (int i = 0; i < 3; ++i) right[i] /= rl;
+    double up[3] = {right[1] * fwd[2] - right[2] * fwd[1], right[2] * fwd[0] - right[0] * fwd[2],
+                    right[0] * fwd[1] - right[1] * fwd[0]};
+    /* World units per pixel at the orbit centre. */
+    double h = cam.ortho ? cam.ortho_height : 2.0 * len * tan(0.5 * cam.fov_deg * DEG2RAD);
+    double wpp = h / v->height;
+    if (v->use_initial) orbit_from_camera(v, &cam);
+    for (int i = 0; i < 3; ++i) v->target[i] += (-dx * right[i] + dy * up[i]) * wpp;
+    v->use_initial = 0;
+    return LEAP_VIEWER_CAMERA;
+}
+
+unsigned leap_viewer_reset(leap_viewer *v)
+{
+    camera_home(v);
+    v->drag = LEAP_VIEWER_DRAG_NONE;
+    return LEAP_VIEWER_CAMERA;
+}
+
+/* ---- look ----------------------------------------------------------------------------------- */
+
+unsigned leap_viewer_set_mode(leap_viewer *v, leap_mode mode)
+{
+    if ((int)mode < 0 || mode >= LEAP_RENDER_MODE_COUNT || mode == v->mode) return 0;
+    v->mode = mode;
+    return LEAP_VIEWER_MODE;
+}
+
+unsigned leap_viewer_set_step(leap_viewer *v, double step)
+{
+    if (!(step > 0) || !isfinite(step)) return 0;
+    step = clamp(step, LEAP_VIEWER_STEP_MIN, LEAP_VIEWER_STEP_MAX);
+    if (step == v->step) return 0;
+    v->step = step;
+    return LEAP_VIEWER_STEP;
+}
+
+unsigned leap_viewer_set_tf(leap_viewer *v, const char *tf)
+{
+    if (!tf || !*tf || strlen(tf) >= sizeof v->tf) return 0;
+    set_tf_name(v, tf);
+    return LEAP_VIEWER_TF;
+}
+
+unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi)
+{
+    if (!isfinite(lo) || !isfinite(hi) || !(hi > lo)) return 0;
+    /* Keep a window that doubles can still split into distinct values. */
+    if (hi - lo < 1e-12 * (1.0 + fabs(lo) + fabs(hi))) return 0;
+    v->range[0] = lo;
+    v->range[1] = hi;
+    return LEAP_VIEWER_TF;
+}
+
+static unsigned next_tf(leap_viewer *v)
+{
+    int n = preset_count();
+    int next = v->tf_index + 1; /* -1 (a file) goes to the first preset */
+    if (next >= n) {
+        if (preset_index(v->initial_tf) < 0) { /* a file was given: it is part of the cycle */
+            set_tf_name(v, v->initial_tf);
+            return LEAP_VIEWER_TF;
+        }
+        next = 0;
+    }
+    set_tf_name(v, leap_tf_preset_names()[next]);
+    return LEAP_VIEWER_TF;
+}
+
+static unsigned shift_range(leap_viewer *v, double fraction)
+{
+    double w = v->range[1] - v->range[0];
+    return leap_viewer_set_range(v, v->range[0] + fraction * w, v->range[1] + fraction * w);
+}
+
+static unsigned scale_range(leap_viewer *v, double factor)
+{
+    double c = 0.5 * (v->range[0] + v->range[1]), h = 0.5 * (v->range[1] - v->range[0]) * factor;
+    return leap_viewer_set_range(v, c - h, c + h);
+}
+
+/* ---- events --------------------------------------------------------------------------------- */
+
+unsigned leap_viewer_char(leap_viewer *v, unsigned c)
+{
+    switch (c) {
+    case '1': return leap_viewer_set_mode(v, LEAP_RENDER_NAIVE);
+    case '2': return leap_viewer_set_mode(v, LEAP_RENDER_BBOX);
+    case '3': return leap_viewer_set_mode(v, LEAP_RENDER_OCTREE);
+    case '4': return leap_viewer_set_mode(v, LEAP_RENDER_SPARSELEAP);
+    case '+': case '=': return leap_viewer_set_step(v, v->step * LEAP_VIEWER_STEP_FACTOR);
+    case '-': case '_': return leap_viewer_set_step(v, v->step / LEAP_VIEWER_STEP_FACTOR);
+    case 't': case 'T': return next_tf(v);
+    case '[': return shift_range(v, -LEAP_VIEWER_RANGE_SHIFT);
+    case ']': return shift_range(v, LEAP_VIEWER_RANGE_SHIFT);
+    case '{': return scale_range(v, LEAP_VIEWER_RANGE_SCALE);
+    case '}': return scale_range(v, 1.0 / LEAP_VIEWER_RANGE_SCALE);
+    case 'b': case 'B': v->show_boxes = !v->show_boxes; return LEAP_VIEWER_OVERLAY;
+    case 'h': case 'H': v->show_heat = !v->show_heat; return LEAP_VIEWER_OVERLAY;
+    case 's': case 'S': ++v->screenshots; return LEAP_VIEWER_SCREENSHOT;
+    case 'r': case 'R': return leap_viewer_reset(v);
+    case 'q': case 'Q': v->quit = 1; return LEAP_VIEWER_QUIT;
+    case '?': v->show_help = !v->show_help; return LEAP_VIEWER_HELP;
+    default: return 0;
+    }
+}
+
+unsigned leap_viewer_key(leap_viewer *v, int key, int mods)
+{
+    (void)mods;
+    switch (key) {
+    case LEAP_VIEWER_KEY_ESCAPE: v->quit = 1; return LEAP_VIEWER_QUIT;
+    case LEAP_VIEWER_KEY_LEFT: return leap_viewer_rotate(v, LEAP_VIEWER_ARROW_DEG, 0);
+    case LEAP_VIEWER_KEY_RIGHT: return leap_viewer_rotate(v, -LEAP_VIEWER_ARROW_DEG, 0);
+    case LEAP_VIEWER_KEY_UP: return leap_viewer_rotate(v, 0, LEAP_VIEWER_ARROW_DEG);
+    case LEAP_VIEWER_KEY_DOWN: return leap_viewer_rotate(v, 0, -LEAP_VIEWER_ARROW_DEG);
+    default: return 0;
+    }
+}
+
+#define ZOOM_PIXELS_PER_CLICK 20.0
+
+unsigned leap_viewer_button(leap_viewer *v, int button, int pressed, int mods, double x, double y)
+{
+    v->mouse_x = x;
+    v->mouse_y = y;
+    if (pressed) {
+        if (v->drag != LEAP_VIEWER_DRAG_NONE) return 0; /* one drag at a time */
+        if (button == LEAP_VIEWER_BUTTON_LEFT)
+            v->drag = (mods & LEAP_VIEWER_MOD_SHIFT) ? LEAP_VIEWER_DRAG_PAN : LEAP_VIEWER_DRAG_ORBIT;
+        else if (button == LEAP_VIEWER_BUTTON_MIDDLE)
+            v->drag = LEAP_VIEWER_DRAG_PAN;
+        else if (button == LEAP_VIEWER_BUTTON_RIGHT)
+            v->drag = LEAP_VIEWER_DRAG_ZOOM;
+        else
+            return 0;
+        v->drag_button = button;
+        return 0;
+    }
+    if (v->drag != LEAP_VIEWER_DRAG_NONE && button == v->drag_button) v->drag = LEAP_VIEWER_DRAG_NONE;
+    return 0;
+}
+
+unsigned leap_viewer_cursor(leap_viewer *v, double x, double y)
+{
+    double dx = x - v->mouse_x, dy = y - v->mouse_y;
+    v->mouse_x = x;
+    v->mouse_y = y;
+    switch (v->drag) {
+    case LEAP_VIEWER_DRAG_ORBIT:
+        return leap_viewer_rotate(v, -dx * LEAP_VIEWER_ORBIT_DEG_PER_PIXEL, dy * LEAP_VIEWER_ORBIT_DEG_PER_PIXEL);
+    case LEAP_VIEWER_DRAG_PAN: return leap_viewer_pan(v, dx, dy);
+    case LEAP_VIEWER_DRAG_ZOOM: return leap_viewer_zoom(v, -dy / ZOOM_PIXELS_PER_CLICK);
+    default: return 0;
+    }
+}
+
+unsigned leap_viewer_scroll(leap_viewer *v, double clicks)
+{
+    return leap_viewer_zoom(v, clicks);
+}
+
+void leap_viewer_resize(leap_viewer *v, int width, int height)
+{
+    if (width > 0) v->width = width;
+    if (height > 0) v->height = height;
+}
+
+int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
+{
+    leap_camera cam;
+    leap_error ignore;
+    if (leap_viewer_camera(v, &cam, &ignore)) return snprintf(buf, size, "(no camera)");
+    return snprintf(buf, size,
+                    "--mode %s --tf %s --range %.17g,%.17g --step %.17g --eye %.17g,%.17g,%.17g "
+                    "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s",
+                    leap_mode_name(v->mode), v->tf, v->range[0], v->range[1], v->step, cam.eye[0], cam.eye[1],
+                    cam.eye[2], cam.target[0], cam.target[1], cam.target[2], cam.up[0], cam.up[1], cam.up[2],
+                    cam.fov_deg, cam.ortho ? " --ortho" : "");
+}
+
+/* ---- scripts -------------------------------------------------------------------------------- */
+
+#define DRAG_MOVES 8
+
+unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *c)
+{
+    unsigned bits = 0;
+    switch (c->op) {
+    case LEAP_VIEWER_OP_ORBIT: return leap_viewer_orbit(v, c->num[0], c->num[1], c->count > 2 ? c->num[2] : -1);
+    case LEAP_VIEWER_OP_ROTATE: return leap_viewer_rotate(v, c->num[0], c->num[1]);
+    case LEAP_VIEWER_OP_ZOOM: return leap_viewer_scroll(v, c->num[0]);
+    case LEAP_VIEWER_OP_PAN: return leap_viewer_pan(v, c->num[0], c->num[1]);
+    case LEAP_VIEWER_OP_DRAG:
+        bits |= leap_viewer_button(v, c->button, 1, c->mods, c->num[0], c->num[1]);
+        for (int i = 1; i <= DRAG_MOVES; ++i) {
+            double f = (double)i / DRAG_MOVES;
+            bits |= leap_viewer_cursor(v, c->num[0] + f * (c->num[2] - c->num[0]), c->num[1] + f * (c->num[3] - c->num[1]));
+        }
+        bits |= leap_viewer_button(v, c->button, 0, c->mods, c->num[2], c->num[3]);
+        return bits;
+    case LEAP_VIEWER_OP_KEY: return c->key ? leap_viewer_key(v, c->key, c->mods) : leap_viewer_char(v, c->codepoint);
+    case LEAP_VIEWER_OP_MODE: return leap_viewer_set_mode(v, c->mode);
+    case LEAP_VIEWER_OP_TF: return leap_viewer_set_tf(v, c->text);
+    case LEAP_VIEWER_OP_STEP: return leap_viewer_set_step(v, c->num[0]);
+    case LEAP_VIEWER_OP_RANGE: return leap_viewer_set_range(v, c->num[0], c->num[1]);
+    case LEAP_VIEWER_OP_SCREENSHOT: ++v->screenshots; return LEAP_VIEWER_SCREENSHOT;
+    case LEAP_VIEWER_OP_QUIT: v->quit = 1; return LEAP_VIEWER_QUIT;
+    default: return 0;
+    }
+}
+
+#define MAX_TOKENS 12
+
+typedef struct parse_ctx {
+    const char *name;
+    int line;
+    leap_error *err;
+} parse_ctx;
+
+static leap_result perr(parse_ctx *p, const char *fmt, const char *a, const char *b)
+{
+    char what[200];
+    snprintf(what, sizeof what, fmt, a ? a : "", b ? b : "");
+    return leap_fail(p->err, LEAP_ERR_FORMAT, "%s:%d: %s", p->name, p->line, what);
+}
+
+static int parse_number(const char *s, double *out)
+{
+    char *end;
+    errno = 0;
+    double x = strtod(s, &end);
+    if (end == s || *end || errno == ERANGE || !isfinite(x)) return 0;
+    *out = x;
+    return 1;
+}
+
+static int parse_key(const char *s, leap_viewer_cmd *c)
+{
+    static const struct { const char *name; int key; unsigned ch; } names[] = {
+        {"esc", LEAP_VIEWER_KEY_ESCAPE, 0}, {"escape", LEAP_VIEWER_KEY_ESCAPE, 0},
+        {"left", LEAP_VIEWER_KEY_LEFT, 0},   {"right", LEAP_VIEWER_KEY_RIGHT, 0},
+        {"up", LEAP_VIEWER_KEY_UP, 0},       {"down", LEAP_VIEWER_KEY_DOWN, 0},
+        {"plus", 0, '+'},                    {"minus", 0, '-'},
+        {"space", 0, ' '},
+    };
+    for (size_t i = 0; i < sizeof names / sizeof names[0]; ++i)
+        if (strcmp(s, names[i].name) == 0) {
+            c->key = names[i].key;
+            c->codepoint = names[i].ch;
+            return 1;
+        }
+    if (strlen(s) == 1 && isgraph((unsigned char)s[0])) {
+        c->key = 0;
+        c->codepoint = (unsigned char)s[0];
+        return 1;
+    }
+    return 0;
+}
+
+static const struct {
+    const char *name;
+    leap_viewer_op op;
+    int min_args, max_args; /* tokens after the command */
+} commands[] = {
+    {"orbit", LEAP_VIEWER_OP_ORBIT, 2, 3},       {"rotate", LEAP_VIEWER_OP_ROTATE, 2, 2},
+    {"zoom", LEAP_VIEWER_OP_ZOOM, 1, 1},         {"pan", LEAP_VIEWER_OP_PAN, 2, 2},
+    {"drag", LEAP_VIEWER_OP_DRAG, 5, 6},         {"key", LEAP_VIEWER_OP_KEY, 1, 1},
+    {"mode", LEAP_VIEWER_OP_MODE, 1, 1},         {"tf", LEAP_VIEWER_OP_TF, 1, 1},
+    {"step", LEAP_VIEWER_OP_STEP, 1, 1},         {"range", LEAP_VIEWER_OP_RANGE, 2, 2},
+    {"screenshot", LEAP_VIEWER_OP_SCREENSHOT, 1, 1}, {"frames", LEAP_VIEWER_OP_FRAMES, 1, 1},
+    {"wait", LEAP_VIEWER_OP_WAIT, 1, 1},         {"resize", LEAP_VIEWER_OP_RESIZE, 2, 2},
+    {"mark", LEAP_VIEWER_OP_MARK, 0, MAX_TOKENS}, {"quit", LEAP_VIEWER_OP_QUIT, 0, 0},
+};
+
+/* Parses tokens tok[0..n-1] (tok[0] the command) into *c. */
+static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cmd *c)
+{
+    int k = -1;
+    for (size_t i = 0; i < sizeof commands / sizeof commands[0]; ++i)
+        if (strcmp(tok[0], commands[i].name) == 0) k = (int)i;
+    if (k < 0) return perr(p, "unknown command '%s'", tok[0], NULL);
+    int args = n - 1;
+    if (args < commands[k].min_args || args > commands[k].max_args)
+        return perr(p, "wrong number of arguments for '%s'%s", tok[0],
+                    commands[k].min_args == commands[k].max_args && commands[k].max_args == 0 ? " (takes none)" : "");
+    c->op = commands[k].op;
+    c->count = 0;
+    switch (c->op) {
+    case LEAP_VIEWER_OP_ORBIT: case LEAP_VIEWER_OP_ROTATE: case LEAP_VIEWER_OP_ZOOM: case LEAP_VIEWER_OP_PAN:
+    case LEAP_VIEWER_OP_STEP: case LEAP_VIEWER_OP_RANGE: case LEAP_VIEWER_OP_FRAMES: case LEAP_VIEWER_OP_WAIT:
+    case LEAP_VIEWER_OP_RESIZE:
+        for (int i = 0; i < args; ++i) {
+            if (!parse_number(tok[1 + i], &c->num[i])) return perr(p, "'%s' is not a number (in '%s')", tok[1 + i], tok[0]);
+            c->count = i + 1;
+        }
+        break;
+    default: break;
+    }
+    switch (c->op) {
+    case LEAP_VIEWER_OP_ORBIT:
+        if (args == 3 && !(c->num[2] > 0)) return perr(p, "orbit distance must be > 0 radii", NULL, NULL);
+        break;
+    case LEAP_VIEWER_OP_STEP:
+        if (!(c->num[0] >= LEAP_VIEWER_STEP_MIN && c->num[0] <= LEAP_VIEWER_STEP_MAX))
+            return perr(p, "step %s is outside [0.01, 64] voxels", tok[1], NULL);
+        break;
+    case LEAP_VIEWER_OP_RANGE:
+        if (!(c->num[1] > c->num[0])) return perr(p, "range needs LO < HI", NULL, NULL);
+        break;
+    case LEAP_VIEWER_OP_FRAMES:
+        if (c->num[0] != floor(c->num[0]) || c->num[0] < 1 || c->num[0] > 1e6)
+            return perr(p, "frames needs a whole number in 1..1000000", NULL, NULL);
+        break;
+    case LEAP_VIEWER_OP_WAIT:
+        if (c->num[0] < 0 || c->num[0] > 3.6e6) return perr(p, "wait needs milliseconds in 0..3600000", NULL, NULL);
+        break;
+    case LEAP_VIEWER_OP_RESIZE:
+        for (int i = 0; i < 2; ++i)
+            if (c->num[i] != floor(c->num[i]) || c->num[i] < 1 || c->num[i] > 16384)
+                return perr(p, "resize needs whole sizes in 1..16384", NULL, NULL);
+        break;
+    case LEAP_VIEWER_OP_DRAG: {
+        if (!strcmp(tok[1], "left")) c->button = LEAP_VIEWER_BUTTON_LEFT;
+        else if (!strcmp(tok[1], "middle")) c->button = LEAP_VIEWER_BUTTON_MIDDLE;
+        else if (!strcmp(tok[1], "right")) c->button = LEAP_VIEWER_BUTTON_RIGHT;
+        else return perr(p, "drag button '%s' is not left, middle or right", tok[1], NULL);
+        for (int i = 0; i < 4; ++i)
+            if (!parse_number(tok[2 + i], &c->num[i])) return perr(p, "'%s' is not a number (in '%s')", tok[2 + i], tok[0]);
+        c->count = 4;
+        c->mods = 0;
+        if (args == 6) {
+            if (strcmp(tok[6], "shift") != 0) return perr(p, "drag modifier '%s' is not 'shift'", tok[6], NULL);
+            c->mods = LEAP_VIEWER_MOD_SHIFT;
+        }
+        break;
+    }
+    case LEAP_VIEWER_OP_KEY:
+        if (!parse_key(tok[1], c)) return perr(p, "unknown key '%s'", tok[1], NULL);
+        break;
+    case LEAP_VIEWER_OP_MODE: {
+        int m = leap_mode_from_name(tok[1]);
+        if (m < 0) return perr(p, "unknown mode '%s' (naive, bbox, octree, sparseleap)", tok[1], NULL);
+        c->mode = (leap_mode)m;
+        break;
+    }
+    case LEAP_VIEWER_OP_TF: {
+        size_t len = strlen(tok[1]);
+        int json = len > 5 && strcmp(tok[1] + len - 5, ".json") == 0;
+        if (!json && preset_index(tok[1]) < 0)
+            return perr(p, "unknown transfer function '%s' (a preset or a .json file)", tok[1], NULL);
+        if (len >= sizeof c->text) return perr(p, "transfer-function path too long", NULL, NULL);
+        memcpy(c->text, tok[1], len + 1);
+        break;
+    }
+    case LEAP_VIEWER_OP_SCREENSHOT: {
+        size_t len = strlen(tok[1]);
+        if (len < 5 || strcmp(tok[1] + len - 4, ".png") != 0)
+            return perr(p, "screenshot file '%s' must end in .png", tok[1], NULL);
+        if (len >= sizeof c->text) return perr(p, "screenshot path too long", NULL, NULL);
+        memcpy(c->text, tok[1], len + 1);
+        break;
+    }
+    case LEAP_VIEWER_OP_MARK: {
+        c->text[0] = '\0';
+        size_t used = 0;
+        for (int i = 1; i < n; ++i) {
+            int w = snprintf(c->text + used, sizeof c->text - used, "%s%s", i > 1 ? " " : "", tok[i]);
+            if (w < 0 || (size_t)w >= sizeof c->text - used) break;
+            used += (size_t)w;
+        }
+        break;
+    }
+    default: break;
+    }
+    return LEAP_OK;
+}
+
+leap_result leap_viewer_script_parse(const char *text, const char *name, leap_viewer_script *out, leap_error *err)
+{
+    memset(out, 0, sizeof *out);
+    parse_ctx p = {name ? name : "script", 0, err};
+    size_t cap = 0;
+    const char *s = text;
+    while (*s) {
+        ++p.line;
+        const char *eol = strchr(s, '\n');
+        size_t len = eol ? (size_t)(eol - s) : strlen(s);
+        char buf[2048];
+        if (len >= sizeof buf) {
+            leap_viewer_script_free(out);
+            return perr(&p, "line too long", NULL, NULL);
+        }
+        memcpy(buf, s, len);
+        buf[len] = '\0';
+        s += len + (eol ? 1 : 0);
+        char *tok[MAX_TOKENS + 2];
+        int n = 0;
+        int too_many = 0;
+        for (char *q = buf;;) {
+            while (*q && isspace((unsigned char)*q)) ++q;
+            if (!*q || *q == '#') break;
+            if (n == MAX_TOKENS + 1) {
+                too_many = 1;
+                break;
+            }
+            tok[n++] = q;
+            while (*q && !isspace((unsigned char)*q)) ++q;
+            if (*q) *q++ = '\0';
+        }
+        if (n == 0) continue;
+        if (too_many) {
+            leap_viewer_script_free(out);
+            return perr(&p, "too many words", NULL, NULL);
+        }
+        leap_viewer_cmd c;
+        memset(&c, 0, sizeof c);
+        c.line = p.line;
+        c.repeat = 1;
+        char **t = tok;
+        int tn = n;
+        if (strcmp(tok[0], "repeat") == 0) {
+            double r;
+            if (n < 3 || !parse_number(tok[1], &r) || r != floor(r) || r < 1 || r > 1e6) {
+                leap_viewer_script_free(out);
+                return perr(&p, "repeat needs a count in 1..1000000 and a command", NULL, NULL);
+            }
+            if (strcmp(tok[2], "repeat") == 0) {
+                leap_viewer_script_free(out);
+                return perr(&p, "repeat cannot be nested", NULL, NULL);
+            }
+            c.repeat = (int)r;
+            t += 2;
+            tn -= 2;
+        }
+        leap_result r = parse_command(&p, t, tn, &c);
+        if (r) {
+            leap_viewer_script_free(out);
+            return r;
+        }
+        if (out->count == cap) {
+            size_t ncap = cap ? 2 * cap : 16;
+            leap_viewer_cmd *grown = realloc(out->cmds, ncap * sizeof *grown);
+            if (!grown) {
+                leap_viewer_script_free(out);
+                return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", p.name);
+            }
+            out->cmds = grown;
+            cap = ncap;
+        }
+        out->cmds[out->count++] = c;
+    }
+    return LEAP_OK;
+}
+
+leap_result leap_viewer_script_load(const char *path, leap_viewer_script *out, leap_error *err)
+{
+    memset(out, 0, sizeof *out);
+    FILE *f = fopen(path, "rb");
+    if (!f) return leap_fail(err, LEAP_ERR_IO, "%s: cannot open the script: %s", path, strerror(errno));
+    size_t cap = 4096, len = 0;
+    char *text = malloc(cap);
+    while (text) {
+        size_t got = fread(text + len, 1, cap - len - 1, f);
+        len += got;
+        if (len < cap - 1) break;
+        if (cap > ((size_t)64 << 20)) {
+            free(text);
+            fclose(f);
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: script larger than 64 MiB", path);
+        }
+        char *grown = realloc(text, cap * 2);
+        if (!grown) {
+            free(text);
+            text = NULL;
+            break;
+        }
+        text = grown;
+        cap *= 2;
+    }
+    int read_error = ferror(f);
+    fclose(f);
+    if (!text) return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+    if (read_error) {
+        free(text);
+        return leap_fail(err, LEAP_ERR_IO, "%s: read error", path);
+    }
+    text[len] = '\0';
+    if (strlen(text) != len) {
+        free(text);
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not a text file (NUL byte)", path);
+    }
+    leap_result r = leap_viewer_script_parse(text, path, out, err);
+    free(text);
+    return r;
+}
+
+void leap_viewer_script_free(leap_viewer_script *s)
+{
+    if (!s) return;
+    free(s->cmds);
+    s->cmds = NULL;
+    s->count = 0;
+}

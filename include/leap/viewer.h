@@ -1,0 +1,224 @@
+/* The interactive viewer's state and input mapping, independent of any window system:
+ * key, mouse and wheel events (in the viewer's own codes; the window layer translates its
+ * toolkit's codes) turn into camera and look changes, and a small script format drives the
+ * same events for tests and demos. Nothing here renders or opens a window.
+ *
+ * Input
+ *   left drag            orbit (azimuth and elevation about the orbit centre)
+ *   middle drag,
+ *   shift + left drag    pan (moves the orbit centre in the view plane)
+ *   right drag, wheel    zoom (eye distance, or view height when orthographic)
+ *   1 2 3 4              mode naive / bbox / octree / sparseleap
+ *   + -                  step size up / down
+ *   t                    next transfer-function preset
+ *   [ ]                  shift the value window down / up
+ *   { }                  widen / narrow the value window (about its centre)
+ *   b  h                 boxes overlay / heat-map overlay on or off
+ *   s                    screenshot (PNG)
+ *   r                    reset the camera
+ *   q, Escape            quit
+ *   ?                    help (key list)
+ *   arrow keys           orbit in steps
+ *
+ * Script format (one command per line; '#' starts a comment; numbers are plain decimals):
+ *   orbit AZ EL [DIST]        camera at azimuth/elevation (degrees) about the orbit centre,
+ *                             DIST in bounding-sphere radii (omitted: keep the distance)
+ *   rotate DAZ DEL            orbit by the given angles
+ *   zoom CLICKS               wheel clicks (positive = closer)
+ *   pan DX DY                 pan as a drag of DX, DY pixels
+ *   drag BUTTON X0 Y0 X1 Y1 [shift]   mouse drag (BUTTON left, middle or right) in 8 moves
+ *   key NAME                  a key press: one character (t [ ] { } + - ? 1 ...) or esc,
+ *                             escape, left, right, up, down, plus, minus, space
+ *   mode NAME                 naive, bbox, octree, sparseleap
+ *   tf NAME                   a preset or a ParaView JSON file (re-classifies, no reload)
+ *   step S                    sample spacing in voxels
+ *   range LO HI               value window
+ *   screenshot FILE.png       full-resolution frame as presented (overlays included)
+ *   frames N                  render N frames
+ *   wait MS                   let MS milliseconds pass (idle refinement happens)
+ *   resize W H                resize the window
+ *   mark LABEL                print frames and frames per second since the last mark
+ *   quit                      end the session
+ *   repeat N COMMAND ...      run COMMAND N times, waiting for one frame after each */
+#ifndef LEAP_VIEWER_H
+#define LEAP_VIEWER_H
+
+#include <stddef.h>
+
+#include "leap/camera.h"
+#include "leap/error.h"
+#include "leap/renderer.h"
+
+/* Keys that are not characters (characters arrive as Unicode code points). */
+enum {
+    LEAP_VIEWER_KEY_NONE = 0,
+    LEAP_VIEWER_KEY_ESCAPE,
+    LEAP_VIEWER_KEY_LEFT,
+    LEAP_VIEWER_KEY_RIGHT,
+    LEAP_VIEWER_KEY_UP,
+    LEAP_VIEWER_KEY_DOWN
+};
+
+enum { LEAP_VIEWER_BUTTON_LEFT = 0, LEAP_VIEWER_BUTTON_RIGHT = 1, LEAP_VIEWER_BUTTON_MIDDLE = 2 };
+enum { LEAP_VIEWER_MOD_SHIFT = 1, LEAP_VIEWER_MOD_CTRL = 2 };
+
+/* What an event changed (bit set returned by the event functions). */
+enum {
+    LEAP_VIEWER_CAMERA = 1u << 0,     /* camera moved */
+    LEAP_VIEWER_MODE = 1u << 1,       /* rendering mode */
+    LEAP_VIEWER_STEP = 1u << 2,       /* step size */
+    LEAP_VIEWER_TF = 1u << 3,         /* transfer function or value window: re-classify */
+    LEAP_VIEWER_OVERLAY = 1u << 4,    /* boxes or heat-map overlay toggled */
+    LEAP_VIEWER_SCREENSHOT = 1u << 5, /* a screenshot was requested */
+    LEAP_VIEWER_QUIT = 1u << 6,
+    LEAP_VIEWER_HELP = 1u << 7        /* the key list should be shown */
+};
+
+enum { LEAP_VIEWER_DRAG_NONE = 0, LEAP_VIEWER_DRAG_ORBIT, LEAP_VIEWER_DRAG_PAN, LEAP_VIEWER_DRAG_ZOOM };
+
+/* Mapping constants. */
+#define LEAP_VIEWER_ORBIT_DEG_PER_PIXEL 0.4
+#define LEAP_VIEWER_ARROW_DEG 5.0
+#define LEAP_VIEWER_ZOOM_PER_CLICK 0.9      /* distance factor per wheel click towards the scene */
+#define LEAP_VIEWER_STEP_FACTOR 1.25
+#define LEAP_VIEWER_STEP_MIN 0.01
+#define LEAP_VIEWER_STEP_MAX 64.0
+#define LEAP_VIEWER_RANGE_SHIFT 0.1         /* of the window width */
+#define LEAP_VIEWER_RANGE_SCALE 1.25        /* widen: width * 1.25; narrow: width / 1.25 */
+#define LEAP_VIEWER_MAX_ELEVATION 89.0
+#define LEAP_VIEWER_DIST_MIN 0.01           /* eye distance limits in radii */
+#define LEAP_VIEWER_DIST_MAX 1000.0
+
+typedef struct leap_viewer_desc {
+    leap_camera camera;          /* the initial camera (shown exactly until the camera moves) */
+    int camera_is_orbit;         /* 1: camera is leap_camera_orbit(center, radius, az, el,
+                                    dist_radii, ...); 0: explicit eye/target, orbit parameters
+                                    are derived from it */
+    double az, el, dist_radii;   /* orbit parameters when camera_is_orbit (dist 0 = framing) */
+    double center[3], radius;    /* world-space bounding sphere of the volume */
+    leap_mode mode;
+    double step;
+    const char *tf;              /* preset name or JSON path */
+    double range[2];             /* initial value window */
+    double value_min, value_max; /* the grid's value range */
+    int width, height;           /* viewport in pixels */
+} leap_viewer_desc;
+
+typedef struct leap_viewer {
+    /* camera: eye = target + distance * (cos el sin az, sin el, cos el cos az) */
+    double center[3], radius;
+    double target[3];
+    double az, el;               /* degrees */
+    double dist_radii;           /* 0 = the framing distance of leap_camera_orbit */
+    double ortho_zoom;           /* orthographic view height = 2 * radius * ortho_zoom */
+    double fov;
+    int ortho;
+    int use_initial;             /* 1 until the camera moves: show `initial` exactly */
+    leap_camera initial;
+    /* look */
+    leap_mode mode;
+    double step;
+    char tf[512];                /* current transfer function (preset or file) */
+    int tf_index;                /* index into the cycle list (-1: a file outside the list) */
+    double range[2];
+    double value_min, value_max;
+    int show_boxes, show_heat, show_help;
+    int quit;
+    unsigned screenshots;        /* screenshot requests so far */
+    /* viewport and mouse */
+    int width, height;
+    int drag;                    /* LEAP_VIEWER_DRAG_* */
+    int drag_button;
+    double mouse_x, mouse_y;
+    leap_viewer_desc home;       /* for reset (tf points into initial_tf) */
+    char initial_tf[512];
+} leap_viewer;
+
+/* Sets up the state. Errors: LEAP_ERR_USAGE (radius <= 0, eye == target, bad step, range). */
+leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_error *err);
+
+/* Events. Each returns the LEAP_VIEWER_* bits of what changed (0: nothing). */
+unsigned leap_viewer_char(leap_viewer *v, unsigned codepoint);
+unsigned leap_viewer_key(leap_viewer *v, int key, int mods);
+unsigned leap_viewer_button(leap_viewer *v, int button, int pressed, int mods, double x, double y);
+unsigned leap_viewer_cursor(leap_viewer *v, double x, double y);
+unsigned leap_viewer_scroll(leap_viewer *v, double clicks);
+void leap_viewer_resize(leap_viewer *v, int width, int height);
+
+/* Direct camera changes (script commands and the event functions use them). */
+unsigned leap_viewer_orbit(leap_viewer *v, double az, double el, double dist_radii); /* dist < 0: keep */
+unsigned leap_viewer_rotate(leap_viewer *v, double daz, double del);
+unsigned leap_viewer_zoom(leap_viewer *v, double clicks);
+unsigned leap_viewer_pan(leap_viewer *v, double dx_pixels, double dy_pixels);
+unsigned leap_viewer_reset(leap_viewer *v);
+
+/* Look changes. set_tf takes a preset or a path; set_range needs lo < hi, both finite. */
+unsigned leap_viewer_set_mode(leap_viewer *v, leap_mode mode);
+unsigned leap_viewer_set_step(leap_viewer *v, double step);
+unsigned leap_viewer_set_tf(leap_viewer *v, const char *tf);
+unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi);
+
+/* The camera to render. Errors from leap_camera_orbit. */
+leap_result leap_viewer_camera(const leap_viewer *v, leap_camera *out, leap_error *err);
+
+/* `leap render` options that reproduce the current frame (mode, tf, range, step and an
+ * explicit camera printed to round-trip exactly). Returns the length (snprintf style). */
+int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size);
+
+/* The key list, one key per line. */
+const char *leap_viewer_help_text(void);
+
+/* ---- scripts ----------------------------------------------------------------------------- */
+
+typedef enum leap_viewer_op {
+    LEAP_VIEWER_OP_ORBIT = 0,
+    LEAP_VIEWER_OP_ROTATE,
+    LEAP_VIEWER_OP_ZOOM,
+    LEAP_VIEWER_OP_PAN,
+    LEAP_VIEWER_OP_DRAG,
+    LEAP_VIEWER_OP_KEY,
+    LEAP_VIEWER_OP_MODE,
+    LEAP_VIEWER_OP_TF,
+    LEAP_VIEWER_OP_STEP,
+    LEAP_VIEWER_OP_RANGE,
+    LEAP_VIEWER_OP_SCREENSHOT,
+    LEAP_VIEWER_OP_FRAMES,
+    LEAP_VIEWER_OP_WAIT,
+    LEAP_VIEWER_OP_RESIZE,
+    LEAP_VIEWER_OP_MARK,
+    LEAP_VIEWER_OP_QUIT
+} leap_viewer_op;
+
+typedef struct leap_viewer_cmd {
+    leap_viewer_op op;
+    int line;          /* 1-based line in the script */
+    int repeat;        /* >= 1; > 1: run `repeat` times, one frame after each */
+    int count;         /* numbers given */
+    double num[5];     /* orbit: az el [dist]; rotate: daz del; zoom: clicks; pan: dx dy;
+                          drag: x0 y0 x1 y1; step; range lo hi; frames n; wait ms; resize w h */
+    int button, mods;  /* drag */
+    int key;           /* key: LEAP_VIEWER_KEY_* or 0 for a character */
+    unsigned codepoint;/* key: the character */
+    leap_mode mode;    /* mode */
+    char text[512];    /* tf, screenshot file, mark label */
+} leap_viewer_cmd;
+
+typedef struct leap_viewer_script {
+    leap_viewer_cmd *cmds;
+    size_t count;
+} leap_viewer_script;
+
+/* Parses a script. `name` labels error messages ("NAME:LINE: problem"). Errors:
+ * LEAP_ERR_FORMAT (unknown command, wrong arguments), LEAP_ERR_OOM. */
+leap_result leap_viewer_script_parse(const char *text, const char *name, leap_viewer_script *out,
+                                     leap_error *err);
+/* Reads and parses a file. Errors: LEAP_ERR_IO and those of parse. */
+leap_result leap_viewer_script_load(const char *path, leap_viewer_script *out, leap_error *err);
+void leap_viewer_script_free(leap_viewer_script *s); /* accepts a zeroed script */
+
+/* Applies one state command (orbit .. range) through the same paths as live input and
+ * returns the change bits; frames, wait, resize, mark, screenshot and quit are the window
+ * layer's (screenshot and quit still set the request bits and counters here). */
+unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *cmd);
+
+#endif

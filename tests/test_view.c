@@ -1,0 +1,326 @@
+/* `leap view` end to end under Xvfb: a scripted session opens a shipped volume, orbits with
+ * the mouse and by angles, switches every mode, changes the transfer function and the value
+ * window, toggles the overlays, resizes, takes screenshots and exits 0. Every screenshot
+ * without an overlay must match `leap render` for the same camera and settings: the viewer
+ * prints the options that reproduce each frame, and the angle-set frames are also checked
+ * against `leap render --orbit` directly.
+ *
+ * Tolerance: 8-bit values may differ by at most 1, in at most 0.1 % of the values (the same
+ * core renders both on the same device, so they normally agree exactly).
+ *
+ * The test starts `xvfb-run -a` itself; a missing xvfb-run is a failure. */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+#include "check.h"
+#include "leap/image.h"
+
+#define MAX_DIFF 1
+#define MAX_DIFF_FRACTION 0.001
+
+static char *out_text;
+
+/* Runs a shell command, captures stdout+stderr into out_text, returns the exit code. */
+static int run(const char *cmd)
+{
+    char full[16384];
+    snprintf(full, sizeof full, "%s 2>&1", cmd);
+    free(out_text);
+    size_t cap = 1 << 16, len = 0;
+    out_text = malloc(cap);
+    FILE *p = popen(full, "r");
+    if (!p || !out_text) return -1;
+    size_t got;
+    while ((got = fread(out_text + len, 1, cap - len - 1, p)) > 0) {
+        len += got;
+        if (len + 1 == cap) {
+            cap *= 2;
+            out_text = realloc(out_text, cap);
+            if (!out_text) break;
+        }
+    }
+    if (out_text) out_text[len] = '\0';
+    int status = pclose(p);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+typedef struct cmp_result {
+    int ok, width, height, max_diff;
+    long differing, values;
+} cmp_result;
+
+static cmp_result compare(const char *a_path, const char *b_path)
+{
+    cmp_result r = {0};
+    int wa, ha, ca, wb, hb, cb;
+    float *a = NULL, *b = NULL;
+    leap_error err = {{0}};
+    if (leap_image_read(a_path, &wa, &ha, &ca, &a, &err) || leap_image_read(b_path, &wb, &hb, &cb, &b, &err)) {
+        fprintf(stderr, "cannot read: %s\n", err.msg);
+        free(a);
+        return r;
+    }
+    r.width = wa;
+    r.height = ha;
+    if (wa == wb && ha == hb && ca == cb) {
+        r.ok = 1;
+        r.values = (long)wa * ha * ca;
+        for (long i = 0; i < r.values; ++i) {
+            int d = abs((int)(a[i] * 255.0f + 0.5f) - (int)(b[i] * 255.0f + 0.5f));
+            if (d > r.max_diff) r.max_diff = d;
+            r.differing += d != 0;
+        }
+    } else {
+        fprintf(stderr, "%s is %dx%dx%d, %s is %dx%dx%d\n", a_path, wa, ha, ca, b_path, wb, hb, cb);
+    }
+    free(a);
+    free(b);
+    return r;
+}
+
+static int matches(const char *shot, const char *ref, const char *what)
+{
+    cmp_result c = compare(shot, ref);
+    int ok = c.ok && c.max_diff <= MAX_DIFF && c.differing <= (long)(MAX_DIFF_FRACTION * c.values);
+    CHECK_MSG(ok, "%s: %s vs %s: max diff %d, %ld of %ld values differ", what, shot, ref, c.max_diff, c.differing,
+              c.values);
+    printf("%-22s %dx%d: max diff %d, %ld of %ld values differ\n", what, c.width, c.height, c.max_diff, c.differing,
+           c.values);
+    return ok;
+}
+
+/* The "same frame" line the viewer printed for screenshot `shot`: the `leap render` arguments. */
+static int render_args_for(const char *shot, char *args, size_t size)
+{
+    char key[1200];
+    snprintf(key, sizeof key, "leap view: wrote %s", shot);
+    const char *p = strstr(out_text, key);
+    if (!p || (p[strlen(key)] != ';' && p[strlen(key)] != ' ')) return 0;
+    const char *eol = strchr(p, '\n');
+    const char *tag = "; same frame: leap render ";
+    p = strstr(p, tag);
+    if (!p || (eol && p > eol)) return 0;
+    p += strlen(tag);
+    const char *e = strchr(p, '\n');
+    size_t n = e ? (size_t)(e - p) : strlen(p);
+    if (n >= size) return 0;
+    memcpy(args, p, n);
+    args[n] = '\0';
+    return 1;
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    if (f) {
+        fputs(text, f);
+        fclose(f);
+    }
+}
+
+/* Copies template t into out with every '@' replaced by dir. */
+static void expand(char *out, size_t size, const char *t, const char *dir)
+{
+    size_t n = 0, dl = strlen(dir);
+    for (; *t && n + dl + 1 < size; ++t) {
+        if (*t == '@') {
+            memcpy(out + n, dir, dl);
+            n += dl;
+        } else {
+            out[n++] = *t;
+        }
+    }
+    out[n] = '\0';
+}
+
+/* Pixels of a screenshot that have exactly the colour c (8-bit). */
+static long count_colour(const char *path, const unsigned char c[3])
+{
+    int w, h, ch;
+    float *px = NULL;
+    leap_error err = {{0}};
+    if (leap_image_read(path, &w, &h, &ch, &px, &err)) return -1;
+    long n = 0;
+    for (long i = 0; i < (long)w * h; ++i) {
+        int same = 1;
+        for (int k = 0; k < 3; ++k) same &= (int)(px[i * ch + k] * 255.0f + 0.5f) == c[k];
+        n += same;
+    }
+    free(px);
+    return n;
+}
+
+int main(void)
+{
+    if (run("command -v xvfb-run") != 0) {
+        fprintf(stderr, "test_view: xvfb-run is missing; install the packages xvfb and xauth "
+                        "(apt-get install xvfb xauth) to run the viewer test\n");
+        return 1;
+    }
+    const char *tmp = LEAP_TEST_TMP;
+    mkdir(tmp, 0755);
+    char vol[1024], script[1024], cmd[8192], shot[1024], ref[1024], args[4096];
+    snprintf(vol, sizeof vol, "%s/labels.vdb", LEAP_VOLUMES);
+    snprintf(script, sizeof script, "%s/session.txt", tmp);
+    const char *xvfb = "xvfb-run -a -s '-screen 0 1024x768x24'";
+    const char *size = "320x240"; /* not square: catches transposed images */
+
+    /* The scripted session. */
+    static const char *shots[] = {"orbit", "naive", "bbox", "octree", "sparseleap", "drag", "zoompan", "tf",
+                                  "window", "boxes", "heat", "resized"};
+    enum { N_SHOTS = sizeof shots / sizeof shots[0] };
+    char text[8192];
+    expand(text, sizeof text,
+             "# leap view test session\n"
+             "orbit 60 30\n"
+             "screenshot @/orbit.png\n"
+             "key 1\n"
+             "screenshot @/naive.png\n"
+             "key 2\n"
+             "screenshot @/bbox.png\n"
+             "key 3\n"
+             "screenshot @/octree.png\n"
+             "key 4\n"
+             "screenshot @/sparseleap.png\n"
+             "drag left 100 100 140 80\n"
+             "repeat 3 rotate 5 2\n"
+             "screenshot @/drag.png\n"
+             "zoom 2\n"
+             "drag middle 160 120 175 110\n"
+             "screenshot @/zoompan.png\n"
+             "key r\n"
+             "key t\n"
+             "screenshot @/tf.png\n"
+             "key ]\n"
+             "key {\n"
+             "key +\n"
+             "screenshot @/window.png\n"
+             "key b\n"
+             "screenshot @/boxes.png\n"
+             "key b\n"
+             "key h\n"
+             "screenshot @/heat.png\n"
+             "key h\n"
+             "resize 256 200\n"
+             "screenshot @/resized.png\n"
+             "key q\n"
+             "orbit 0 0\n", /* never reached: q quits */
+           tmp);
+    write_text(script, text);
+    for (int i = 0; i < N_SHOTS; ++i) {
+        snprintf(shot, sizeof shot, "%s/%s.png", tmp, shots[i]);
+        remove(shot);
+    }
+    snprintf(cmd, sizeof cmd, "%s %s view %s --size %s --script %s", xvfb, LEAP_EXE, vol, size, script);
+    int rc = run(cmd);
+    CHECK_MSG(rc == 0, "%s -> exit %d:\n%s", cmd, rc, out_text);
+    char *session = strdup(out_text ? out_text : "");
+    CHECK_MSG(strstr(session, "boxes.png (overlay: boxes);") && strstr(session, "heat.png (overlay: heat map);"),
+              "overlay screenshots are not labelled: %s", session);
+
+    for (int i = 0; i < N_SHOTS; ++i) {
+        snprintf(shot, sizeof shot, "%s/%s.png", tmp, shots[i]);
+        CHECK_MSG(exists(shot), "screenshot %s missing", shot);
+        free(out_text);
+        out_text = strdup(session);
+        int have_args = render_args_for(shot, args, sizeof args);
+        CHECK_MSG(have_args, "no render options printed for %s", shot);
+        if (!have_args || !exists(shot)) continue;
+        snprintf(ref, sizeof ref, "%s/ref_%s.png", tmp, shots[i]);
+        snprintf(cmd, sizeof cmd, "%s render %s -q -o %s", LEAP_EXE, args, ref);
+        int rr = run(cmd);
+        CHECK_MSG(rr == 0, "%s -> exit %d: %s", cmd, rr, out_text);
+        if (rr) continue;
+        int overlay = !strcmp(shots[i], "boxes") || !strcmp(shots[i], "heat");
+        if (!overlay) {
+            matches(shot, ref, shots[i]);
+        } else {
+            cmp_result c = compare(shot, ref);
+            CHECK_MSG(c.ok && c.differing > 100, "%s overlay changed only %ld values", shots[i], c.differing);
+        }
+        /* the settings each step should have produced */
+        if (!strcmp(shots[i], "naive") || !strcmp(shots[i], "bbox") || !strcmp(shots[i], "octree") ||
+            !strcmp(shots[i], "sparseleap")) {
+            char want[64];
+            snprintf(want, sizeof want, "--mode %s ", shots[i]);
+            CHECK_MSG(strstr(args, want) != NULL, "%s: %s", shots[i], args);
+        }
+        if (!strcmp(shots[i], "tf")) CHECK_MSG(strstr(args, "--tf labels") == NULL, "t did not change the tf: %s", args);
+        if (!strcmp(shots[i], "window")) CHECK_MSG(strstr(args, "--step 0.625 ") != NULL, "+ did not raise the step: %s", args);
+        if (!strcmp(shots[i], "resized")) CHECK_MSG(strstr(args, "--size 256x200 ") != NULL, "resize: %s", args);
+        else CHECK_MSG(strstr(args, "--size 320x240 ") != NULL, "%s: %s", shots[i], args);
+    }
+
+    /* Frames set by angles equal `leap render --orbit` directly, in every mode. */
+    const char *modes[] = {"sparseleap", "naive", "bbox", "octree", "sparseleap"};
+    for (int i = 0; i < 5; ++i) {
+        snprintf(shot, sizeof shot, "%s/%s.png", tmp, i == 0 ? "orbit" : modes[i]);
+        snprintf(ref, sizeof ref, "%s/direct_%d.png", tmp, i);
+        snprintf(cmd, sizeof cmd, "%s render %s -q --size %s --orbit 60,30 --mode %s -o %s", LEAP_EXE, vol, size, modes[i], ref);
+        CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
+        if (exists(shot) && exists(ref)) matches(shot, ref, "orbit 60 30");
+    }
+
+    /* The overlays draw what they say: box edges in the class colours. */
+    snprintf(shot, sizeof shot, "%s/boxes.png", tmp);
+    const unsigned char nonempty[3] = {242, 115, 26}; /* NONEMPTY orange (0.95, 0.45, 0.10) */
+    long edges = count_colour(shot, nonempty);
+    CHECK_MSG(edges > 50, "boxes overlay: %ld pixels in the NONEMPTY colour", edges);
+
+    /* The mouse moved the camera: the drag frame differs from the orbit frame. */
+    {
+        char a1[1024], a2[1024];
+        snprintf(a1, sizeof a1, "%s/orbit.png", tmp);
+        snprintf(a2, sizeof a2, "%s/drag.png", tmp);
+        cmp_result c = compare(a1, a2);
+        CHECK_MSG(c.ok && c.differing > 1000, "drag did not move the camera (%ld values differ)", c.differing);
+    }
+    free(session);
+
+    /* --frames N --screenshot OUT on a second volume, with a mode and camera from options. */
+    snprintf(vol, sizeof vol, "%s/sphere.vdb", LEAP_VOLUMES);
+    snprintf(shot, sizeof shot, "%s/frames.png", tmp);
+    snprintf(ref, sizeof ref, "%s/frames_ref.png", tmp);
+    remove(shot);
+    snprintf(cmd, sizeof cmd, "%s %s view %s --size 200x150 --mode octree --orbit 20,-15,2.5 --tf hot --frames 2 --screenshot %s",
+             xvfb, LEAP_EXE, vol, shot);
+    rc = run(cmd);
+    CHECK_MSG(rc == 0, "%s -> exit %d: %s", cmd, rc, out_text);
+    snprintf(cmd, sizeof cmd, "%s render %s -q --size 200x150 --mode octree --orbit 20,-15,2.5 --tf hot -o %s", LEAP_EXE, vol,
+             ref);
+    CHECK(run(cmd) == 0);
+    if (exists(shot) && exists(ref)) matches(shot, ref, "--frames --screenshot");
+
+    /* Failures: no display, bad script (with its line), usage errors. */
+    snprintf(cmd, sizeof cmd, "env -u DISPLAY -u WAYLAND_DISPLAY %s view %s --frames 1", LEAP_EXE, vol);
+    rc = run(cmd);
+    CHECK_MSG(rc == 1 && strstr(out_text, "display"), "no display -> exit %d: %s", rc, out_text);
+    snprintf(script, sizeof script, "%s/bad.txt", tmp);
+    write_text(script, "orbit 10 10\nkey 4\nfly away\n");
+    snprintf(cmd, sizeof cmd, "%s view %s --script %s", LEAP_EXE, vol, script);
+    rc = run(cmd);
+    CHECK_MSG(rc == 1 && strstr(out_text, "bad.txt:3:") && strstr(out_text, "fly"), "bad script -> exit %d: %s", rc,
+              out_text);
+    snprintf(cmd, sizeof cmd, "%s view", LEAP_EXE);
+    CHECK(run(cmd) == 2);
+    snprintf(cmd, sizeof cmd, "%s view %s --frames 0", LEAP_EXE, vol);
+    CHECK(run(cmd) == 2 && strstr(out_text, "--frames"));
+    snprintf(cmd, sizeof cmd, "%s view %s --screenshot x.jpg", LEAP_EXE, vol);
+    CHECK(run(cmd) == 2);
+    snprintf(cmd, sizeof cmd, "%s %s view %s/missing.vdb --frames 1", xvfb, LEAP_EXE, LEAP_VOLUMES);
+    rc = run(cmd);
+    CHECK_MSG(rc == 1 && strstr(out_text, "missing.vdb"), "missing volume -> exit %d: %s", rc, out_text);
+    snprintf(cmd, sizeof cmd, "%s view --help", LEAP_EXE);
+    CHECK(run(cmd) == 0 && strstr(out_text, "--script") && strstr(out_text, "--orbit"));
+    free(out_text);
+    return check_exit_code();
+}
