@@ -1046,9 +1046,27 @@ void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3
                           double value, int active)
 {
     if (!min || !max) return;
-    if (writer && (max[0] == INT32_MAX || max[1] == INT32_MAX || max[2] == INT32_MAX)) {
-        // OpenVDB's fill loop steps past the box end and would overflow (and never stop) here.
-        if (writer->deferred_error.empty()) writer->deferred_error = "fill box reaches INT32_MAX";
+    // OpenVDB's fill steps from root tile to root tile (4096 voxels) and overflows int32 past
+    // the last one: boxes there are set voxel by voxel, if small enough.
+    const int32_t last_root = INT32_MAX - 4095;
+    if (max[0] >= last_root || max[1] >= last_root || max[2] >= last_root) {
+        int64_t voxels = 1;
+        for (int a = 0; a < 3; ++a) voxels *= max[a] >= min[a] ? (int64_t)max[a] - min[a] + 1 : 0;
+        if (voxels > (1 << 24)) {
+            if (writer && writer->deferred_error.empty())
+                writer->deferred_error = "fill box near INT32_MAX is too large to set voxel by voxel";
+            return;
+        }
+        with_typed(writer, grid, value, [&](auto &g, auto v) {
+            auto acc = g.getAccessor();
+            for (int64_t z = min[2]; z <= max[2]; ++z)
+                for (int64_t y = min[1]; y <= max[1]; ++y)
+                    for (int64_t x = min[0]; x <= max[0]; ++x) {
+                        const vdb::Coord c((int32_t)x, (int32_t)y, (int32_t)z);
+                        if (active) acc.setValueOn(c, v);
+                        else acc.setValueOff(c, v);
+                    }
+        });
         return;
     }
     with_typed(writer, grid, value, [&](auto &g, auto v) {
