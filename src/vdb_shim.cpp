@@ -1048,6 +1048,11 @@ void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3
     if (!min || !max) return;
     // OpenVDB's fill steps from root tile to root tile (4096 voxels) and overflows int32 past
     // the last one: boxes there are set voxel by voxel, if small enough.
+    if (writer && (max[0] == INT32_MAX || max[1] == INT32_MAX || max[2] == INT32_MAX)) {
+        // Coordinates at INT32_MAX itself overflow OpenVDB's own node arithmetic: refused.
+        if (writer->deferred_error.empty()) writer->deferred_error = "fill box reaches INT32_MAX";
+        return;
+    }
     const int32_t last_root = INT32_MAX - 4095;
     if (max[0] >= last_root || max[1] >= last_root || max[2] >= last_root) {
         int64_t voxels = 1;
