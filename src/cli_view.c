@@ -5,9 +5,10 @@
  * scene, the renderer and the swapchain: it takes the newest state, renders it with the same
  * core as `leap render` (leap_renderer_render into float RGBA), converts the premultiplied
  * colour (over black) to the 8-bit values `leap render` writes to PNG, draws overlays, and
- * copies the bytes into a swapchain image through a staging buffer. While the camera moves
- * it renders at reduced resolution (nearest-neighbour upscaled) and refines when idle, so a
- * slow frame never holds up input handling.
+ * copies the bytes into a swapchain image through a staging buffer. New states and a moving
+ * camera render at reduced resolution (nearest-neighbour upscaled); once idle the image
+ * refines in bands, so neither input handling nor the response to new input waits for a
+ * slow full frame.
  *
  * Colour: the bytes are copied (never blitted or written by a shader), and copies do not
  * convert, so what reaches the display is the PNG's 8-bit value whether the swapchain format
@@ -53,13 +54,13 @@ static const char *view_help_tail =
     "  --budget MS         frame-time target while the camera moves (default 50); frames\n"
     "                      that would take longer render at reduced resolution\n"
     "  --no-adaptive       always render at full resolution\n"
-    "  -q, --quiet         no per-screenshot lines on stdout\n"
+    "  -q, --quiet         no informational lines (device, screenshots written)\n"
     "\n"
     "Exit codes: 0 success, 1 runtime failure (no display, no Vulkan surface, unreadable\n"
     "volume, failed screenshot), 2 usage error.\n";
 
 #define IDLE_MS 200.0        /* camera counts as moving this long after the last change */
-#define MAX_SCALE 8
+#define MAX_SCALE 16
 #define MAX_IMAGES 16
 #define RESIZE_TIMEOUT_MS 30000.0
 
@@ -108,8 +109,11 @@ typedef struct app {
     /* render thread: frame buffers and applied look */
     float *rgba, *samples;
     size_t rgba_cap;
-    uint8_t *rgb8;
-    size_t rgb8_cap;
+    uint8_t *rgb8, *base8;     /* presented image / the same without overlays */
+    size_t rgb8_cap, base8_cap;
+    float *heat;               /* heat-map values at full resolution (-1: overflowed) */
+    size_t heat_cap;
+    int refine_scale, refine_row; /* refinement pass under way (scale 0: none) */
     leap_box_gpu *boxes;
     uint32_t boxes_cap, boxes_count;
     unsigned boxes_gen, tf_gen;
@@ -127,6 +131,7 @@ typedef struct app {
     pthread_cond_t cv;
     leap_viewer posted;
     uint64_t seq;
+    uint64_t camera_seq;       /* state version of the last camera change */
     double moving_until;
     int fb_w, fb_h;
     uint64_t fb_seq;
@@ -621,33 +626,21 @@ static void draw_boxes(app *a, const leap_view *view, uint8_t *rgb)
     }
 }
 
-/* Heat map of segments per pixel (sparseleap) or samples per pixel (other modes), blended
- * over the image. Values come at render resolution (rw x rh) and are upscaled by `scale`. */
-static void draw_heat(app *a, leap_mode mode, int rw, int rh, int scale, uint8_t *rgb, int W, int H, char *what,
-                      size_t what_size)
+/* Blends the heat map (a->heat at full resolution: a count, or -1 for an overflowed pixel)
+ * over the image. */
+static void draw_heat(app *a, leap_mode mode, uint8_t *rgb, int W, int H, char *what, size_t what_size)
 {
-    const uint32_t *lists = mode == LEAP_RENDER_SPARSELEAP ? leap_renderer_pixel_lists(a->renderer) : NULL;
-    if (mode == LEAP_RENDER_SPARSELEAP && !lists) return;
+    size_t n = (size_t)W * H;
     double maxv = 0;
-    for (size_t i = 0; i < (size_t)rw * rh; ++i) {
-        double v = lists ? (double)(lists[4 * i] & LEAP_PIXEL_COUNT_MASK) : (double)a->samples[i];
-        if (v > maxv) maxv = v;
-    }
-    snprintf(what, what_size, "heat: %s/pixel 0..%.0f", lists ? "segments" : "samples", maxv);
+    for (size_t i = 0; i < n; ++i)
+        if (a->heat[i] > maxv) maxv = a->heat[i];
+    snprintf(what, what_size, "heat: %s/pixel 0..%.0f", mode == LEAP_RENDER_SPARSELEAP ? "segments" : "samples", maxv);
     if (maxv <= 0) maxv = 1;
-    for (int y = 0; y < H; ++y) {
-        int sy = y / scale < rh ? y / scale : rh - 1;
-        for (int x = 0; x < W; ++x) {
-            int sx = x / scale < rw ? x / scale : rw - 1;
-            size_t si = (size_t)sy * rw + sx;
-            float c[3] = {1.0f, 0.0f, 1.0f}; /* overflowed pixels: magenta */
-            if (!lists || !(lists[4 * si] & LEAP_PIXEL_OVERFLOW)) {
-                double v = lists ? (double)(lists[4 * si] & LEAP_PIXEL_COUNT_MASK) : (double)a->samples[si];
-                leap_dump_colormap(v / maxv, c);
-            }
-            uint8_t *px = rgb + 3 * ((size_t)y * W + x);
-            for (int k = 0; k < 3; ++k) px[k] = to_u8(0.35f * px[k] / 255.0f + 0.65f * c[k]);
-        }
+    for (size_t i = 0; i < n; ++i) {
+        float c[3] = {1.0f, 0.0f, 1.0f}; /* overflowed pixels: magenta */
+        if (a->heat[i] >= 0) leap_dump_colormap(a->heat[i] / maxv, c);
+        uint8_t *px = rgb + 3 * i;
+        for (int k = 0; k < 3; ++k) px[k] = to_u8(0.35f * px[k] / 255.0f + 0.65f * c[k]);
     }
 }
 
@@ -677,65 +670,147 @@ static leap_result apply_tf(app *a, const leap_viewer *st, leap_error *err)
 }
 
 /* Resolution divisor that brings the estimated render time under the budget. A mode not yet
- * seen is assumed to cost as much as the slowest seen so far. */
+ * seen is assumed to cost as much as the slowest seen so far; with no figures at all (the
+ * first frame) a quarter of the resolution is a safe start. */
 static int choose_scale(app *a, leap_mode mode, int W, int H)
 {
     double per_px = a->est_ms_per_px[mode];
     if (!(per_px > 0))
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m) per_px = fmax(per_px, a->est_ms_per_px[m]);
+    if (!(per_px > 0)) return 4;
     double est = per_px * W * H;
     if (!(est > a->o.budget_ms)) return 1;
     int s = (int)ceil(sqrt(est / a->o.budget_ms));
     return s < 1 ? 1 : s > MAX_SCALE ? MAX_SCALE : s;
 }
 
+/* Rows per band of a refinement pass over a w x h image: about twice the budget each, a
+ * multiple of the 8-row work group; the whole image when it fits. */
+static int band_rows(app *a, leap_mode mode, int w, int h)
+{
+    double per_row = a->est_ms_per_px[mode] * w;
+    double target = 2.0 * a->o.budget_ms;
+    if (!(per_row > 0) || per_row * h <= target) return h;
+    int rows = (int)(target / per_row) / LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP;
+    if (rows < LEAP_COMPOSITE_GROUP) rows = LEAP_COMPOSITE_GROUP;
+    return rows < h ? rows : h;
+}
+
 typedef struct frame_figures {
-    leap_frame_stats fs;
-    double render_ms, compose_ms, present_ms, total_ms;
+    double render_ms, raster_ms, resolve_ms, composite_ms, readback_ms, compose_ms, present_ms, total_ms;
+    uint64_t samples, pixels;
     int scale;
+    int refining;     /* 1 while a refinement pass is under way */
+    double progress;  /* of the refinement pass, 0..1 */
     char heat[96];
 } frame_figures;
 
-/* Renders the state at 1/scale resolution, composes the 8-bit frame into the staging buffer. */
-static leap_result compose_frame(app *a, const leap_viewer *st, int scale, frame_figures *ff, leap_error *err)
+static void figures_add(frame_figures *acc, const frame_figures *f)
+{
+    acc->render_ms += f->render_ms;
+    acc->raster_ms += f->raster_ms;
+    acc->resolve_ms += f->resolve_ms;
+    acc->composite_ms += f->composite_ms;
+    acc->readback_ms += f->readback_ms;
+    acc->compose_ms += f->compose_ms;
+    acc->present_ms += f->present_ms;
+    acc->total_ms += f->total_ms;
+    acc->samples += f->samples;
+    acc->pixels += f->pixels;
+    acc->scale = f->scale;
+    memcpy(acc->heat, f->heat, sizeof acc->heat);
+}
+
+/* Renders rows [y0, y0 + rows) of the 1/scale image of state st (all of it: y0 = 0, rows = h)
+ * and writes them, upscaled, into the base image and, with the heat overlay on, the heat
+ * values. A band is the same camera with its first row moved to y0. */
+static leap_result render_rows(app *a, const leap_viewer *st, int scale, int y0, int rows, frame_figures *ff,
+                               leap_error *err)
 {
     int W = (int)a->extent.width, H = (int)a->extent.height;
     int w = (W + scale - 1) / scale, h = (H + scale - 1) / scale;
     leap_camera cam;
-    leap_view view, full;
+    leap_view view;
     leap_result r = leap_viewer_camera(st, &cam, err);
     if (!r) r = leap_scene_view(a->scene, &cam, w, h, &view, err);
-    if (!r) r = leap_scene_view(a->scene, &cam, W, H, &full, err);
     if (r) return r;
-    if (!grow((void **)&a->rgba, &a->rgba_cap, (size_t)w * h * 5, sizeof(float)) ||
-        !grow((void **)&a->rgb8, &a->rgb8_cap, (size_t)W * H * 3, 1))
+    if (y0 != 0 || rows != h) {
+        for (int i = 0; i < 3; ++i) {
+            view.origin0[i] += y0 * view.origin_dy[i];
+            view.dir0[i] += y0 * view.dir_dy[i];
+        }
+        view.height = rows;
+    }
+    size_t band = (size_t)w * rows;
+    if (!grow((void **)&a->rgba, &a->rgba_cap, band * 5, sizeof(float)) ||
+        !grow((void **)&a->base8, &a->base8_cap, (size_t)W * H * 3, 1) ||
+        !grow((void **)&a->rgb8, &a->rgb8_cap, (size_t)W * H * 3, 1) ||
+        (st->show_heat && !grow((void **)&a->heat, &a->heat_cap, (size_t)W * H, sizeof(float))))
         return leap_fail(err, LEAP_ERR_OOM, "out of memory for a %dx%d frame", W, H);
-    a->samples = a->rgba + (size_t)w * h * 4;
+    a->samples = a->rgba + band * 4;
     leap_march march = a->scene->march;
     march.step = st->step;
     int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
+    leap_frame_stats fs;
     double t0 = cli_now_ms();
-    r = leap_renderer_render(a->renderer, &view, &march, st->mode, a->rgba, NULL, want_samples ? a->samples : NULL, &ff->fs,
-                             err);
+    r = leap_renderer_render(a->renderer, &view, &march, st->mode, a->rgba, NULL, want_samples ? a->samples : NULL, &fs, err);
     if (r) return r;
     double t1 = cli_now_ms();
     ff->render_ms = t1 - t0;
-    a->est_ms_per_px[st->mode] = ff->render_ms / ((double)w * h);
+    ff->raster_ms = fs.gpu_raster_ms;
+    ff->resolve_ms = fs.gpu_resolve_ms;
+    ff->composite_ms = fs.gpu_composite_ms;
+    ff->readback_ms = fs.readback_ms;
+    ff->samples = fs.total_samples;
+    ff->pixels = band;
+    ff->scale = scale;
+    if (y0 == 0 && rows == h) a->est_ms_per_px[st->mode] = ff->render_ms / (double)band; /* bands are not representative */
     /* premultiplied colour over black = the RGB channels, as leap render writes PNGs */
-    uint8_t *rgb = a->rgb8;
-    for (int y = 0; y < H; ++y) {
-        const float *src = a->rgba + (size_t)(y / scale < h ? y / scale : h - 1) * w * 4;
-        uint8_t *dst = rgb + (size_t)y * W * 3;
-        for (int x = 0; x < W; ++x) {
-            const float *p = src + (size_t)(x / scale < w ? x / scale : w - 1) * 4;
-            dst[3 * x] = to_u8(p[0]);
-            dst[3 * x + 1] = to_u8(p[1]);
-            dst[3 * x + 2] = to_u8(p[2]);
+    const uint32_t *lists = st->show_heat && st->mode == LEAP_RENDER_SPARSELEAP ? leap_renderer_pixel_lists(a->renderer) : NULL;
+    int Y1 = (y0 + rows) * scale < H ? (y0 + rows) * scale : H;
+    for (int Y = y0 * scale; Y < Y1; ++Y) {
+        size_t row = (size_t)(Y / scale - y0) * w;
+        const float *src = a->rgba + row * 4;
+        uint8_t *dst = a->base8 + (size_t)Y * W * 3;
+        for (int X = 0; X < W; ++X) {
+            const float *p = src + (size_t)(X / scale) * 4;
+            dst[3 * X] = to_u8(p[0]);
+            dst[3 * X + 1] = to_u8(p[1]);
+            dst[3 * X + 2] = to_u8(p[2]);
+        }
+        if (st->show_heat) {
+            float *hv = a->heat + (size_t)Y * W;
+            for (int X = 0; X < W; ++X) {
+                size_t si = row + (size_t)(X / scale);
+                if (lists) hv[X] = (lists[4 * si] & LEAP_PIXEL_OVERFLOW) ? -1.0f : (float)(lists[4 * si] & LEAP_PIXEL_COUNT_MASK);
+                else hv[X] = a->samples[si];
+            }
         }
     }
+    ff->compose_ms = cli_now_ms() - t1;
+    return LEAP_OK;
+}
+
+/* The presented bytes: the base image, the overlays, in the swapchain's byte order. */
+static leap_result compose_output(app *a, const leap_viewer *st, frame_figures *ff, leap_error *err)
+{
+    double t0 = cli_now_ms();
+    int W = (int)a->extent.width, H = (int)a->extent.height;
+    uint8_t *rgb = a->base8;
     ff->heat[0] = '\0';
-    if (st->show_heat) draw_heat(a, st->mode, w, h, scale, rgb, W, H, ff->heat, sizeof ff->heat);
-    if (st->show_boxes) draw_boxes(a, &full, rgb);
+    if (st->show_heat || st->show_boxes) {
+        memcpy(a->rgb8, a->base8, (size_t)W * H * 3);
+        rgb = a->rgb8;
+        if (st->show_heat && a->heat) draw_heat(a, st->mode, rgb, W, H, ff->heat, sizeof ff->heat);
+        if (st->show_boxes) {
+            leap_camera cam;
+            leap_view full;
+            leap_result r = leap_viewer_camera(st, &cam, err);
+            if (!r) r = leap_scene_view(a->scene, &cam, W, H, &full, err);
+            if (r) return r;
+            draw_boxes(a, &full, rgb);
+        }
+    }
     uint8_t *out = a->staging.mapped;
     for (size_t i = 0, n = (size_t)W * H; i < n; ++i) {
         out[4 * i] = rgb[3 * i + (a->bgr ? 2 : 0)];
@@ -743,8 +818,7 @@ static leap_result compose_frame(app *a, const leap_viewer *st, int scale, frame
         out[4 * i + 2] = rgb[3 * i + (a->bgr ? 0 : 2)];
         out[4 * i + 3] = 255;
     }
-    ff->compose_ms = cli_now_ms() - t1;
-    ff->scale = scale;
+    ff->compose_ms += cli_now_ms() - t0;
     return LEAP_OK;
 }
 
@@ -767,18 +841,21 @@ static leap_result save_presented(app *a, const char *path, leap_error *err)
 
 static void make_title(app *a, const leap_viewer *st, const frame_figures *ff, char *out, size_t size)
 {
-    const leap_frame_stats *fs = &ff->fs;
-    char res[48] = "";
-    if (ff->scale > 1) snprintf(res, sizeof res, " (1/%d res)", ff->scale);
+    char res[64] = "";
+    if (ff->refining)
+        snprintf(res, sizeof res, " (refining%s: %.0f %%)", ff->scale > 1 ? " at reduced res" : "", 100.0 * ff->progress);
+    else if (ff->scale > 1)
+        snprintf(res, sizeof res, " (1/%d res)", ff->scale);
     char tf_ms[48] = "";
     if (a->tf_apply_ms > 0) snprintf(tf_ms, sizeof tf_ms, " | re-classify %.1f ms", a->tf_apply_ms);
     snprintf(out, size,
              "leap view %s | %s | %ux%u%s | %.1f ms (%.1f fps) | raster %.1f resolve %.1f composite %.1f "
              "readback %.1f compose %.1f present %.1f ms | %u boxes | %.1f spp | step %g | %s [%g, %g]%s%s%s",
              a->volume_name, leap_mode_name(st->mode), a->extent.width, a->extent.height, res, ff->total_ms,
-             ff->total_ms > 0 ? 1000.0 / ff->total_ms : 0.0, fs->gpu_raster_ms, fs->gpu_resolve_ms, fs->gpu_composite_ms,
-             fs->readback_ms, ff->compose_ms, ff->present_ms, leap_boxes_count(a->scene->boxes), fs->samples_mean, st->step,
-             base_name(st->tf), st->range[0], st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat);
+             ff->total_ms > 0 ? 1000.0 / ff->total_ms : 0.0, ff->raster_ms, ff->resolve_ms, ff->composite_ms, ff->readback_ms,
+             ff->compose_ms, ff->present_ms, leap_boxes_count(a->scene->boxes),
+             ff->pixels ? (double)ff->samples / (double)ff->pixels : 0.0, st->step, base_name(st->tf), st->range[0],
+             st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat);
 }
 
 static void set_fatal(app *a, const char *msg)
@@ -800,7 +877,7 @@ static int frame_needed(app *a, double now, double *wake_at)
     if (a->fb_seq != a->applied_fb_seq || a->swapchain_dirty) return 1;
     if (a->zero_extent) return 0;
     if (a->seq != a->pub.rendered_seq || a->force_frames > 0 || a->shot_req != a->pub.shot_done) return 1;
-    if (a->last_scale > 1) {
+    if (a->o.adaptive && (a->last_scale > 1 || a->refine_scale)) { /* refine once idle */
         if (now >= a->moving_until) return 1;
         *wake_at = a->moving_until;
     }
@@ -811,6 +888,8 @@ static void *render_thread(void *arg)
 {
     app *a = arg;
     leap_error err = {{0}};
+    frame_figures pass; /* figures of the refinement pass under way */
+    memset(&pass, 0, sizeof pass);
     for (;;) {
         pthread_mutex_lock(&a->mu);
         double wake_at = 0;
@@ -839,7 +918,8 @@ static void *render_thread(void *arg)
         uint64_t rendered_seq = a->pub.rendered_seq;
         uint64_t seq = a->seq, fb_seq = a->fb_seq, shot_id = a->shot_req != a->pub.shot_done ? a->shot_req : 0;
         int fb_w = a->fb_w, fb_h = a->fb_h;
-        int moving = cli_now_ms() < a->moving_until;
+        /* moving: recent camera input, or a camera change this frame is the first to show */
+        int moving = cli_now_ms() < a->moving_until || a->camera_seq > a->pub.rendered_seq;
         int forced = a->force_frames > 0;
         char shot_path[1024];
         snprintf(shot_path, sizeof shot_path, "%s", a->shot_path);
@@ -847,10 +927,11 @@ static void *render_thread(void *arg)
         pthread_mutex_unlock(&a->mu);
 
         double t0 = cli_now_ms();
+        int is_new = seq != rendered_seq;
         if (fb_seq != a->applied_fb_seq || a->swapchain_dirty) {
+            VkSwapchainKHR before = a->swapchain;
             a->applied_fb_seq = fb_seq;
             a->swapchain_dirty = 0;
-            VkSwapchainKHR before = a->swapchain;
             if (swapchain_create(a, fb_w, fb_h, &err)) {
                 set_fatal(a, err.msg);
                 break;
@@ -859,6 +940,8 @@ static void *render_thread(void *arg)
                 fprintf(stderr, "leap view: %s on %s, %ux%u %s swapchain, %s\n", a->o.view.input,
                         leap_renderer_device_name(a->renderer), a->extent.width, a->extent.height, format_name(a->format),
                         present_mode_name(a->present_mode));
+            a->refine_scale = 0;
+            is_new = 1;
             if (a->zero_extent) continue;
         }
         a->tf_apply_ms = 0;
@@ -871,19 +954,32 @@ static void *render_thread(void *arg)
             }
             fprintf(stderr, "leap view: %s\n", msg);
         }
-        /* A new state (or any frame while the camera moves) first renders at the resolution the
-         * budget allows; once idle, the image refines in halving steps down to full resolution;
-         * screenshots and repeated frames of an idle state are full resolution. */
-        int scale = 1;
+        /* Whole frames: screenshots (full resolution, exactly what `leap render` gives), a new
+         * state or a moving camera (at the resolution the budget allows), repeated frames of an
+         * idle state (full resolution). Once idle, the image refines in halving steps to full
+         * resolution, in bands of about twice the budget, so new input is taken up between bands. */
+        int W = (int)a->extent.width, H = (int)a->extent.height;
+        int whole = 1, scale = 1;
         if (!shot_id && a->o.adaptive) {
-            if (moving || seq != rendered_seq)
-                scale = choose_scale(a, st.mode, (int)a->extent.width, (int)a->extent.height);
-            else if (a->last_scale > 1 && !forced)
-                scale = a->last_scale >= 4 ? a->last_scale / 2 : 1;
+            if (moving || (is_new && !forced)) {
+                scale = choose_scale(a, st.mode, W, H);
+            } else if (!forced && (a->refine_scale || a->last_scale > 1)) {
+                if (!a->refine_scale) {
+                    a->refine_scale = a->last_scale >= 4 ? a->last_scale / 2 : 1;
+                    a->refine_row = 0;
+                    memset(&pass, 0, sizeof pass);
+                }
+                scale = a->refine_scale;
+                whole = 0;
+            }
         }
+        if (whole) a->refine_scale = 0;
+        int h = (H + scale - 1) / scale;
+        int y0 = whole ? 0 : a->refine_row;
+        int rows = whole ? h : band_rows(a, st.mode, (W + scale - 1) / scale, h);
         frame_figures ff;
         memset(&ff, 0, sizeof ff);
-        if (compose_frame(a, &st, scale, &ff, &err)) {
+        if (render_rows(a, &st, scale, y0, rows, &ff, &err) || compose_output(a, &st, &ff, &err)) {
             set_fatal(a, err.msg);
             break;
         }
@@ -897,7 +993,24 @@ static void *render_thread(void *arg)
         ff.present_ms = t2 - t1;
         ff.total_ms = t2 - t0;
         if (!shown) continue; /* recreate the swapchain and render again */
-        a->last_scale = scale;
+        double frame_render_ms = ff.render_ms, frame_total_ms = ff.total_ms;
+        int full_image = 0;
+        if (whole) {
+            a->last_scale = scale;
+            full_image = scale == 1;
+        } else {
+            figures_add(&pass, &ff);
+            a->refine_row += rows;
+            pass.refining = a->refine_row < h;
+            pass.progress = a->refine_row >= h ? 1.0 : (double)a->refine_row / h;
+            if (!pass.refining) {
+                if (pass.pixels) a->est_ms_per_px[st.mode] = pass.render_ms / (double)pass.pixels;
+                a->last_scale = scale;
+                a->refine_scale = 0;
+                full_image = scale == 1;
+            }
+            ff = pass;
+        }
         int shot_failed = 0;
         if (shot_id) {
             if (save_presented(a, shot_path, &err)) {
@@ -925,12 +1038,12 @@ static void *render_thread(void *arg)
          * before refining starts (a slow reduced frame must not let a refine slip in between). */
         if (scale > 1 && moving) a->moving_until = fmax(a->moving_until, cli_now_ms() + IDLE_MS);
         p->frames++;
-        p->frames_full += scale == 1;
-        p->frame_ms_sum += ff.total_ms;
-        p->render_ms_sum += ff.render_ms;
-        p->width = (int)a->extent.width;
-        p->height = (int)a->extent.height;
-        if (forced && a->force_frames > 0) {
+        p->frames_full += full_image;
+        p->frame_ms_sum += frame_total_ms;
+        p->render_ms_sum += frame_render_ms;
+        p->width = W;
+        p->height = H;
+        if (whole && forced && a->force_frames > 0) {
             a->force_frames--;
             p->forced_done++;
         }
@@ -961,7 +1074,10 @@ static void post_state(app *a)
     pthread_mutex_lock(&a->mu);
     a->posted = a->v;
     a->seq++;
-    if (bits & LEAP_VIEWER_CAMERA) a->moving_until = cli_now_ms() + IDLE_MS;
+    if (bits & LEAP_VIEWER_CAMERA) {
+        a->moving_until = cli_now_ms() + IDLE_MS;
+        a->camera_seq = a->seq;
+    }
     pthread_cond_signal(&a->cv);
     pthread_mutex_unlock(&a->mu);
 }
@@ -1266,6 +1382,8 @@ static void app_destroy(app *a)
     leap_scene_destroy(a->scene);
     free(a->rgba);
     free(a->rgb8);
+    free(a->base8);
+    free(a->heat);
     free(a->boxes);
 }
 
@@ -1340,9 +1458,17 @@ int cli_view(int argc, char **argv)
     if (r) return cli_runtime_error("%s", err.msg);
     int scripted = a->o.script || a->o.frames || a->o.screenshot;
 
+    /* The volume first: a bad input is reported whether or not a display exists. */
+    r = leap_scene_create(&a->o.view.scene, &a->scene, &err);
+    if (r) {
+        leap_viewer_script_free(&script);
+        fprintf(stderr, "leap: %s\n", err.msg);
+        return cli_exit_code(r);
+    }
     glfwSetErrorCallback(on_glfw_error);
     if (!glfwInit()) {
         leap_viewer_script_free(&script);
+        leap_scene_destroy(a->scene);
         return cli_runtime_error("view: cannot open a window: %s; is a display available (DISPLAY set, or run "
                                  "under xvfb-run)?", glfw_error_text[0] ? glfw_error_text : "GLFW failed to start");
     }
@@ -1350,16 +1476,7 @@ int cli_view(int argc, char **argv)
     if (!glfwVulkanSupported()) {
         fprintf(stderr, "leap: view: no Vulkan window surface: GLFW found no Vulkan loader with surface support "
                         "(install libvulkan1 and mesa-vulkan-drivers)\n");
-        glfwTerminate();
-        leap_viewer_script_free(&script);
-        return EXIT_RUNTIME;
-    }
-    r = leap_scene_create(&a->o.view.scene, &a->scene, &err);
-    if (r) {
-        glfwTerminate();
-        leap_viewer_script_free(&script);
-        fprintf(stderr, "leap: %s\n", err.msg);
-        return cli_exit_code(r);
+        goto done;
     }
     if ((r = viewer_from_options(a, &err))) {
         rc = cli_exit_code(r);
