@@ -11,7 +11,10 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
@@ -22,11 +25,13 @@
 #include <fstream>
 #include <ios>
 #include <limits>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <new>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace vdb = openvdb;
@@ -143,72 +148,110 @@ std::string printable(const std::string &s)
     return out;
 }
 
+// The file's bytes, mapped read-only for the checks below.
+class Mapping {
+public:
+    Mapping(const std::string &path, uint64_t size) : size_(size)
+    {
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
+        void *p = size ? ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0) : MAP_FAILED;
+        const int saved = errno;
+        ::close(fd);
+        if (p == MAP_FAILED) OPENVDB_THROW(vdb::IoError, "cannot map the file: " << std::strerror(saved));
+        data_ = static_cast<const unsigned char *>(p);
+    }
+    ~Mapping() { ::munmap(const_cast<unsigned char *>(data_), size_); }
+    Mapping(const Mapping &) = delete;
+    Mapping &operator=(const Mapping &) = delete;
+    const unsigned char *data() const { return data_; }
+    uint64_t size() const { return size_; }
+
+private:
+    const unsigned char *data_ = nullptr;
+    uint64_t size_;
+};
+
 // Bounded reads of the byte range [pos, limit) of a file. OpenVDB allocates and fills a
-// buffer for every string and metadata value it reads, and loops over every count, before
-// it notices that the file is shorter: one flipped length byte costs gigabytes and minutes.
-// The checks below walk the same structures first and reject what does not fit.
+// buffer for every string and metadata value it reads, loops over every count, and copies
+// chunks whose sizes it takes from the file, before it notices that the file is shorter or
+// that a size is wrong: one flipped byte costs gigabytes, minutes, or a write past a buffer.
+// The checks below walk the same structures first and reject what does not fit. Messages
+// are `prefix` followed by the `what` of the read that failed.
 class Walker {
 public:
-    Walker(std::istream &is, uint64_t pos, uint64_t limit) : is_(is), pos_(pos), limit_(limit) {}
+    Walker(const Mapping &m, uint64_t pos, uint64_t limit, std::string prefix = "")
+        : data_(m.data()), pos_(pos), limit_(std::min(limit, m.size())), prefix_(std::move(prefix))
+    {
+    }
     uint64_t pos() const { return pos_; }
     void seek(uint64_t pos) { pos_ = pos; }
     uint64_t left() const { return pos_ < limit_ ? limit_ - pos_ : 0; }
-    void need(uint64_t n, const std::string &what) const
+    [[noreturn]] void fail(const std::string &what, const std::string &problem) const
+    {
+        throw Corrupt(prefix_ + what + ": " + problem);
+    }
+    void need(uint64_t n, const char *what) const
     {
         if (n > left())
-            throw Corrupt(what + ": corrupt or truncated file (" + std::to_string(n) + " bytes needed, " +
-                          std::to_string(left()) + " left)");
+            fail(what, "corrupt or truncated file (" + std::to_string(n) + " bytes needed, " + std::to_string(left()) +
+                           " left)");
     }
-    void read(void *dst, size_t n, const std::string &what)
+    void need(uint64_t n, const std::string &what) const { need(n, what.c_str()); }
+    template <typename W>
+    const unsigned char *bytes(uint64_t n, const W &what)
     {
         need(n, what);
-        is_.clear();
-        is_.seekg(std::streamoff(pos_));
-        is_.read(static_cast<char *>(dst), std::streamsize(n));
-        if (!is_) throw Corrupt(what + ": read error");
+        const unsigned char *p = data_ + pos_;
         pos_ += n;
+        return p;
     }
-    template <typename T>
-    T value(const std::string &what)
+    template <typename W>
+    void read(void *dst, size_t n, const W &what)
+    {
+        std::memcpy(dst, bytes(n, what), n);
+    }
+    template <typename T, typename W>
+    T value(const W &what)
     {
         T v;
         read(&v, sizeof v, what);
         return v;
     }
-    void skip(uint64_t n, const std::string &what)
+    template <typename W>
+    void skip(uint64_t n, const W &what)
     {
-        need(n, what);
-        pos_ += n;
+        bytes(n, what);
     }
     // OpenVDB's string: a uint32 length, then the bytes.
-    std::string str(const std::string &what)
+    template <typename W>
+    std::string str(const W &what)
     {
         const uint32_t n = value<uint32_t>(what);
-        need(n, what);
-        std::string s(n, '\0');
-        if (n) read(&s[0], n, what);
-        return s;
+        const unsigned char *p = bytes(n, what);
+        return std::string(reinterpret_cast<const char *>(p), n);
     }
 
 private:
-    std::istream &is_;
+    const unsigned char *data_;
     uint64_t pos_, limit_;
+    std::string prefix_;
 };
 
-// The header as io::Archive::readHeader reads it. Returns whether the file has grid offsets.
+// The header as io::Archive::readHeader reads it, for format 222 (OpenVDB 2.0) and later.
+// Returns whether the file has grid offsets.
 bool walk_header(Walker &w, uint32_t *version)
 {
     uint64_t magic = 0;
     if (w.left() >= 8) magic = w.value<uint64_t>("magic number");
     if (magic != uint64_t(vdb::OPENVDB_MAGIC)) throw Corrupt("not a VDB file (no VDB magic number)");
     *version = w.value<uint32_t>("format version");
-    if (*version < vdb::OPENVDB_FILE_VERSION_SELECTIVE_COMPRESSION || *version > vdb::OPENVDB_FILE_VERSION)
+    if (*version < vdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION || *version > vdb::OPENVDB_FILE_VERSION)
         throw Corrupt("unsupported VDB format version " + std::to_string(*version) + " (this build reads " +
-                      std::to_string(vdb::OPENVDB_FILE_VERSION_SELECTIVE_COMPRESSION) + " to " +
+                      std::to_string(vdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) + " to " +
                       std::to_string(vdb::OPENVDB_FILE_VERSION) + "): corrupt or too new");
     w.skip(8, "library version");
     const bool offsets = w.value<char>("grid offsets flag") != 0;
-    if (*version < vdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) w.skip(1, "compression flag");
     char uuid[36];
     w.read(uuid, sizeof uuid, "file UUID");
     for (int i = 0; i < 36; ++i) {
@@ -242,13 +285,13 @@ void walk_metamap(Walker &w, const std::string &what)
 
 // What precedes a grid's tree: compression flags, metadata, and the transform's map type
 // (the maps themselves are fixed-size, except a frustum's second map type).
-void walk_grid_prefix(Walker &w, uint32_t version, const std::string &label)
+void walk_grid_prefix(Walker &w, const std::string &label)
 {
-    if (version >= vdb::OPENVDB_FILE_VERSION_NODE_MASK_COMPRESSION) w.skip(4, label + " compression flags");
+    w.skip(4, label + " compression flags");
     walk_metamap(w, label + " metadata");
     const std::string map = w.str(label + " transform type");
     if (map == "NonlinearFrustumMap") {
-        w.skip(version < vdb::OPENVDB_FILE_VERSION_FLOAT_FRUSTUM_BBOX ? 24 : 48, label + " frustum box");
+        w.skip(48, label + " frustum box");
         w.skip(16, label + " frustum taper and depth");
         w.str(label + " frustum second map type");
     }
@@ -256,7 +299,7 @@ void walk_grid_prefix(Walker &w, uint32_t version, const std::string &label)
 
 // A grid descriptor as GridDescriptor::read reads it. Returns the grid's label for messages;
 // *instance tells whether the grid shares another grid's tree.
-std::string walk_descriptor(Walker &w, uint32_t version, int index, int64_t pos[3], bool *instance)
+std::string walk_descriptor(Walker &w, int index, int64_t pos[3], bool *instance)
 {
     const std::string name = w.str("grid descriptor " + std::to_string(index) + " name");
     const std::string label = "grid '" + printable(vdb::io::GridDescriptor::nameAsString(name)) + "'";
@@ -266,15 +309,181 @@ std::string walk_descriptor(Walker &w, uint32_t version, int index, int64_t pos[
         type.resize(type.size() - half.size());
     if (!vdb::GridBase::isRegistered(type))
         throw Corrupt(label + " has an unknown grid type '" + printable(type) + "': corrupt file or unsupported type");
-    *instance = version >= vdb::OPENVDB_FILE_VERSION_GRID_INSTANCING && !w.str(label + " instance parent").empty();
+    *instance = !w.str(label + " instance parent").empty();
     for (int i = 0; i < 3; ++i) pos[i] = w.value<int64_t>(label + " offsets");
     return label;
 }
 
+// ---- The tree of a grid, as Tree/RootNode/InternalNode/LeafNode::readTopology and
+// readBuffers read it (format >= 222, 5-4-3 trees of plain values). Chunk sizes are checked
+// against what OpenVDB will expect, because OpenVDB 10 copies an uncompressed chunk of the
+// size the file gives into a buffer of the size it expects before comparing the two, and
+// hands compressed chunks to Blosc without their length.
+
+// Bytes of one value of a tree type: in the root node (always full size) and in compressed
+// node values (half size for real types of a grid saved as half). 0 for trees this check
+// does not know.
+struct TreeFormat {
+    size_t full = 0, stored = 0;
+};
+
+TreeFormat tree_format(const std::string &type, bool half)
+{
+    static const struct {
+        const char *name;
+        size_t full, half;
+    } known[] = {{"Tree_float_5_4_3", 4, 2},  {"Tree_double_5_4_3", 8, 4}, {"Tree_int32_5_4_3", 4, 4},
+                 {"Tree_int64_5_4_3", 8, 8},  {"Tree_vec3s_5_4_3", 12, 6}, {"Tree_vec3d_5_4_3", 24, 12},
+                 {"Tree_vec3i_5_4_3", 12, 12}};
+    TreeFormat f;
+    for (const auto &k : known)
+        if (type == k.name) {
+            f.full = k.full;
+            f.stored = half ? k.half : k.full;
+        }
+    return f;
+}
+
+class TreeCheck {
+public:
+    // `w` carries the prefix for messages (the grid).
+    TreeCheck(Walker &w, const TreeFormat &format, uint32_t compression)
+        : w_(w), f_(format), compression_(compression)
+    {
+    }
+
+    void run()
+    {
+        if (w_.value<int32_t>("buffer count") != 1) w_.fail("buffer count", "corrupt tree");
+        w_.skip(f_.full, "background");
+        const uint32_t tiles = w_.value<uint32_t>("root tile count");
+        const uint32_t children = w_.value<uint32_t>("root child count");
+        if (tiles == 0 && children == 0) return; // an empty tree: no buffers either
+        // Each tile is an origin, a value and an active flag; the count must fit before it is used.
+        w_.skip(uint64_t(tiles) * (12 + f_.full + 1), "root tiles");
+        // The root keeps its children in a map keyed by the origin as stored: a later child
+        // replaces an earlier one with the same key, and buffers follow in key order.
+        std::map<std::tuple<int32_t, int32_t, int32_t>, size_t> order;
+        std::vector<Upper> uppers;
+        w_.need(uint64_t(children) * (12 + 2 * 4096), "root children");
+        uppers.reserve(children);
+        for (uint32_t i = 0; i < children; ++i) {
+            int32_t o[3];
+            w_.read(o, sizeof o, "root child origin");
+            uppers.emplace_back();
+            topology(uppers.back());
+            order[std::make_tuple(o[0], o[1], o[2])] = uppers.size() - 1;
+        }
+        for (const auto &entry : order)
+            for (const Lower &lower : uppers[entry.second].children)
+                for (uint16_t active : lower.leaf_active) {
+                    w_.skip(64, "leaf mask"); // read with the topology; skipped here
+                    values(active, 512, "voxel values");
+                }
+    }
+
+private:
+    // What the buffers need from the topology: the number of active voxels of each leaf, in
+    // the order of the leaves under their 16^3 (lower) and 32^3 (upper) internal nodes.
+    struct Lower {
+        std::vector<uint16_t> leaf_active;
+    };
+    struct Upper {
+        std::vector<Lower> children;
+    };
+
+    // Reads a node mask of `bits` bits; returns the number of bits set.
+    uint64_t mask(uint32_t bits, const char *what)
+    {
+        const unsigned char *p = w_.bytes(bits / 8, what);
+        uint64_t n = 0;
+        for (uint32_t i = 0; i < bits / 64; ++i) {
+            uint64_t word;
+            std::memcpy(&word, p + 8 * i, 8);
+            n += uint64_t(__builtin_popcountll(word));
+        }
+        return n;
+    }
+
+    // An internal node: child mask, value mask, its values, then its children.
+    void node_header(uint32_t bits, uint64_t *children)
+    {
+        *children = mask(bits, "node child mask");
+        const uint64_t active = mask(bits, "node value mask");
+        values(active, bits, "node values");
+    }
+
+    void topology(Upper &upper)
+    {
+        uint64_t n = 0;
+        node_header(32768, &n);
+        // Each child takes at least its masks: the count must fit before nodes are made for it.
+        w_.need(n * 2 * 512, "child nodes");
+        upper.children.resize(size_t(n));
+        for (Lower &lower : upper.children) {
+            uint64_t leaves = 0;
+            node_header(4096, &leaves);
+            w_.need(leaves * 64, "leaf nodes");
+            lower.leaf_active.resize(size_t(leaves));
+            for (uint16_t &active : lower.leaf_active) active = uint16_t(mask(512, "leaf mask"));
+        }
+    }
+
+    // io::readCompressedValues for a node of `bits` values, `active` of them active.
+    void values(uint64_t active, uint32_t bits, const char *what)
+    {
+        const int8_t meta = w_.value<int8_t>(what);
+        if (meta == 2 || meta == 4 || meta == 5) w_.skip(meta == 5 ? 2 * f_.full : f_.full, what);
+        if (meta == 3 || meta == 4 || meta == 5) w_.skip(bits / 8, what);
+        uint64_t count = bits;
+        if ((compression_ & vdb::io::COMPRESS_ACTIVE_MASK) && meta != 6) count = active;
+        if (f_.stored != f_.full && count == 0) return; // the half reader reads nothing then
+        chunk(count * f_.stored, what);
+    }
+
+    // io::readData: a Blosc or zip chunk (size, then data; a size <= 0 marks -size raw
+    // bytes) or raw bytes.
+    void chunk(uint64_t bytes, const char *what)
+    {
+        if (!(compression_ & (vdb::io::COMPRESS_BLOSC | vdb::io::COMPRESS_ZIP))) {
+            w_.skip(bytes, what);
+            return;
+        }
+        const int64_t n = w_.value<int64_t>(what);
+        if (n <= 0) {
+            if (n == std::numeric_limits<int64_t>::min()) w_.fail(what, "corrupt chunk size");
+            if (uint64_t(-n) != bytes)
+                w_.fail(what, "corrupt chunk (" + std::to_string(-n) + " bytes stored, " + std::to_string(bytes) +
+                                  " expected)");
+            w_.skip(bytes, what);
+            return;
+        }
+        const unsigned char *p = w_.bytes(uint64_t(n), what);
+        if (compression_ & vdb::io::COMPRESS_BLOSC) {
+            // Blosc's header: version, format, flags, type size, then uncompressed size,
+            // block size and compressed size (little-endian uint32s).
+            const uint64_t header = 16;
+            uint32_t nbytes = 0, cbytes = 0;
+            if (uint64_t(n) >= header) {
+                std::memcpy(&nbytes, p + 4, 4);
+                std::memcpy(&cbytes, p + 12, 4);
+            }
+            const bool memcpyed = uint64_t(n) >= header && (p[2] & 0x2);
+            if (uint64_t(n) < header || cbytes > uint64_t(n) || cbytes < header || nbytes != bytes ||
+                (memcpyed && uint64_t(nbytes) + header > cbytes))
+                w_.fail(what, "corrupt compressed chunk");
+        }
+    }
+
+    Walker &w_;
+    TreeFormat f_;
+    uint32_t compression_;
+};
+
 // A .vdb file read with OpenVDB's own readers (io::File keeps them private and sorts grids by
 // name), after the checks above, through streams that throw at the first failed read:
 // OpenVDB's tree readers do not check the stream and would go on building nodes from a
-// failed one. Their work is then bounded by the size of the file.
+// failed one.
 class VdbReader : public vdb::io::Archive {
 public:
     VdbReader(const std::string &path, uint64_t size) : path_(path), size_(size) {}
@@ -283,10 +492,10 @@ public:
     // grid offsets (written to a stream), every grid.
     void open(std::vector<vdb::io::GridDescriptor> &descs, std::vector<vdb::GridBase::Ptr> &streamed)
     {
-        std::ifstream raw(path_, std::ios_base::in | std::ios_base::binary);
-        if (!raw) OPENVDB_THROW(vdb::IoError, "cannot open the file");
-        Walker w(raw, 0, size_);
-        const bool offsets = walk_header(w, &version_);
+        const Mapping m(path_, size_);
+        Walker w(m, 0, size_);
+        uint32_t version = 0;
+        const bool offsets = walk_header(w, &version);
         walk_metamap(w, "file metadata");
         const int32_t count = w.value<int32_t>("grid count");
         if (count < 0) throw Corrupt("corrupt grid count " + std::to_string(count));
@@ -294,7 +503,7 @@ public:
             for (int i = 0; i < count; ++i) {
                 int64_t pos[3];
                 bool instance = false;
-                const std::string label = walk_descriptor(w, version_, i, pos, &instance);
+                const std::string label = walk_descriptor(w, i, pos, &instance);
                 // grid start <= tree data start <= end (an instance stores no tree: 0 there)
                 if (pos[0] < int64_t(w.pos()) || pos[2] < pos[0] ||
                     (!(instance && pos[1] == 0) && (pos[1] < pos[0] || pos[2] < pos[1])))
@@ -302,8 +511,8 @@ public:
                 if (uint64_t(pos[2]) > size_)
                     throw Corrupt("truncated: " + label + " ends at byte " + std::to_string(pos[2]) +
                                   " but the file has " + std::to_string(size_) + " bytes");
-                Walker g(raw, uint64_t(pos[0]), uint64_t(pos[2]));
-                walk_grid_prefix(g, version_, label);
+                Walker g(m, uint64_t(pos[0]), uint64_t(pos[2]));
+                walk_grid_prefix(g, label);
                 w.seek(uint64_t(pos[2]));
             }
         }
@@ -314,13 +523,15 @@ public:
         file_meta.readMeta(s.is);
         if (readGridCount(s.is) != count) throw Corrupt("grid count changed while reading");
         for (int i = 0; i < count; ++i) {
+            const uint64_t at = uint64_t(s.is.tellg());
+            std::string label;
             if (!offsets) {
                 // Each grid follows its descriptor; check both where they start.
-                Walker g(raw, uint64_t(s.is.tellg()), size_);
+                Walker g(m, at, size_);
                 int64_t pos[3];
                 bool instance = false;
-                const std::string label = walk_descriptor(g, version_, i, pos, &instance);
-                walk_grid_prefix(g, version_, label);
+                label = walk_descriptor(g, i, pos, &instance);
+                walk_grid_prefix(g, label);
             }
             vdb::io::GridDescriptor gd;
             gd.read(s.is);
@@ -329,6 +540,8 @@ public:
                 gd.seekToEnd(s.is);
                 continue;
             }
+            const uint64_t grid_pos = uint64_t(s.is.tellg());
+            if (!gd.isInstance()) check_tree(m, gd, grid_pos, size_, label + " tree", true);
             vdb::GridBase::Ptr grid = new_grid(gd);
             readGrid(grid, gd, s.is);
             if (gd.isInstance()) {
@@ -342,6 +555,10 @@ public:
     // Grid `gd` of this file: everything, or only its metadata and transform.
     vdb::GridBase::Ptr read(const vdb::io::GridDescriptor &gd, bool full)
     {
+        if (full && !gd.isInstance()) {
+            const Mapping m(path_, size_);
+            check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false);
+        }
         Stream s;
         start(s);
         gd.seekToGrid(s.is);
@@ -386,6 +603,33 @@ private:
         setDataCompression(s.is);
     }
 
+    // Checks the tree of the grid that starts at `grid_pos` (its compression flags) and must
+    // end by `limit`. The tree starts after the metadata and transform, whose extent OpenVDB
+    // finds by reading them (already checked by walk_grid_prefix). `any_type`: a tree this
+    // check does not know is an error (a file without offsets is read whole) rather than
+    // left unread.
+    void check_tree(const Mapping &m, const vdb::io::GridDescriptor &gd, uint64_t grid_pos, uint64_t limit,
+                    const std::string &label, bool any_type)
+    {
+        const TreeFormat format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
+        if (!format.full) {
+            if (any_type)
+                throw Corrupt(label + " has grid type " + printable(gd.gridType()) +
+                              ", which leap cannot check in a file without grid offsets");
+            OPENVDB_THROW(vdb::TypeError, label << " has unsupported tree type " << gd.gridType());
+        }
+        Stream s;
+        start(s);
+        s.is.seekg(std::streamoff(grid_pos));
+        readGridCompression(s.is);
+        const uint32_t compression = vdb::io::getDataCompression(s.is);
+        vdb::GridBase::Ptr meta = new_grid(gd);
+        meta->readMeta(s.is);
+        meta->readTransform(s.is);
+        Walker w(m, uint64_t(s.is.tellg()), limit, label + " ");
+        TreeCheck(w, format, compression).run();
+    }
+
     static vdb::GridBase::Ptr new_grid(const vdb::io::GridDescriptor &gd)
     {
         vdb::GridBase::Ptr grid = vdb::GridBase::createGrid(gd.gridType());
@@ -395,7 +639,6 @@ private:
 
     std::string path_;
     uint64_t size_;
-    uint32_t version_ = 0;
 };
 
 struct Range {

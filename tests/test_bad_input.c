@@ -473,6 +473,24 @@ static void bad_volumes(void)
         write_flipped(in_path(name), data, size, at, 3);
         render_or_clean_error(label, in_path(name), name);
     }
+    /* The same volume as written to a stream (no grid offsets: with one grid the layout is the
+     * same, only the flag differs): it is read grid by grid, with the same checks. */
+    {
+        const long flag = 8 + 4 + 8; /* after magic, version, library version */
+        unsigned char *copy = malloc((size_t)size);
+        memcpy(copy, data, (size_t)size);
+        copy[flag] = 0;
+        write_bytes(in_path("stream.vdb"), copy, (size_t)size);
+        write_bytes(in_path("stream_cut.vdb"), copy, (size_t)((l.block_pos + l.end_pos) / 2));
+        const long at[2] = {l.block_pos + 8, l.block_pos + 9};
+        free(copy);
+        long n = 0;
+        unsigned char *streamed = read_all(in_path("stream.vdb"), &n);
+        if (streamed) write_flipped(in_path("stream_flip.vdb"), streamed, n, at, 2);
+        free(streamed);
+        FAIL("stream_cut.vdb", 1, "stream_cut.vdb", "truncated", "render", in_path("stream_cut.vdb"), "-o", png);
+        render_or_clean_error("stream_flip.vdb", in_path("stream_flip.vdb"), "stream_flip.vdb");
+    }
     free(data);
 
     /* Files that are not VDB files at all. */
@@ -495,6 +513,47 @@ static void bad_volumes(void)
          in_path("image_as_volume.vdb"), "-o", png);
     FAIL("info_noise", 1, "noise.vdb", "not a VDB file", "info", in_path("noise.vdb"));
     FAIL("info_directory", 1, in_dir, "directory", "info", in_dir);
+
+    /* Voxel data whose stored size disagrees with its leaf: a raw chunk longer than the leaf
+     * (OpenVDB 10 copies it before comparing the sizes, past the end of the leaf's buffer) and a
+     * compressed chunk whose header claims more bytes than the chunk holds. */
+    {
+        leap_error werr = {{0}};
+        leap_vdb_writer *nw = new_writer();
+        int ng = leap_vdb_writer_add_grid(nw, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &werr);
+        uint32_t r = 1u;
+        for (int z = 0; z < 8; ++z)
+            for (int y = 0; y < 8; ++y)
+                for (int x = 0; x < 8; ++x) {
+                    r = r * 1664525u + 1013904223u;
+                    leap_vdb_writer_set(nw, ng, x, y, z, (double)(r >> 8) / 16777216.0);
+                }
+        save(nw, in_path("one_leaf.vdb"));
+        long n = 0;
+        unsigned char *leaf = read_all(in_path("one_leaf.vdb"), &n);
+        vdb_layout ll = leaf ? parse_layout(leaf, n) : (vdb_layout){0};
+        /* The only leaf's buffer: its mask (64 bytes), a flag byte (all active: 0), the chunk. */
+        const long chunk = ll.block_pos + 64 + 1;
+        CHECK_MSG(ll.ok && leaf[ll.block_pos + 64] == 0 && chunk + 8 + 16 <= n, "unexpected layout of one_leaf.vdb");
+        if (ll.ok && chunk + 8 + 16 <= n) {
+            const long big = 2 * 512 * 4;
+            unsigned char *raw = calloc((size_t)(chunk + 8 + big), 1);
+            memcpy(raw, leaf, (size_t)chunk);
+            const int64_t stored = -(int64_t)big, end = chunk + 8 + big;
+            memcpy(raw + chunk, &stored, 8);
+            memcpy(raw + ll.offsets + 16, &end, 8);
+            write_bytes(in_path("raw_chunk_too_long.vdb"), raw, (size_t)end);
+            free(raw);
+            FAIL("raw_chunk_too_long.vdb", 1, "raw_chunk_too_long.vdb", "corrupt", "render",
+                 in_path("raw_chunk_too_long.vdb"), "-o", png);
+            const uint32_t cbytes = 0x7fffffffu;
+            memcpy(leaf + chunk + 8 + 12, &cbytes, 4);
+            write_bytes(in_path("blosc_header_too_long.vdb"), leaf, (size_t)n);
+            FAIL("blosc_header_too_long.vdb", 1, "blosc_header_too_long.vdb", "corrupt", "render",
+                 in_path("blosc_header_too_long.vdb"), "-o", png);
+        }
+        free(leaf);
+    }
 
     /* Grids that cannot be rendered. */
     leap_vdb_writer *w = new_writer();
@@ -527,6 +586,11 @@ static void odd_values(void)
     leap_vdb_writer_fill(w, g, lo, hi, NAN, 1);       /* a NaN tile */
     leap_vdb_writer_fill(w, g, lo2, hi2, INFINITY, 1); /* an Inf tile */
     save(w, in_path("nonfinite.vdb"));
+    /* A file without grid offsets (made in bad_volumes) renders like the original. */
+    double streamed = render_ok("stream.vdb", in_path("stream.vdb"), NULL);
+    double original = render_ok("sphere.vdb", sphere, NULL);
+    CHECK_MSG(streamed > 1 && streamed == original, "stream.vdb alpha %g, sphere.vdb alpha %g", streamed, original);
+
     double a = render_ok("nonfinite.vdb", in_path("nonfinite.vdb"), NULL);
     CHECK_MSG(a > 1, "non-finite volume rendered empty (alpha %g)", a);
     render_ok("nonfinite.vdb reference", in_path("nonfinite.vdb"), ARGV("--mode", "reference"));
