@@ -70,16 +70,16 @@ leap_cell_cursor leap_cursor_init()
 void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
 {
     cur.cell = cell;
-    ivec3 block = cell >> LEAP_BLOCK_SHIFT;
+    int shift = int(frame.slot_dims.w);
+    ivec3 block = cell >> shift;
     if (any(notEqual(block, cur.block))) {
         cur.block = block;
         cur.block_entry = pages[block.x + frame.top_dims.x * (block.y + frame.top_dims.y * block.z)];
     }
     uint entry = cur.block_entry;
     if ((entry & LEAP_PAGE_CONST) == 0u) {
-        ivec3 c = cell & (LEAP_BLOCK - 1);
-        entry = pages[frame.top_dims.w + entry * uint(LEAP_BLOCK * LEAP_BLOCK * LEAP_BLOCK)
-                      + uint(c.x + LEAP_BLOCK * (c.y + LEAP_BLOCK * c.z))];
+        ivec3 c = cell & ((1 << shift) - 1);
+        entry = pages[frame.top_dims.w + (entry << (3 * shift)) + uint(c.x | (c.y << shift) | (c.z << (2 * shift)))];
     }
     cur.constant = (entry & LEAP_PAGE_CONST) != 0u;
     if (cur.constant) {

@@ -44,8 +44,10 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * LEAP_SLOT^3 texels holding the cell's voxels plus the next voxel on each + side, so
  * trilinear filtering inside a slot never reads a neighbour (seamless bricks).
  * Page table, one storage buffer of uints:
- *   [0, top_count)           one entry per block of LEAP_BLOCK^3 cells
- *   [top_count + b * LEAP_BLOCK^3 ...] the cell entries of block b
+ *   [0, top_count)           one entry per block of B^3 cells, B = 1 << block_shift
+ *   [top_count + b * B^3 ...] the cell entries of block b
+ * block_shift (frame slot_dims.w) is LEAP_BLOCK_SHIFT_MAX unless the page table would not
+ * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN.
  * An entry with LEAP_PAGE_CONST set holds a constant value in its low 16 bits (the same
  * 16-bit quantisation as the atlas texels: value / 65535); otherwise it
  * is a block index (top level) or a slot's atlas position (cell level), packed as
@@ -54,8 +56,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_CELL 8
 #define LEAP_CELL_SHIFT 3
 #define LEAP_SLOT 9
-#define LEAP_BLOCK 16
-#define LEAP_BLOCK_SHIFT 4
+#define LEAP_BLOCK_SHIFT_MAX 4
+#define LEAP_BLOCK_SHIFT_MIN 2
 #define LEAP_PAGE_CONST 0x80000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
@@ -111,7 +113,7 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
     LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity, 0, 0 */
     LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
-    LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = 0 */
+    LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
     LEAP_UVEC4 image;         /* 256: width, height, mode, ortho */
     LEAP_VEC4 clip_x;         /* 272: rows of the relative-index-space -> clip matrix */
     LEAP_VEC4 clip_y;         /* 288 */

@@ -9,7 +9,6 @@
 
 #include "shared.h"
 
-#define BLOCK_CELLS (LEAP_BLOCK * LEAP_BLOCK * LEAP_BLOCK)
 #define SLOT_TEXELS (LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
 #define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT)
 #define MAX_PAGE_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
@@ -20,7 +19,12 @@ typedef struct builder {
     uint32_t blocks_cap;
     uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
+    int page_overflow;        /* the cell level of the page table did not fit */
 } builder;
+
+/* Page blocks are B^3 cells, B = 1 << a->block_shift. */
+static uint32_t block_edge(const leap_atlas *a) { return 1u << a->block_shift; }
+static uint32_t block_cells(const leap_atlas *a) { return 1u << (3 * a->block_shift); }
 
 static int32_t floor_div8(int32_t v) { return (int32_t)floor(v / 8.0); }
 
@@ -41,22 +45,28 @@ static uint32_t const_entry(uint16_t q)
 static leap_result set_cell(builder *b, const uint32_t c[3], uint32_t entry, leap_error *err)
 {
     leap_atlas *a = b->a;
-    uint32_t t = (c[0] >> LEAP_BLOCK_SHIFT) +
-                 a->top_dims[0] * ((c[1] >> LEAP_BLOCK_SHIFT) + a->top_dims[1] * (c[2] >> LEAP_BLOCK_SHIFT));
+    const uint32_t shift = a->block_shift, n = block_cells(a);
+    uint32_t t = (c[0] >> shift) + a->top_dims[0] * ((c[1] >> shift) + a->top_dims[1] * (c[2] >> shift));
     if (a->pages[t] & LEAP_PAGE_CONST) {
         if (a->pages[t] == entry) return LEAP_OK;
+        if (((uint64_t)a->top_count + (uint64_t)(a->block_count + 1) * n) * 4 > MAX_PAGE_BYTES) {
+            b->page_overflow = 1; /* known now: stop before reading more of the grid */
+            return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                             "atlas: page table exceeds the 128 MiB storage buffer limit, even with the "
+                             "smallest page blocks");
+        }
         size_t cap = b->blocks_cap;
         if (!leap__grow((void **)&b->blocks, &cap, a->block_count + 1, sizeof(uint32_t *)))
             return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
         b->blocks_cap = (uint32_t)cap;
-        uint32_t *cells = malloc(BLOCK_CELLS * sizeof *cells);
+        uint32_t *cells = malloc(n * sizeof *cells);
         if (!cells) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
-        for (int i = 0; i < BLOCK_CELLS; ++i) cells[i] = a->pages[t];
+        for (uint32_t i = 0; i < n; ++i) cells[i] = a->pages[t];
         b->blocks[a->block_count] = cells;
         a->pages[t] = a->block_count++;
     }
-    uint32_t m = LEAP_BLOCK - 1;
-    b->blocks[a->pages[t]][(c[0] & m) + LEAP_BLOCK * ((c[1] & m) + LEAP_BLOCK * (c[2] & m))] = entry;
+    uint32_t m = block_edge(a) - 1;
+    b->blocks[a->pages[t]][(c[0] & m) | (c[1] & m) << shift | (c[2] & m) << (2 * shift)] = entry;
     return LEAP_OK;
 }
 
@@ -103,21 +113,22 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
         if (lo[i] > hi[i]) return LEAP_OK;
     }
     uint32_t entry = const_entry(quantize(a, br->tile_value));
+    const int64_t B = block_edge(a);
     leap_result r;
-    for (int64_t bz = lo[2] / LEAP_BLOCK; bz <= hi[2] / LEAP_BLOCK; ++bz)
-        for (int64_t by = lo[1] / LEAP_BLOCK; by <= hi[1] / LEAP_BLOCK; ++by)
-            for (int64_t bx = lo[0] / LEAP_BLOCK; bx <= hi[0] / LEAP_BLOCK; ++bx) {
-                int64_t bl[3] = {bx * LEAP_BLOCK, by * LEAP_BLOCK, bz * LEAP_BLOCK};
+    for (int64_t bz = lo[2] / B; bz <= hi[2] / B; ++bz)
+        for (int64_t by = lo[1] / B; by <= hi[1] / B; ++by)
+            for (int64_t bx = lo[0] / B; bx <= hi[0] / B; ++bx) {
+                int64_t bl[3] = {bx * B, by * B, bz * B};
                 int whole = 1;
-                for (int i = 0; i < 3; ++i) whole &= bl[i] >= lo[i] && bl[i] + LEAP_BLOCK - 1 <= hi[i];
+                for (int i = 0; i < 3; ++i) whole &= bl[i] >= lo[i] && bl[i] + B - 1 <= hi[i];
                 uint32_t t = (uint32_t)(bx + a->top_dims[0] * (by + a->top_dims[1] * bz));
                 if (whole && (a->pages[t] & LEAP_PAGE_CONST)) {
                     a->pages[t] = entry;
                     continue;
                 }
-                for (int64_t z = bl[2]; z < bl[2] + LEAP_BLOCK; ++z)
-                    for (int64_t y = bl[1]; y < bl[1] + LEAP_BLOCK; ++y)
-                        for (int64_t x = bl[0]; x < bl[0] + LEAP_BLOCK; ++x) {
+                for (int64_t z = bl[2]; z < bl[2] + B; ++z)
+                    for (int64_t y = bl[1]; y < bl[1] + B; ++y)
+                        for (int64_t x = bl[0]; x < bl[0] + B; ++x) {
                             if (x < lo[0] || x > hi[0] || y < lo[1] || y > hi[1] || z < lo[2] || z > hi[2])
                                 continue;
                             uint32_t c[3] = {(uint32_t)x, (uint32_t)y, (uint32_t)z};
@@ -181,6 +192,8 @@ static uint32_t xorshift(uint32_t *s)
 static leap_result finish(builder *b, uint32_t seed, leap_error *err)
 {
     leap_atlas *a = b->a;
+    const uint32_t n_cells = block_cells(a);
+    a->page_words = (size_t)a->top_count + (size_t)a->block_count * n_cells;
     uint32_t n = a->slot_count ? a->slot_count : 1;
     uint32_t *perm = malloc((size_t)n * sizeof *perm);
     if (!perm) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
@@ -219,13 +232,6 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
                        src + LEAP_SLOT * (y + LEAP_SLOT * z), LEAP_SLOT * sizeof(uint16_t));
     }
 
-    a->page_words = (size_t)a->top_count + (size_t)a->block_count * BLOCK_CELLS;
-    if (a->page_words * 4 > MAX_PAGE_BYTES) {
-        free(perm);
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "atlas: page table of %.0f MiB exceeds the 128 MiB storage buffer limit",
-                         a->page_words * 4 / 1048576.0);
-    }
     uint32_t *pages = realloc(a->pages, a->page_words * sizeof *pages);
     if (!pages) {
         free(perm);
@@ -233,8 +239,8 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
     }
     a->pages = pages;
     for (uint32_t k = 0; k < a->block_count; ++k) {
-        uint32_t *dst = pages + a->top_count + (size_t)k * BLOCK_CELLS;
-        for (int i = 0; i < BLOCK_CELLS; ++i) {
+        uint32_t *dst = pages + a->top_count + (size_t)k * n_cells;
+        for (uint32_t i = 0; i < n_cells; ++i) {
             uint32_t e = b->blocks[k][i];
             if (!(e & LEAP_PAGE_CONST)) {
                 uint32_t d = perm[e];
@@ -264,7 +270,7 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         /* One spare cell on the + side keeps rounding at the domain's far face in range. */
         int64_t cells = (((int64_t)bmax[i] + 1 - a->origin[i]) >> LEAP_CELL_SHIFT) + 1;
         a->cells[i] = (uint32_t)cells;
-        a->top_dims[i] = (uint32_t)((cells + LEAP_BLOCK - 1) / LEAP_BLOCK);
+        a->top_dims[i] = (uint32_t)((cells + block_edge(a) - 1) >> a->block_shift);
         top_count *= a->top_dims[i];
         a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - a->origin[i];
         a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - a->origin[i];
@@ -332,10 +338,26 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
     }
     b->a = a;
-    leap_result r = build(b, desc, err);
-    for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
-    free(b->blocks);
-    free(b->slots);
+    /* Large page blocks keep the top level small; when scattered data would touch so many
+     * blocks that their cells overflow the storage buffer, smaller blocks are tried. */
+    leap_result r = LEAP_OK;
+    for (uint32_t shift = LEAP_BLOCK_SHIFT_MAX; shift >= LEAP_BLOCK_SHIFT_MIN; --shift) {
+        if (shift < LEAP_BLOCK_SHIFT_MAX) { /* start over */
+            free(a->pages);
+            free(a->texels);
+            memset(a, 0, sizeof *a);
+            memset(b, 0, sizeof *b);
+            b->a = a;
+        }
+        a->block_shift = shift;
+        r = build(b, desc, err);
+        for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
+        free(b->blocks);
+        free(b->slots);
+        b->blocks = NULL;
+        b->slots = NULL;
+        if (!r || !b->page_overflow) break;
+    }
     free(b);
     if (r) {
         leap_atlas_destroy(a);

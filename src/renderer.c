@@ -60,7 +60,7 @@ struct leap_renderer {
     /* From the uploaded atlas. */
     int has_volume;
     double value_min, value_max;
-    uint32_t top_dims[3], top_count, slot_dims[3];
+    uint32_t top_dims[3], top_count, slot_dims[3], block_shift;
     /* Not owned. */
     const leap_occupancy *occupancy;
     const leap_boxes *box_set;
@@ -350,6 +350,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
         r->top_dims[i] = atlas->top_dims[i];
         r->slot_dims[i] = atlas->slot_dims[i];
     }
+    r->block_shift = atlas->block_shift;
     r->top_count = atlas->top_count;
     r->has_volume = 1;
     return LEAP_OK;
@@ -498,7 +499,7 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
     f->march = (leap_vec4){(float)m->step, (float)(m->step / LEAP_TF_STEP_REF), (float)scale, (float)offset};
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)LEAP_DEPTH_OPACITY, 0, 0};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
-    f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], 0};
+    f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, (uint32_t)mode, (uint32_t)view->ortho};
     clip_matrix(view, f);
     double lo[3] = {1, 1, 1}, hi[3] = {0, 0, 0}; /* empty unless the occupancy says otherwise */

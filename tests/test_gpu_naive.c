@@ -23,6 +23,17 @@
  * rounding above (the layouts put a sample at different atlas coordinates); a missing apron
  * or a wrong slot would differ by the value range. */
 #include "gpu_fixture.h"
+#include "test_random.h"
+
+#include <sys/stat.h>
+#include <time.h>
+
+static double now_ms(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
 
 #define W 96
 #define H 96
@@ -65,6 +76,75 @@ static int make_camera(const scene *s, const cam_case *c, leap_camera *cam)
         return 1;
     }
     return leap_camera_orbit(s->center, s->radius, c->az, c->el, c->dist, 40, c->ortho, cam, &err) == LEAP_OK;
+}
+
+/* A 4096^3 bounding box with leaves scattered at random: so many page blocks hold data that
+ * their cells would overflow the page table's storage buffer with the largest blocks, so the
+ * atlas must choose smaller ones. GPU memory must follow the data (not the 128 GiB dense
+ * box), and the image must still match the reference. LEAP_SCATTER_LEAVES overrides the leaf
+ * count (e.g. 134218 leaves = 0.1 % of the box active, a manual measurement: ~1.5 GB). */
+static void scattered_box(leap_renderer *renderer)
+{
+    const int edge = 4096;
+    int leaves = 16384;
+    const char *env = getenv("LEAP_SCATTER_LEAVES");
+    if (env && atoi(env) > 0) leaves = atoi(env);
+    char path[1024];
+    mkdir(LEAP_TEST_TMP, 0755);
+    snprintf(path, sizeof path, "%s/scattered.vdb", LEAP_TEST_TMP);
+    leap_error err = {{0}};
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    if (!w) return;
+    int g = leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err);
+    rng_state = 4096;
+    for (int i = 0; i < leaves; ++i) {
+        int32_t lo[3], hi[3];
+        for (int a = 0; a < 3; ++a) lo[a] = 8 * rnd_int(0, edge / 8 - 1), hi[a] = lo[a] + 7;
+        leap_vdb_writer_fill(w, g, lo, hi, 0.2 + 0.8 * rnd01(), 1);
+        leap_vdb_writer_set(w, g, lo[0] + 3, lo[1] + 4, lo[2] + 5, 1.0); /* not one constant */
+    }
+    leap_vdb_writer_set(w, g, 0, 0, 0, 1.0); /* the corners fix the bounding box */
+    leap_vdb_writer_set(w, g, edge - 1, edge - 1, edge - 1, 1.0);
+    CHECK_OK(leap_vdb_writer_save(w, path, &err), &err);
+    leap_vdb_writer_destroy(w);
+
+    scene s;
+    double t0 = now_ms();
+    int loaded = scene_load(&s, path, NULL, "viridis", 2.0);
+    CHECK_MSG(loaded, "%s", path);
+    if (!loaded) return;
+    const double dense = (double)edge * edge * edge * 2;
+    const uint64_t bytes = leap_atlas_gpu_bytes(s.atlas);
+    printf("scattered %d^3, %d leaves (%.4f %% active): page blocks of %u^3 cells, %u slots, GPU %.1f MB "
+           "(dense %.0f GB), load + atlas %.0f ms\n",
+           edge, leaves, 100.0 * leaves * 512 / ((double)edge * edge * edge), 1u << s.atlas->block_shift,
+           s.atlas->slot_count, bytes / 1e6, dense / 1e9, now_ms() - t0);
+    CHECK_MSG(s.atlas->block_shift < LEAP_BLOCK_SHIFT_MAX, "page blocks of %u^3 cells: the case does not test the fallback",
+              1u << s.atlas->block_shift);
+    /* An isolated leaf takes up to 8 slots (its cell and the 7 cells whose apron reaches into
+     * it): ~24 bytes per active voxel at 0.1 % active, 1.2 % of the dense box. */
+    CHECK_MSG(bytes < dense / 50, "GPU bytes %llu for a %d^3 box", (unsigned long long)bytes, edge);
+    CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
+    CHECK_OK(leap_renderer_set_tf(renderer, &s.tf, &err), &err);
+    enum { SW = 48, SH = 48 };
+    float *gpu = malloc(SW * SH * 4 * sizeof(float)), *ref = malloc(SW * SH * 4 * sizeof(float));
+    leap_camera cam;
+    CHECK_OK(leap_camera_orbit(s.center, s.radius, 30, 20, 0, 40, 0, &cam, &err), &err);
+    leap_view view;
+    CHECK_OK(leap_view_make(&cam, SW, SH, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+    CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
+    leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .view = &view, .march = &s.march};
+    CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
+    image_diff d = compare_rgba(gpu, ref, SW * SH);
+    double alpha_sum = 0;
+    for (int i = 0; i < SW * SH; ++i) alpha_sum += ref[4 * i + 3];
+    printf("scattered: naive vs reference rmse %.2e max %.2e, alpha sum %.1f\n", d.rmse, d.max_abs, alpha_sum);
+    CHECK_MSG(d.nonfinite == 0 && d.rmse <= 2e-4 && d.max_abs <= 5e-3, "scattered: rmse %g max %g", d.rmse, d.max_abs);
+    CHECK_MSG(alpha_sum > 2.0, "scattered: reference image is empty");
+    free(gpu);
+    free(ref);
+    scene_free(&s);
 }
 
 int main(void)
@@ -137,6 +217,7 @@ int main(void)
     free(ref);
     free(gpu_samples);
     free(ref_samples);
+    scattered_box(renderer);
     leap_renderer_destroy(renderer);
     return check_exit_code();
 }

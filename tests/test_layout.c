@@ -47,7 +47,7 @@ int main(void)
     CHECK(LEAP_MAX_SEGMENTS <= 16); /* the UNKNOWN mask is 16 bits of a uint */
     /* Page entries: the constant flag must leave room for any slot or block index. */
     CHECK((LEAP_PAGE_CONST & (LEAP_PAGE_CONST - 1)) == 0);
-    CHECK(LEAP_CELL == 1 << LEAP_CELL_SHIFT && LEAP_BLOCK == 1 << LEAP_BLOCK_SHIFT);
+    CHECK(LEAP_CELL == 1 << LEAP_CELL_SHIFT && LEAP_BLOCK_SHIFT_MIN <= LEAP_BLOCK_SHIFT_MAX);
     CHECK(LEAP_SLOT == LEAP_CELL + 1);
     return check_exit_code();
 }

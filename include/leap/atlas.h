@@ -1,5 +1,6 @@
 /* The GPU volume representation, built on the host: a brick atlas (R16 UNORM texels) and
- * a two-level page table (layout in shaders/shared.h). Memory follows the bricks that hold
+ * a two-level page table (layout in shaders/shared.h) whose block size adapts to how
+ * scattered the data is. Memory follows the bricks that hold
  * data: cells whose interpolation footprint is one constant value (background, inside
  * tiles) take no atlas space, and page blocks exist only where such cells are mixed. */
 #ifndef LEAP_ATLAS_H
@@ -24,6 +25,7 @@ typedef struct leap_atlas {
     int empty;                 /* 1 when the grid has no active voxels */
     int32_t origin[3];         /* absolute index coordinate of relative (0,0,0), multiple of 8 */
     uint32_t cells[3];         /* cells per axis */
+    uint32_t block_shift;      /* page blocks are (1 << block_shift)^3 cells */
     uint32_t top_dims[3];      /* page blocks per axis */
     uint32_t top_count;        /* top_dims product */
     uint32_t block_count;      /* allocated page blocks */
