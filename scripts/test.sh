@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # Runs the whole test suite: the Release build, then the same suite under AddressSanitizer
-# and UndefinedBehaviorSanitizer (LEAP_SANITIZE=0 skips the second pass). Builds what is
-# missing first, so it works on a fresh clone once scripts/setup-deps.sh has run.
+# and UndefinedBehaviorSanitizer (LEAP_SANITIZE=0 skips it), then each libFuzzer target for
+# LEAP_FUZZ_SECONDS (default 30; 0 skips them). Builds what is missing first, so it works
+# on a fresh clone once scripts/setup-deps.sh has run.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${LEAP_BUILD_DIR:-$root/build}"
 jobs="$(nproc)"
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build" -j"$jobs"
-ctest --test-dir "$build" --output-on-failure
+ctest --test-dir "$build" --output-on-failure -j"$jobs"
 if [ "${LEAP_SANITIZE:-1}" != "0" ]; then
   asan="$build-asan"
   cmake -S "$root" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLEAP_SANITIZE=ON >/dev/null
@@ -17,6 +18,10 @@ if [ "${LEAP_SANITIZE:-1}" != "0" ]; then
   # CPU tests run with leak checking. GPU tests run without it: lavapipe's JIT allocations
   # are unloaded with the driver at vkDestroyInstance, so they can be neither attributed nor
   # suppressed (every report seen was an indirect leak inside the unloaded driver).
-  ASAN_OPTIONS="detect_leaks=1" ctest --test-dir "$asan" --output-on-failure -LE gpu
-  ASAN_OPTIONS="detect_leaks=0" ctest --test-dir "$asan" --output-on-failure -L gpu
+  ASAN_OPTIONS="detect_leaks=1" ctest --test-dir "$asan" --output-on-failure -j"$jobs" -LE gpu
+  ASAN_OPTIONS="detect_leaks=0" ctest --test-dir "$asan" --output-on-failure -j"$jobs" -L gpu
+fi
+fuzz_seconds="${LEAP_FUZZ_SECONDS:-30}"
+if [ "$fuzz_seconds" != "0" ]; then
+  "$root/scripts/fuzz.sh" "$fuzz_seconds"
 fi
