@@ -56,38 +56,62 @@ void leap_march_octree(leap_ray ray, leap_lattice lat, float t_enter, float t_ex
     }
 }
 
+layout(push_constant) uniform Push { leap_push_gpu push; };
+
 void main()
 {
     uvec2 pix = gl_GlobalInvocationID.xy;
     if (pix.x >= frame.image.x || pix.y >= frame.image.y) return;
     uint pixel = pix.y * frame.image.x + pix.x;
+    // Later chunks continue only the rays an earlier chunk left unfinished.
+    if (push.chunk > 0u && out_aux[pixel].w == 0.0) return;
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
+    bool finished = true;
     if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit)) {
         leap_lattice lat = leap_lattice_make(t_enter);
+        // This chunk takes lattice indices [j_lo, j_hi): every mode marches only [ca, cb],
+        // bounded half a step away from the neighbouring chunks' samples.
+        float j_lo = float(push.chunk) * frame.limits.z, j_hi = j_lo + frame.limits.z;
+        float ca = t_enter, cb = min(t_exit, lat.t0 + (j_hi - 0.5) * lat.dt);
+        if (push.chunk > 0u) {
+            ca = max(t_enter, lat.t0 + (j_lo - 0.5) * lat.dt);
+            vec4 c = out_rgba[pixel], aux = out_aux[pixel];
+            acc.color.rgb = c.rgb;
+            acc.transmittance = c.a;
+            acc.depth_t = aux.x;
+            acc.samples = uint(aux.y);
+            j_next = j_lo;
+        }
         uint mode = frame.image.z;
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
         if (mode == LEAP_MODE_NAIVE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
-            leap_march_interval(ray, lat, t_enter, t_exit, j_next, acc);
+            leap_march_interval(ray, lat, ca, cb, j_next, acc);
         } else if (mode == LEAP_MODE_OCTREE) {
-            leap_march_octree(ray, lat, t_enter, t_exit, j_next, acc);
+            leap_march_octree(ray, lat, ca, cb, j_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;
             if (leap_clip_box(ray, frame.bbox_min.xyz, frame.bbox_max.xyz, b0, b1))
-                leap_march_interval(ray, lat, max(b0, t_enter), min(b1, t_exit), j_next, acc);
+                leap_march_interval(ray, lat, max(b0, ca), min(b1, cb), j_next, acc);
         } else {
             uint count = list.x & LEAP_PIXEL_COUNT_MASK, base = pixel * frame.lists.y;
             for (uint s = 0u; s < count && !leap_accum_done(acc); ++s) {
                 vec2 seg = segments[base + s];
-                leap_march_interval(ray, lat, max(seg.x, t_enter), min(seg.y, t_exit), j_next, acc);
+                leap_march_interval(ray, lat, max(seg.x, ca), min(seg.y, cb), j_next, acc);
             }
         }
         // What naive marching takes for this pixel: the same lattice from the domain entry
         // to the domain exit, or to the sample where early termination stopped every mode.
-        float j_first = leap_lattice_first(lat, t_enter);
-        float j_end = leap_accum_done(acc) ? j_next : leap_lattice_end(lat, t_exit);
-        naive_samples = max(j_end - j_first, 0.0);
+        float j_end = leap_lattice_end(lat, t_exit);
+        finished = leap_accum_done(acc) || j_end <= j_hi;
+        if (leap_accum_done(acc)) j_end = j_next;
+        naive_samples = max(j_end - leap_lattice_first(lat, t_enter), 0.0);
+    }
+    if (!finished) {
+        out_rgba[pixel] = vec4(acc.color.rgb, acc.transmittance);
+        out_aux[pixel] = vec4(acc.depth_t, float(acc.samples), 0.0, 1.0);
+        return;
     }
 
     acc.color.a = 1.0 - acc.transmittance;

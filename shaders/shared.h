@@ -28,7 +28,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_TF 2         /* sampler1D, RGBA32F transfer function table */
 #define LEAP_BINDING_PAGES 3      /* storage uint[]: page table (see below) */
 #define LEAP_BINDING_OUT_RGBA 4   /* storage vec4[] per pixel: premultiplied RGBA */
-#define LEAP_BINDING_OUT_AUX 5    /* storage vec4[] per pixel: depth, samples, naive samples, 0 */
+#define LEAP_BINDING_OUT_AUX 5    /* storage vec4[] per pixel: depth, samples, naive samples,
+                                     w = 1 while the ray waits for its next chunk */
 #define LEAP_BINDING_BOXES 6      /* storage leap_box_gpu[] in view DFS order */
 #define LEAP_BINDING_HEADS 7      /* storage uint[] per pixel: head of its event list + 1 (0 = empty) */
 #define LEAP_BINDING_EVENTS 8     /* storage leap_event_gpu[]: event pool */
@@ -76,6 +77,21 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_PIXEL_OVERFLOW 0x80000000u /* events or segments did not fit: march the whole ray */
 #define LEAP_PIXEL_COUNT_MASK 0xffffu
 
+/* Composite chunks. lavapipe ends every loop of a shader invocation once it has run 65535
+ * loop iterations in all loops together (a driver safety limit), counted per group of
+ * LEAP_SIMD_LANES invocations that run in lock step. A ray with more lattice samples than a
+ * dispatch can safely take is composited over several dispatches, each taking at most
+ * frame.limits.z lattice indices; the partial result waits in out_rgba (rgb, transmittance)
+ * and out_aux (depth t, samples, 0, 1) between them. */
+#define LEAP_LOOP_ITERATIONS_SAFE 60000
+#define LEAP_SIMD_LANES 8
+
+/* Push constants of the composite pass. */
+LEAP_STRUCT(leap_push_gpu) {
+    uint32_t chunk; /* 0: which chunk of every ray's lattice this dispatch marches */
+    uint32_t pad[3];
+} LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
+
 /* Capacities of the per-pixel lists. */
 #define LEAP_MAX_EVENTS 64    /* events one pixel can sort in the resolve pass */
 #define LEAP_MAX_SEGMENTS 12  /* marched segments stored per pixel */
@@ -111,7 +127,8 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 domain_max;     /* 160 */
     LEAP_VEC4 atlas_inv_size; /* 176: 1 / atlas texels per axis */
     LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
-    LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity, 0, 0 */
+    LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity, lattice indices per
+                                 composite chunk, 0 */
     LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
     LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
     LEAP_UVEC4 image;         /* 256: width, height, mode, ortho */

@@ -101,6 +101,7 @@ static char *stats_json(const cli_view_options *o, const leap_scene *s, const le
                                 fs->total_samples ? (double)fs->naive_samples / (double)fs->total_samples : 0);
         cJSON_AddNumberToObject(root, "ns_per_sample",
                                 fs->total_samples ? fs->gpu_composite_ms * 1e6 / (double)fs->total_samples : 0);
+        cJSON_AddNumberToObject(root, "composite_dispatches", fs->composite_chunks);
     }
     leap_occupancy_stats os;
     leap_boxes_stats bs;

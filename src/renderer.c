@@ -204,10 +204,13 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .pBindings = b,
     };
     LEAP_VK_CHECK(vkCreateDescriptorSetLayout(dev, &dslci, NULL, &r->set_layout));
+    VkPushConstantRange push = {VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(leap_push_gpu)};
     VkPipelineLayoutCreateInfo plci = {
         .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
         .setLayoutCount = 1,
         .pSetLayouts = &r->set_layout,
+        .pushConstantRangeCount = 1,
+        .pPushConstantRanges = &push,
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
     leap_result lr = create_compute(r, composite_spv, sizeof composite_spv, &r->composite, err);
@@ -476,6 +479,31 @@ static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
     f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
 }
 
+/* Lattice indices one composite dispatch may take per ray, so that no invocation group
+ * reaches the driver's loop limit (see LEAP_LOOP_ITERATIONS_SAFE). Naive and bbox run one
+ * loop: its iterations per group are the most any lane takes. The skipping modes run their
+ * sample loop once per segment or tree leaf, and a group runs each such loop as long as its
+ * longest lane: up to LEAP_SIMD_LANES x the samples of one lane, plus, in octree mode, a
+ * descent of up to depth + 2 iterations per leaf visited; a chunk of n samples of step dt
+ * crosses at most sqrt(3) n dt / 8 + 3 leaves of at least one 8^3 cell. */
+static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
+{
+    if (mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX) return LEAP_LOOP_ITERATIONS_SAFE;
+    const double visit = r->tree_depth + 2.0;
+    double n = floor((LEAP_LOOP_ITERATIONS_SAFE - 3 * visit - LEAP_MAX_SEGMENTS) /
+                     (LEAP_SIMD_LANES + sqrt(3.0) / LEAP_CELL * step * visit));
+    return n < 1 ? 1 : n;
+}
+
+/* Dispatches needed for the longest ray: the domain box's diagonal in lattice steps. */
+static uint32_t chunk_count(const leap_renderer *r, const leap_march *m, leap_mode mode)
+{
+    double d2 = 0;
+    for (int i = 0; i < 3; ++i) d2 += (m->domain_max[i] - m->domain_min[i]) * (m->domain_max[i] - m->domain_min[i]);
+    double n = ceil((sqrt(d2) / m->step + 2) / chunk_indices(r, mode, m->step));
+    return n < 1 ? 1 : n > 1e6 ? 1000000u : (uint32_t)n;
+}
+
 static void fill_frame(const leap_renderer *r, const leap_view *view, const leap_march *m, leap_mode mode,
                        uint32_t box_count, leap_frame_gpu *f)
 {
@@ -497,7 +525,8 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
     double scale = range != 0 ? (r->value_max - r->value_min) / range : 0.0;
     double offset = range != 0 ? (r->value_min - m->range_lo) / range : 0.0;
     f->march = (leap_vec4){(float)m->step, (float)(m->step / LEAP_TF_STEP_REF), (float)scale, (float)offset};
-    f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)LEAP_DEPTH_OPACITY, 0, 0};
+    f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)LEAP_DEPTH_OPACITY,
+                            (float)chunk_indices(r, mode, m->step), 0};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, (uint32_t)mode, (uint32_t)view->ortho};
@@ -702,8 +731,16 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                  ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    st.composite_chunks = chunk_count(r, march, mode);
+    for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
+        if (chunk > 0)
+            shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                           VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        leap_push_gpu push = {.chunk = chunk};
+        vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+        vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                      ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    }
     if (gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,

@@ -34,6 +34,7 @@ int main(void)
     CHECK(offsetof(leap_frame_gpu, bbox_max) == 368);
     CHECK(offsetof(leap_frame_gpu, lists) == 384);
     CHECK(sizeof(leap_frame_gpu) == 400);
+    CHECK(sizeof(leap_push_gpu) == 16 && offsetof(leap_push_gpu, chunk) == 0);
     CHECK(offsetof(leap_box_gpu, lo) == 0);
     CHECK(offsetof(leap_box_gpu, hi) == 16);
     CHECK(offsetof(leap_box_gpu, info) == 32);

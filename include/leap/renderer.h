@@ -54,6 +54,7 @@ typedef struct leap_frame_stats {
     double events_mean, segments_mean;
     uint32_t events_max, segments_max;
     uint32_t overflow_pixels;
+    uint32_t composite_chunks; /* dispatches of the composite pass (rays too long for one) */
     uint32_t width, height;
 } leap_frame_stats;
 
