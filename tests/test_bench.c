@@ -1,10 +1,15 @@
 /* Smoke test of `leap bench` on a tiny configuration: the CSV parses and has the expected
- * rows, the report and the plots exist and are valid PNG / SVG. (No timing is asserted.) */
+ * rows, the report and the plots exist and are valid PNG / SVG. (No timing is asserted.)
+ * --vs-vdb-render: with OpenVDB's vdb_render installed, its rows are there with positive
+ * times and no error figures; without it on PATH, a usage error before anything runs. */
+#include <dirent.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include "check.h"
 #include "leap/image.h"
@@ -22,6 +27,133 @@ static char *slurp(const char *path, size_t *len)
     fclose(f);
     if (len) *len = (size_t)n;
     return buf;
+}
+
+/* Field `index` (0-based) of a CSV line without quoting, into out. */
+static void csv_field(const char *line, int index, char *out, size_t n)
+{
+    for (int i = 0; i < index && line; ++i) {
+        line = strchr(line, ',');
+        if (line) ++line;
+    }
+    size_t len = line ? strcspn(line, ",\n") : 0;
+    snprintf(out, n, "%.*s", (int)len, line ? line : "");
+}
+
+static int csv_column(const char *header, const char *name)
+{
+    char f[64];
+    for (int i = 0; i < 64; ++i) {
+        csv_field(header, i, f, sizeof f);
+        if (!strcmp(f, name)) return i;
+    }
+    return -1;
+}
+
+/* Number of entries in a directory other than . and .. (-1 if it cannot be read). */
+static int dir_entries(const char *path)
+{
+    DIR *d = opendir(path);
+    if (!d) return -1;
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));) n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    closedir(d);
+    return n;
+}
+
+/* Without vdb_render on PATH, --vs-vdb-render is a usage error (exit 2) that names the
+ * missing program, and nothing is rendered. */
+static void check_vdb_render_missing(const char *path_env)
+{
+    char cmd[4096], path[2048];
+    snprintf(cmd, sizeof cmd,
+             "PATH=%s %s bench %s/sphere.vdb --sizes 32x24 --views 1 --steps 1 --vs-vdb-render -o %s/novdb "
+             "2>%s/novdb.err",
+             path_env, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    int rc = system(cmd);
+    CHECK_MSG(WIFEXITED(rc) && WEXITSTATUS(rc) == 2, "PATH=%s: exit status %d, expected 2", path_env,
+              WIFEXITED(rc) ? WEXITSTATUS(rc) : -1);
+    snprintf(path, sizeof path, "%s/novdb.err", LEAP_TEST_TMP);
+    char *err = slurp(path, NULL);
+    CHECK_MSG(err && strstr(err, "vdb_render not found on PATH"), "stderr: %s", err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/novdb/results.csv", LEAP_TEST_TMP);
+    CHECK_MSG(access(path, F_OK) != 0, "%s exists: the bench ran without vdb_render", path);
+}
+
+/* Two volumes: sphere (float: vdb_render runs) and labels (int32: skipped with a note). */
+static void check_vdb_render_rows(void)
+{
+    char dir[1024], tmp[1024], cmd[4096], path[2048];
+    snprintf(dir, sizeof dir, "%s/bench_vdb", LEAP_TEST_TMP);
+    snprintf(tmp, sizeof tmp, "%s/vdb_tmp", LEAP_TEST_TMP);
+    mkdir(tmp, 0755);
+    snprintf(cmd, sizeof cmd,
+             "TMPDIR=%s %s bench %s/sphere.vdb %s/labels.vdb --sizes 32x24 --views 2 --steps 0.5,1 --modes naive,sparseleap "
+             "--repeats 2 --warmup 1 --vs-vdb-render -o %s 2>%s/vdb.err",
+             tmp, LEAP_EXE, LEAP_VOLUMES, LEAP_VOLUMES, dir, LEAP_TEST_TMP);
+    int rc = system(cmd);
+    CHECK_MSG(WIFEXITED(rc) && WEXITSTATUS(rc) == 0, "leap bench --vs-vdb-render: exit status %d",
+              WIFEXITED(rc) ? WEXITSTATUS(rc) : -1);
+    /* Its temporary directory (image, output) is gone. */
+    CHECK_MSG(dir_entries(tmp) == 0, "%s holds %d entries after the bench", tmp, dir_entries(tmp));
+
+    snprintf(path, sizeof path, "%s/results.csv", dir);
+    char *csv = slurp(path, NULL);
+    CHECK(csv != NULL);
+    int vdb_rows = 0, leap_rows = 0, bad = 0;
+    if (csv) {
+        char *save = NULL, *header = strtok_r(csv, "\n", &save);
+        int c_vol = csv_column(header, "volume"), c_mode = csv_column(header, "mode"),
+            c_ms = csv_column(header, "frame_ms_median"), c_min = csv_column(header, "frame_ms_min"),
+            c_trace = csv_column(header, "trace_ms"), c_rmse = csv_column(header, "rmse"),
+            c_max = csv_column(header, "max_abs");
+        CHECK(c_vol >= 0 && c_mode >= 0 && c_ms >= 0 && c_min >= 0 && c_trace >= 0 && c_rmse >= 0 && c_max >= 0);
+        for (char *line = strtok_r(NULL, "\n", &save); line && c_trace >= 0; line = strtok_r(NULL, "\n", &save)) {
+            char vol[64], mode[32], f[64];
+            csv_field(line, c_vol, vol, sizeof vol);
+            csv_field(line, c_mode, mode, sizeof mode);
+            csv_field(line, c_ms, f, sizeof f);
+            double ms = atof(f);
+            csv_field(line, c_min, f, sizeof f);
+            double ms_min = atof(f);
+            csv_field(line, c_trace, f, sizeof f);
+            double trace = strtod(f, NULL);
+            csv_field(line, c_rmse, f, sizeof f);
+            double rmse = strtod(f, NULL);
+            csv_field(line, c_max, f, sizeof f);
+            double max_abs = strtod(f, NULL);
+            if (strcmp(mode, "vdb_render")) {
+                ++leap_rows;
+                bad += !(ms > 0) || !isnan(trace) || !(rmse >= 0);
+                continue;
+            }
+            ++vdb_rows;
+            /* Time only: the wall clock of the process and its own ray-tracing time. */
+            if (strcmp(vol, "sphere.vdb") || !(ms > 0) || !(ms_min > 0) || !(trace > 0) || !(trace <= ms) ||
+                !isnan(rmse) || !isnan(max_abs)) {
+                fprintf(stderr, "bad vdb_render row: %s\n", line);
+                ++bad;
+            }
+        }
+        free(csv);
+    }
+    /* sphere: 2 views x 2 steps; labels (int32) none */
+    CHECK_MSG(vdb_rows == 2 * 2, "%d vdb_render rows, expected 4", vdb_rows);
+    CHECK_MSG(leap_rows == 2 * 2 * 2 * 2, "%d leap rows, expected 16", leap_rows);
+    CHECK_MSG(bad == 0, "%d bad rows", bad);
+
+    snprintf(path, sizeof path, "%s/report.md", dir);
+    char *md = slurp(path, NULL);
+    CHECK(md && strstr(md, "| vdb_render | 0.5 |") && strstr(md, "different shading model") &&
+          strstr(md, "vdb_render reads float grids only"));
+    free(md);
+    /* The progress bar counts the vdb_render runs: per volume 2 views x (reference + 2 steps
+     * x 2 modes), plus 2 views x 2 steps of vdb_render for the sphere. */
+    snprintf(path, sizeof path, "%s/vdb.err", LEAP_TEST_TMP);
+    char *err = slurp(path, NULL);
+    CHECK_MSG(err && strstr(err, "vdb_render") && strstr(err, "24/24 done"), "stderr: %s", err ? err : "(none)");
+    free(err);
 }
 
 int main(void)
@@ -88,5 +220,10 @@ int main(void)
     snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --modes warp -o %s 2>/dev/null", LEAP_EXE, LEAP_VOLUMES, dir);
     int rc = system(cmd);
     CHECK(WIFEXITED(rc) && WEXITSTATUS(rc) == 2);
+
+    /* --vs-vdb-render */
+    check_vdb_render_missing("/nonexistent");
+    if (access("/usr/bin/vdb_render", X_OK) == 0) check_vdb_render_rows();
+    else check_vdb_render_missing("/usr/bin:/bin");
     return check_exit_code();
 }
