@@ -90,17 +90,6 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
     }
 }
 
-// Normalised voxel value s in [0, 1] at relative index position q (voxel centres at integers).
-float leap_sample(inout leap_cell_cursor cur, vec3 q)
-{
-    // No clamp: q stays within float rounding of the domain box, and the page grid has at
-    // least one spare cell on every side of it (see leap_atlas).
-    ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
-    if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
-    if (cur.constant) return cur.value;
-    return textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-}
-
 leap_accum leap_accum_init()
 {
     leap_accum a;
@@ -149,6 +138,9 @@ float leap_lattice_end(leap_lattice l, float tb)
 
 // Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
 // intervals never take a sample twice); j_next ends one past the last index visited.
+// One outer iteration per cell: the page table is read once per cell, and a constant cell's
+// colour once, so its samples only composite (lavapipe runs every side of a branch that
+// any lane takes, so per-sample branches would cost both sides).
 void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
@@ -158,17 +150,46 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     float tf_scale = frame.march.z * (n - 1.0) / n, tf_offset = (frame.march.w * (n - 1.0) + 0.5) / n;
     float tf_lo = 0.5 / n, tf_hi = (n - 0.5) / n;
     leap_cell_cursor cur = leap_cursor_init();
-    for (float t = lat.t0 + j * lat.dt; t <= tb; j += 1.0, t = lat.t0 + j * lat.dt) {
-        float s = leap_sample(cur, r.origin + t * r.dir);
-        vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
-        acc.samples++;
-        // Branch-free: lavapipe runs all lanes through every branch any lane takes. A zero
-        // opacity gives alpha == 0 exactly (pow(1, x) == 1), leaving the sums untouched.
-        if (acc.depth_t < 0.0 && c.a > frame.limits.y) acc.depth_t = t;
-        float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
-        acc.color.rgb += acc.transmittance * alpha * c.rgb;
-        acc.transmittance *= 1.0 - alpha;
-        if (leap_accum_done(acc)) { j += 1.0; break; }
+    float t = lat.t0 + j * lat.dt;
+    bool more = t <= tb;
+    while (more) {
+        // No clamp: q stays within float rounding of the domain box, and the page grid has
+        // at least one spare cell on every side of it (see leap_atlas). Voxel centres sit at
+        // integer q; a slot cell's samples read the atlas at texel_base + q.
+        vec3 q = r.origin + t * r.dir;
+        ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+        leap_cursor_seek(cur, cell);
+        if (cur.constant) {
+            vec4 c = textureLod(tf_table, clamp(cur.value * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
+            float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
+            bool opaque_enough = c.a > frame.limits.y;
+            for (;;) {
+                acc.samples++;
+                if (acc.depth_t < 0.0 && opaque_enough) acc.depth_t = t;
+                acc.color.rgb += acc.transmittance * alpha * c.rgb;
+                acc.transmittance *= 1.0 - alpha;
+                j += 1.0;
+                t = lat.t0 + j * lat.dt;
+                if (leap_accum_done(acc) || t > tb) { more = false; break; }
+                q = r.origin + t * r.dir;
+                if (any(notEqual(ivec3(floor(q)) >> LEAP_CELL_SHIFT, cell))) break;
+            }
+        } else {
+            for (;;) {
+                float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+                vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
+                acc.samples++;
+                if (acc.depth_t < 0.0 && c.a > frame.limits.y) acc.depth_t = t;
+                float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
+                acc.color.rgb += acc.transmittance * alpha * c.rgb;
+                acc.transmittance *= 1.0 - alpha;
+                j += 1.0;
+                t = lat.t0 + j * lat.dt;
+                if (leap_accum_done(acc) || t > tb) { more = false; break; }
+                q = r.origin + t * r.dir;
+                if (any(notEqual(ivec3(floor(q)) >> LEAP_CELL_SHIFT, cell))) break;
+            }
+        }
     }
     j_next = j;
 }

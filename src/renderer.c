@@ -480,18 +480,18 @@ static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
 }
 
 /* Lattice indices one composite dispatch may take per ray, so that no invocation group
- * reaches the driver's loop limit (see LEAP_LOOP_ITERATIONS_SAFE). Naive and bbox run one
- * loop: its iterations per group are the most any lane takes. The skipping modes run their
- * sample loop once per segment or tree leaf, and a group runs each such loop as long as its
- * longest lane: up to LEAP_SIMD_LANES x the samples of one lane, plus, in octree mode, a
- * descent of up to depth + 2 iterations per leaf visited; a chunk of n samples of step dt
- * crosses at most sqrt(3) n dt / 8 + 3 leaves of at least one 8^3 cell. */
+ * reaches the driver's loop limit (see LEAP_LOOP_ITERATIONS_SAFE). A group runs each loop as
+ * long as its longest lane, so its iterations are at most the sum over its LEAP_SIMD_LANES
+ * lanes. One lane taking n lattice indices of step dt crosses at most X = sqrt(3) n dt / 8
+ * + 4 cells (and so tree leaves); it runs at most n sample iterations, an outer iteration
+ * plus two inner-loop entries per cell and per interval marched (intervals: one per leaf in
+ * octree mode, up to LEAP_MAX_SEGMENTS in sparseleap), and in octree mode a descent of up to
+ * depth + 2 iterations per leaf: n + X (6 + descent) + 48 in all. */
 static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
 {
-    if (mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX) return LEAP_LOOP_ITERATIONS_SAFE;
-    const double visit = r->tree_depth + 2.0;
-    double n = floor((LEAP_LOOP_ITERATIONS_SAFE - 3 * visit - LEAP_MAX_SEGMENTS) /
-                     (LEAP_SIMD_LANES + sqrt(3.0) / LEAP_CELL * step * visit));
+    const double descent = mode == LEAP_RENDER_OCTREE ? r->tree_depth + 2.0 : 0.0;
+    const double per_lane = (double)LEAP_LOOP_ITERATIONS_SAFE / LEAP_SIMD_LANES;
+    double n = floor((per_lane - 4 * (6 + descent) - 48) / (1 + sqrt(3.0) / LEAP_CELL * step * (6 + descent)));
     return n < 1 ? 1 : n;
 }
 
