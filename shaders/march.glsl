@@ -136,6 +136,7 @@ float leap_lattice_end(leap_lattice l, float tb)
     return j;
 }
 
+#ifdef LEAP_MARCH_PER_CELL
 // Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
 // intervals never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
@@ -193,5 +194,49 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     }
     j_next = j;
 }
+
+#else
+
+// The per-sample loop (the skipping modes' pipeline): one loop, the cell checked at every
+// sample. Its calls are cheap when an interval holds few samples, which is what octree
+// leaves and sparseleap segments mostly are; the per-cell loop above costs more per call.
+// Normalised voxel value s in [0, 1] at relative index position q (voxel centres at integers).
+float leap_sample(inout leap_cell_cursor cur, vec3 q)
+{
+    // No clamp: q stays within float rounding of the domain box, and the page grid has at
+    // least one spare cell on every side of it (see leap_atlas).
+    ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+    if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
+    if (cur.constant) return cur.value;
+    return textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+}
+
+// Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
+// intervals never take a sample twice); j_next ends one past the last index visited.
+void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
+{
+    float j = max(leap_lattice_first(lat, ta), j_next);
+    // Texel coordinate of the TF table: u in [0, 1] maps onto the first to the last texel
+    // centre; folded into one multiply-add of the stored value s, then clamped.
+    const float n = float(textureSize(tf_table, 0));
+    float tf_scale = frame.march.z * (n - 1.0) / n, tf_offset = (frame.march.w * (n - 1.0) + 0.5) / n;
+    float tf_lo = 0.5 / n, tf_hi = (n - 0.5) / n;
+    leap_cell_cursor cur = leap_cursor_init();
+    for (float t = lat.t0 + j * lat.dt; t <= tb; j += 1.0, t = lat.t0 + j * lat.dt) {
+        float s = leap_sample(cur, r.origin + t * r.dir);
+        vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
+        acc.samples++;
+        // Branch-free: lavapipe runs all lanes through every branch any lane takes. A zero
+        // opacity gives alpha == 0 exactly (pow(1, x) == 1), leaving the sums untouched.
+        if (acc.depth_t < 0.0 && c.a > frame.limits.y) acc.depth_t = t;
+        float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
+        acc.color.rgb += acc.transmittance * alpha * c.rgb;
+        acc.transmittance *= 1.0 - alpha;
+        if (leap_accum_done(acc)) { j += 1.0; break; }
+    }
+    j_next = j;
+}
+
+#endif // LEAP_MARCH_PER_CELL
 
 #endif

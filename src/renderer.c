@@ -15,6 +15,9 @@
 static const uint32_t composite_spv[] = {
 #include "composite_comp.inc"
 };
+static const uint32_t composite_cells_spv[] = {
+#include "composite_cells_comp.inc"
+};
 static const uint32_t resolve_spv[] = {
 #include "resolve_comp.inc"
 };
@@ -43,6 +46,7 @@ struct leap_renderer {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     VkPipeline composite, resolve, events;
+    VkPipeline composite_cells; /* the composite pass with the per-cell march loop */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -214,6 +218,7 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
     leap_result lr = create_compute(r, composite_spv, sizeof composite_spv, &r->composite, err);
+    if (!lr) lr = create_compute(r, composite_cells_spv, sizeof composite_cells_spv, &r->composite_cells, err);
     if (!lr) lr = create_compute(r, resolve_spv, sizeof resolve_spv, &r->resolve, err);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
@@ -322,6 +327,7 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
         if (r->composite) vkDestroyPipeline(dev, r->composite, NULL);
+        if (r->composite_cells) vkDestroyPipeline(dev, r->composite_cells, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
         if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);
     }
@@ -479,19 +485,34 @@ static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
     f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
 }
 
+/* Naive and bbox march one long interval per ray: the per-cell loop reads the page table and
+ * a constant cell's colour once per cell. The skipping modes march many short intervals (tree
+ * leaves, segments), where the per-sample loop's lower cost per call wins. */
+static int per_cell_loop(leap_mode mode)
+{
+    return mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX;
+}
+
 /* Lattice indices one composite dispatch may take per ray, so that no invocation group
  * reaches the driver's loop limit (see LEAP_LOOP_ITERATIONS_SAFE). A group runs each loop as
  * long as its longest lane, so its iterations are at most the sum over its LEAP_SIMD_LANES
- * lanes. One lane taking n lattice indices of step dt crosses at most X = sqrt(3) n dt / 8
- * + 4 cells (and so tree leaves); it runs at most n sample iterations, an outer iteration
- * plus two inner-loop entries per cell and per interval marched (intervals: one per leaf in
- * octree mode, up to LEAP_MAX_SEGMENTS in sparseleap), and in octree mode a descent of up to
- * depth + 2 iterations per leaf: n + X (6 + descent) + 48 in all. */
+ * lanes, counting for each lane the once-through of loops it enters with nothing to do. One
+ * lane taking n lattice indices of step dt crosses at most X = sqrt(3) n dt / 8 + 4 cells,
+ * and so tree leaves. It runs n sample iterations plus:
+ * - per-cell loop (naive, bbox): an outer iteration and two inner-loop entries per cell;
+ * - octree: per leaf, the visit, a descent of up to depth iterations and the sample loop's entry;
+ * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry. */
 static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
 {
-    const double descent = mode == LEAP_RENDER_OCTREE ? r->tree_depth + 2.0 : 0.0;
+    double per_cell = 0, fixed = 8;
+    if (per_cell_loop(mode))
+        per_cell = 3;
+    else if (mode == LEAP_RENDER_OCTREE)
+        per_cell = r->tree_depth + 3.0;
+    else
+        fixed += 2 * LEAP_MAX_SEGMENTS;
     const double per_lane = (double)LEAP_LOOP_ITERATIONS_SAFE / LEAP_SIMD_LANES;
-    double n = floor((per_lane - 4 * (6 + descent) - 48) / (1 + sqrt(3.0) / LEAP_CELL * step * (6 + descent)));
+    double n = floor((per_lane - fixed - 4 * per_cell) / (1 + sqrt(3.0) / LEAP_CELL * step * per_cell));
     return n < 1 ? 1 : n;
 }
 
@@ -729,7 +750,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);
     }
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->composite);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, per_cell_loop(mode) ? r->composite_cells : r->composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     st.composite_chunks = chunk_count(r, march, mode);
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
