@@ -136,20 +136,62 @@ float leap_lattice_end(leap_lattice l, float tb)
     return j;
 }
 
-#ifdef LEAP_MARCH_PER_CELL
+// The transfer function's colour of stored values: u in [0, 1] maps onto the first to the
+// last texel centre of the table, folded into one multiply-add of the stored value s, then
+// clamped.
+struct leap_tf_map {
+    float scale, offset, lo, hi;
+};
+
+leap_tf_map leap_tf_map_make()
+{
+    const float n = float(textureSize(tf_table, 0));
+    leap_tf_map m;
+    m.scale = frame.march.z * (n - 1.0) / n;
+    m.offset = (frame.march.w * (n - 1.0) + 0.5) / n;
+    m.lo = 0.5 / n;
+    m.hi = (n - 0.5) / n;
+    return m;
+}
+
+vec4 leap_tf_lookup(leap_tf_map m, float s)
+{
+    return textureLod(tf_table, clamp(s * m.scale + m.offset, m.lo, m.hi), 0.0);
+}
+
+// Opacity of one sample, corrected for the step. A zero opacity gives 0 exactly (pow(1, x)
+// == 1), leaving the sums untouched.
+float leap_sample_alpha(vec4 c)
+{
+    return 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
+}
+
+// Composites one sample at t of colour rgb and corrected opacity alpha; `opaque`: its TF
+// opacity is above the depth threshold. Branch-free: lavapipe runs all lanes through every
+// branch any lane takes.
+void leap_composite(inout leap_accum acc, vec3 rgb, float alpha, bool opaque, float t)
+{
+    acc.samples++;
+    if (acc.depth_t < 0.0 && opaque) acc.depth_t = t;
+    acc.color.rgb += acc.transmittance * alpha * rgb;
+    acc.transmittance *= 1.0 - alpha;
+}
+
+void leap_composite_tf(inout leap_accum acc, vec4 c, float t)
+{
+    leap_composite(acc, c.rgb, leap_sample_alpha(c), c.a > frame.limits.y, t);
+}
+
 // Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
 // intervals never take a sample twice); j_next ends one past the last index visited.
+#ifdef LEAP_MARCH_PER_CELL
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
 // colour once, so its samples only composite (lavapipe runs every side of a branch that
 // any lane takes, so per-sample branches would cost both sides).
 void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
-    // Texel coordinate of the TF table: u in [0, 1] maps onto the first to the last texel
-    // centre; folded into one multiply-add of the stored value s, then clamped.
-    const float n = float(textureSize(tf_table, 0));
-    float tf_scale = frame.march.z * (n - 1.0) / n, tf_offset = (frame.march.w * (n - 1.0) + 0.5) / n;
-    float tf_lo = 0.5 / n, tf_hi = (n - 0.5) / n;
+    leap_tf_map tf = leap_tf_map_make();
     leap_cell_cursor cur = leap_cursor_init();
     float t = lat.t0 + j * lat.dt;
     bool more = t <= tb;
@@ -160,15 +202,14 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         vec3 q = r.origin + t * r.dir;
         ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
         leap_cursor_seek(cur, cell);
-        if (cur.constant) {
-            vec4 c = textureLod(tf_table, clamp(cur.value * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
-            float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
-            bool opaque_enough = c.a > frame.limits.y;
+        bool constant = cur.constant;
+        vec4 c = leap_tf_lookup(tf, cur.value);
+        float alpha = leap_sample_alpha(c);
+        bool opaque = c.a > frame.limits.y;
+        // Two inner loops rather than one with a branch per sample: see above.
+        if (constant) {
             for (;;) {
-                acc.samples++;
-                if (acc.depth_t < 0.0 && opaque_enough) acc.depth_t = t;
-                acc.color.rgb += acc.transmittance * alpha * c.rgb;
-                acc.transmittance *= 1.0 - alpha;
+                leap_composite(acc, c.rgb, alpha, opaque, t);
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;
                 if (leap_accum_done(acc) || t > tb) { more = false; break; }
@@ -178,12 +219,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         } else {
             for (;;) {
                 float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-                vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
-                acc.samples++;
-                if (acc.depth_t < 0.0 && c.a > frame.limits.y) acc.depth_t = t;
-                float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
-                acc.color.rgb += acc.transmittance * alpha * c.rgb;
-                acc.transmittance *= 1.0 - alpha;
+                leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;
                 if (leap_accum_done(acc) || t > tb) { more = false; break; }
@@ -200,38 +236,18 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
 // The per-sample loop (the skipping modes' pipeline): one loop, the cell checked at every
 // sample. Its calls are cheap when an interval holds few samples, which is what octree
 // leaves and sparseleap segments mostly are; the per-cell loop above costs more per call.
-// Normalised voxel value s in [0, 1] at relative index position q (voxel centres at integers).
-float leap_sample(inout leap_cell_cursor cur, vec3 q)
-{
-    // No clamp: q stays within float rounding of the domain box, and the page grid has at
-    // least one spare cell on every side of it (see leap_atlas).
-    ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
-    if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
-    if (cur.constant) return cur.value;
-    return textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-}
-
-// Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
-// intervals never take a sample twice); j_next ends one past the last index visited.
 void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
-    // Texel coordinate of the TF table: u in [0, 1] maps onto the first to the last texel
-    // centre; folded into one multiply-add of the stored value s, then clamped.
-    const float n = float(textureSize(tf_table, 0));
-    float tf_scale = frame.march.z * (n - 1.0) / n, tf_offset = (frame.march.w * (n - 1.0) + 0.5) / n;
-    float tf_lo = 0.5 / n, tf_hi = (n - 0.5) / n;
+    leap_tf_map tf = leap_tf_map_make();
     leap_cell_cursor cur = leap_cursor_init();
     for (float t = lat.t0 + j * lat.dt; t <= tb; j += 1.0, t = lat.t0 + j * lat.dt) {
-        float s = leap_sample(cur, r.origin + t * r.dir);
-        vec4 c = textureLod(tf_table, clamp(s * tf_scale + tf_offset, tf_lo, tf_hi), 0.0);
-        acc.samples++;
-        // Branch-free: lavapipe runs all lanes through every branch any lane takes. A zero
-        // opacity gives alpha == 0 exactly (pow(1, x) == 1), leaving the sums untouched.
-        if (acc.depth_t < 0.0 && c.a > frame.limits.y) acc.depth_t = t;
-        float alpha = 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
-        acc.color.rgb += acc.transmittance * alpha * c.rgb;
-        acc.transmittance *= 1.0 - alpha;
+        // No clamp on q: see the per-cell loop.
+        vec3 q = r.origin + t * r.dir;
+        ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+        if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
+        float s = cur.constant ? cur.value : textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+        leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
         if (leap_accum_done(acc)) { j += 1.0; break; }
     }
     j_next = j;
