@@ -159,16 +159,22 @@ vec4 leap_tf_lookup(leap_tf_map m, float s)
     return textureLod(tf_table, clamp(s * m.scale + m.offset, m.lo, m.hi), 0.0);
 }
 
-// Opacity of one sample, corrected for the step. A zero opacity gives 0 exactly (pow(1, x)
-// == 1), leaving the sums untouched.
+// true: the host corrected the table's opacities for the step (leap_tf_gpu_table), so no
+// sample raises its opacity to a power; the depth threshold is corrected likewise. false:
+// each sample is corrected, for tables where the host's correction would be off
+// (leap_tf_precorrect_ok). A specialisation constant, so the unused path is compiled out.
+layout(constant_id = 0) const bool leap_tf_precorrected = false;
+
+// Opacity of one sample of TF colour c, corrected for the step. A zero opacity gives 0
+// exactly (pow(1, x) == 1), leaving the sums untouched.
 float leap_sample_alpha(vec4 c)
 {
-    return 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
+    return leap_tf_precorrected ? c.a : 1.0 - pow(1.0 - min(c.a, 1.0), frame.march.y);
 }
 
-// Composites one sample at t of colour rgb and corrected opacity alpha; `opaque`: its TF
-// opacity is above the depth threshold. Branch-free: lavapipe runs all lanes through every
-// branch any lane takes.
+// Composites one sample at t of colour rgb and corrected opacity alpha; `opaque`: the
+// table's opacity is above the depth threshold. Branch-free: lavapipe runs all lanes
+// through every branch any lane takes.
 void leap_composite(inout leap_accum acc, vec3 rgb, float alpha, bool opaque, float t)
 {
     acc.samples++;

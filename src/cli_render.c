@@ -102,6 +102,7 @@ static char *stats_json(const cli_view_options *o, const leap_scene *s, const le
         cJSON_AddNumberToObject(root, "ns_per_sample",
                                 fs->total_samples ? fs->gpu_composite_ms * 1e6 / (double)fs->total_samples : 0);
         cJSON_AddNumberToObject(root, "composite_dispatches", fs->composite_chunks);
+        cJSON_AddStringToObject(root, "opacity_correction", fs->tf_precorrected ? "table" : "per_sample");
     }
     leap_occupancy_stats os;
     leap_boxes_stats bs;
@@ -126,6 +127,7 @@ static char *stats_json(const cli_view_options *o, const leap_scene *s, const le
     cJSON *mem = cJSON_AddObjectToObject(root, "memory_bytes");
     cJSON_AddNumberToObject(mem, "gpu_volume", renderer ? (double)leap_renderer_volume_bytes(renderer) : 0);
     cJSON_AddNumberToObject(mem, "atlas", (double)leap_atlas_gpu_bytes(s->atlas));
+    if (renderer) cJSON_AddStringToObject(root, "atlas_format", leap_renderer_atlas_format(renderer));
     cJSON_AddNumberToObject(mem, "openvdb_tree", (double)s->info->memory_bytes);
     double dense = 1;
     for (int i = 0; i < 3; ++i)

@@ -45,8 +45,10 @@ struct leap_renderer {
     uint32_t event_pool, max_segments;
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
-    VkPipeline composite, resolve, events;
-    VkPipeline composite_cells; /* the composite pass with the per-cell march loop */
+    VkPipeline resolve, events;
+    /* The composite pass with the per-sample and the per-cell march loop, each with the
+     * opacity corrected per sample [0] or in the TF table [1]. */
+    VkPipeline composite[2], composite_cells[2];
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -56,7 +58,11 @@ struct leap_renderer {
     leap_buffer frame;
     leap_image atlas;
     leap_buffer pages;
-    leap_image tf;
+    leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */
+    leap_tf tf_raw;
+    int has_tf;
+    double tf_step;
+    int tf_precorrected; /* the table's opacities are corrected for tf_step */
     leap_buffer out_rgba, out_aux;
     leap_buffer boxes, heads, events_pool, counters, segments, pixel_lists, tree;
     uint32_t tree_depth;
@@ -65,6 +71,8 @@ struct leap_renderer {
     int has_volume;
     double value_min, value_max;
     uint32_t top_dims[3], top_count, slot_dims[3], block_shift;
+    uint64_t float_atlas_max_bytes;
+    uint32_t texel_bytes; /* 4: R32_SFLOAT, 2: R16_UNORM */
     /* Not owned. */
     const leap_occupancy *occupancy;
     const leap_boxes *box_set;
@@ -174,15 +182,18 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
     return LEAP_OK;
 }
 
-static leap_result create_compute(leap_renderer *r, const uint32_t *code, size_t bytes, VkPipeline *out,
-                                  leap_error *err)
+/* `precorrected`: the value of the shaders' specialisation constant 0 (leap_tf_precorrected). */
+static leap_result create_compute(leap_renderer *r, const uint32_t *code, size_t bytes, VkBool32 precorrected,
+                                  VkPipeline *out, leap_error *err)
 {
     VkShaderModule m = make_module(r->gpu->device, code, bytes);
     if (!m) return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
+    VkSpecializationMapEntry entry = {0, 0, sizeof precorrected};
+    VkSpecializationInfo spec = {1, &entry, sizeof precorrected, &precorrected};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                  .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main"},
+                  .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main", .pSpecializationInfo = &spec},
         .layout = r->pipeline_layout,
     };
     VkResult vr = vkCreateComputePipelines(r->gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, out);
@@ -217,9 +228,12 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .pPushConstantRanges = &push,
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
-    leap_result lr = create_compute(r, composite_spv, sizeof composite_spv, &r->composite, err);
-    if (!lr) lr = create_compute(r, composite_cells_spv, sizeof composite_cells_spv, &r->composite_cells, err);
-    if (!lr) lr = create_compute(r, resolve_spv, sizeof resolve_spv, &r->resolve, err);
+    leap_result lr = LEAP_OK;
+    for (VkBool32 pre = 0; pre < 2 && !lr; ++pre) {
+        lr = create_compute(r, composite_spv, sizeof composite_spv, pre, &r->composite[pre], err);
+        if (!lr) lr = create_compute(r, composite_cells_spv, sizeof composite_cells_spv, pre, &r->composite_cells[pre], err);
+    }
+    if (!lr) lr = create_compute(r, resolve_spv, sizeof resolve_spv, VK_FALSE, &r->resolve, err);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
     VkSamplerCreateInfo sci = {
@@ -272,6 +286,7 @@ leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer *
     if (r->event_pool > max_pool) r->event_pool = max_pool;
     r->max_segments = desc && desc->max_segments ? desc->max_segments : LEAP_MAX_SEGMENTS;
     if (r->max_segments > LEAP_MAX_SEGMENTS) r->max_segments = LEAP_MAX_SEGMENTS;
+    r->float_atlas_max_bytes = desc && desc->float_atlas_max_bytes ? desc->float_atlas_max_bytes : LEAP_FLOAT_ATLAS_MAX_BYTES;
     leap_gpu_desc gd = {.device_name = desc ? desc->device_name : NULL};
     if (desc) {
         gd.instance_extensions = desc->instance_extensions;
@@ -326,8 +341,10 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->events) vkDestroyPipeline(dev, r->events, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
-        if (r->composite) vkDestroyPipeline(dev, r->composite, NULL);
-        if (r->composite_cells) vkDestroyPipeline(dev, r->composite_cells, NULL);
+        for (int i = 0; i < 2; ++i) {
+            if (r->composite[i]) vkDestroyPipeline(dev, r->composite[i], NULL);
+            if (r->composite_cells[i]) vkDestroyPipeline(dev, r->composite_cells[i], NULL);
+        }
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
         if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);
     }
@@ -346,8 +363,26 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     r->has_volume = 0;
     size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
-    leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
-                                           texels * sizeof(uint16_t), &r->atlas, err);
+    leap_result lr;
+    VkFormatProperties fp;
+    vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R32_SFLOAT, &fp);
+    int float_ok = (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
+                   texels <= r->float_atlas_max_bytes / sizeof(float);
+    float *values = float_ok ? malloc(texels * sizeof(float)) : NULL;
+    if (values) {
+        /* The same 16-bit values, decoded as the shader decodes a constant cell's. */
+        for (size_t i = 0; i < texels; ++i) values[i] = (float)atlas->texels[i] * (float)(1.0 / 65535.0);
+        r->texel_bytes = sizeof(float);
+        lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, values, texels * sizeof(float),
+                                   &r->atlas, err);
+        free(values);
+    } else {
+        /* Too large for float, not filterable, or no host memory to convert: 16 bits give
+         * the same values, slower. */
+        r->texel_bytes = sizeof(uint16_t);
+        lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
+                                   texels * sizeof(uint16_t), &r->atlas, err);
+    }
     if (!lr)
         lr = leap_gpu_buffer_create(r->gpu, atlas->page_words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
                                     &r->pages, err);
@@ -367,11 +402,31 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
 
 leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err)
 {
+    (void)err;
     vkDeviceWaitIdle(r->gpu->device);
     leap_gpu_image_destroy(r->gpu, &r->tf);
-    uint32_t extent[3] = {LEAP_TF_TABLE_SIZE, 0, 0};
-    return leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, tf->rgba,
-                                 sizeof tf->rgba, &r->tf, err);
+    r->tf_raw = *tf;
+    r->has_tf = 1;
+    return LEAP_OK;
+}
+
+/* The GPU table holds opacities corrected for the step where that is accurate enough, so it
+ * is rebuilt when the step changes. */
+static leap_result upload_tf(leap_renderer *r, double step, leap_error *err)
+{
+    if (r->tf.image && r->tf_step == step) return LEAP_OK;
+    size_t bytes = sizeof(float[LEAP_TF_GPU_TABLE_SIZE][4]);
+    float(*table)[4] = malloc(bytes);
+    if (!table) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the transfer function table");
+    r->tf_precorrected = leap_tf_precorrect_ok(&r->tf_raw, step);
+    leap_tf_gpu_table(&r->tf_raw, step, r->tf_precorrected, table);
+    vkDeviceWaitIdle(r->gpu->device);
+    leap_gpu_image_destroy(r->gpu, &r->tf);
+    uint32_t extent[3] = {LEAP_TF_GPU_TABLE_SIZE, 0, 0};
+    leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, table, bytes, &r->tf, err);
+    free(table);
+    r->tf_step = step;
+    return lr;
 }
 
 void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes)
@@ -383,7 +438,13 @@ void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, co
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
 {
     if (!r->has_volume) return 0;
-    return (uint64_t)r->atlas.extent[0] * r->atlas.extent[1] * r->atlas.extent[2] * 2 + r->pages.size;
+    return (uint64_t)r->atlas.extent[0] * r->atlas.extent[1] * r->atlas.extent[2] * r->texel_bytes + r->pages.size;
+}
+
+const char *leap_renderer_atlas_format(const leap_renderer *r)
+{
+    if (!r->has_volume) return NULL;
+    return r->texel_bytes == sizeof(float) ? "R32_SFLOAT" : "R16_UNORM";
 }
 
 const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r)
@@ -546,7 +607,9 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
     double scale = range != 0 ? (r->value_max - r->value_min) / range : 0.0;
     double offset = range != 0 ? (r->value_min - m->range_lo) / range : 0.0;
     f->march = (leap_vec4){(float)m->step, (float)(m->step / LEAP_TF_STEP_REF), (float)scale, (float)offset};
-    f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)LEAP_DEPTH_OPACITY,
+    /* A precorrected table's opacities are compared with a threshold corrected alike. */
+    double depth_opacity = r->tf_precorrected ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
+    f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
                             (float)chunk_indices(r, mode, m->step), 0};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
@@ -705,7 +768,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
                                  leap_frame_stats *stats, leap_error *err)
 {
     leap_frame_stats st = {0};
-    if (!r->has_volume || !r->tf.image)
+    if (!r->has_volume || !r->has_tf)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: no volume or transfer function uploaded");
     if (!view || !march || view->width <= 0 || view->height <= 0)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: invalid view");
@@ -721,6 +784,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     size_t pixels = (size_t)view->width * view->height;
     double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
+    if (!lr) lr = upload_tf(r, march->step, err);
     uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
     if (!lr && mode == LEAP_RENDER_OCTREE) lr = upload_tree(r, err);
@@ -750,9 +814,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);
     }
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, per_cell_loop(mode) ? r->composite_cells : r->composite);
+    int pre = r->tf_precorrected;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, per_cell_loop(mode) ? r->composite_cells[pre] : r->composite[pre]);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     st.composite_chunks = chunk_count(r, march, mode);
+    st.tf_precorrected = pre;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
         if (chunk > 0)
             shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,

@@ -521,3 +521,54 @@ double leap_tf_alpha_for_step(double alpha_tf, double dt)
         return alpha_tf;
     return 1.0 - pow(1.0 - alpha_tf, dt / LEAP_TF_STEP_REF);
 }
+
+/* Opacity of refined entry i: original entries j and j + 1, fraction f between them. */
+static double refined(const leap_tf *tf, int i, int c)
+{
+    const int j = i / LEAP_TF_GPU_REFINE, k = i % LEAP_TF_GPU_REFINE;
+    const double a = tf->rgba[j][c], b = k ? tf->rgba[j + 1][c] : a;
+    return a + (b - a) * ((double)k / LEAP_TF_GPU_REFINE);
+}
+
+void leap_tf_gpu_table(const leap_tf *tf, double dt, int precorrect, float out[LEAP_TF_GPU_TABLE_SIZE][4])
+{
+    for (int i = 0; i < LEAP_TF_GPU_TABLE_SIZE; ++i) {
+        for (int c = 0; c < 4; ++c) out[i][c] = (float)refined(tf, i, c);
+        if (precorrect) out[i][3] = (float)leap_tf_alpha_for_step(refined(tf, i, 3), dt);
+    }
+}
+
+/* Chord error over [a0, a1] of g(a) = 1 - (1 - a)^k, the opacity corrected for step dt
+ * (k = dt / LEAP_TF_STEP_REF). g is concave (k < 1) or convex (k > 1), so the error peaks
+ * where g' equals the chord's slope: k (1 - a)^(k - 1) = slope. */
+static double chord_error(double a0, double a1, double dt)
+{
+    const double k = dt / LEAP_TF_STEP_REF;
+    if (a0 > a1) {
+        const double t = a0;
+        a0 = a1;
+        a1 = t;
+    }
+    if (!(a1 > a0) || k == 1.0) return 0.0;
+    const double g0 = leap_tf_alpha_for_step(a0, dt), g1 = leap_tf_alpha_for_step(a1, dt);
+    const double slope = (g1 - g0) / (a1 - a0);
+    double a = slope > 0.0 ? 1.0 - pow(slope / k, 1.0 / (k - 1.0)) : a0;
+    if (!(a >= a0)) a = a0; /* also NaN */
+    if (a > a1) a = a1;
+    return fabs(g0 + slope * (a - a0) - leap_tf_alpha_for_step(a, dt));
+}
+
+double leap_tf_precorrect_error(const leap_tf *tf, double dt)
+{
+    double worst = 0.0;
+    for (int i = 0; i + 1 < LEAP_TF_GPU_TABLE_SIZE; ++i) {
+        const double e = chord_error(fmin(fmax(refined(tf, i, 3), 0.0), 1.0), fmin(fmax(refined(tf, i + 1, 3), 0.0), 1.0), dt);
+        if (e > worst) worst = e;
+    }
+    return worst;
+}
+
+int leap_tf_precorrect_ok(const leap_tf *tf, double dt)
+{
+    return leap_tf_precorrect_error(tf, dt) <= LEAP_TF_PRECORRECT_TOLERANCE * dt;
+}

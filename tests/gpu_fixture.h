@@ -81,16 +81,19 @@ static image_diff compare_rgba(const float *a, const float *b, size_t pixels)
     return d;
 }
 
-static leap_renderer *make_renderer(void)
+/* desc NULL: the defaults. */
+static leap_renderer *make_renderer_with(const leap_renderer_desc *desc)
 {
     leap_error err = {{0}};
     leap_renderer *r = NULL;
-    if (leap_renderer_create(NULL, &r, &err)) {
+    if (leap_renderer_create(desc, &r, &err)) {
         fprintf(stderr, "FAIL: no Vulkan device for the GPU tests (%s). Install mesa-vulkan-drivers "
                         "(lavapipe) with scripts/setup-deps.sh.\n", err.msg);
         return NULL;
     }
     return r;
 }
+
+static leap_renderer *make_renderer(void) { return make_renderer_with(NULL); }
 
 #endif

@@ -2,13 +2,17 @@
  * volume and several cameras; and independence of the image from the brick layout.
  *
  * Error bounds, and why (measured values are printed; they sit well inside):
- * - Voxel values are stored as 16-bit UNORM over the grid's value range: at most 1/131070 of
- *   the range off.
+ * - Voxel values are quantised to 16 bits over the grid's value range: at most 1/131070 of
+ *   the range off (uploaded as 32-bit float or, for the large scattered box, 16-bit UNORM).
  * - Positions are float on the GPU (relative to the grid's own origin, so about 2^-24 of the
  *   distance travelled, < 1e-4 voxel here) and the sampler's texture coordinate adds its own
  *   rounding (an atlas up to 4096 texels wide: ~2^-12 texel). Each shifts the interpolated
  *   value by at most that distance times the local value gradient.
  * - Compositing runs in float over up to a few thousand samples.
+ * - Where the renderer corrects opacity for the step in the TF table rather than per sample
+ *   (leap_tf_precorrect_ok: smooth opacity), each sample's opacity may be off by up to
+ *   LEAP_TF_PRECORRECT_TOLERANCE per voxel of step: under 2e-3 summed over the longest ray
+ *   here, and ~1e-8 per sample for viridis (tests/test_tf.c).
  * - A lattice index at the domain face, or the early-termination sample, can differ by one
  *   between float and double: one sample, i.e. at most 0.002 (termination threshold) or one
  *   sample's opacity at the volume boundary, where values are near background.
@@ -127,6 +131,9 @@ static void scattered_box(leap_renderer *renderer)
     CHECK_MSG(bytes < dense / 50, "GPU bytes %llu for a %d^3 box", (unsigned long long)bytes, edge);
     CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
     CHECK_OK(leap_renderer_set_tf(renderer, &s.tf, &err), &err);
+    const char *format = leap_renderer_atlas_format(renderer);
+    CHECK(format && strcmp(format, "R16_UNORM") == 0);
+    CHECK(leap_renderer_volume_bytes(renderer) == bytes);
     enum { SW = 48, SH = 48 };
     float *gpu = malloc(SW * SH * 4 * sizeof(float)), *ref = malloc(SW * SH * 4 * sizeof(float));
     leap_camera cam;
@@ -139,7 +146,7 @@ static void scattered_box(leap_renderer *renderer)
     image_diff d = compare_rgba(gpu, ref, SW * SH);
     double alpha_sum = 0;
     for (int i = 0; i < SW * SH; ++i) alpha_sum += ref[4 * i + 3];
-    printf("scattered: naive vs reference rmse %.2e max %.2e, alpha sum %.1f\n", d.rmse, d.max_abs, alpha_sum);
+    printf("scattered (%s): naive vs reference rmse %.2e max %.2e, alpha sum %.1f\n", format, d.rmse, d.max_abs, alpha_sum);
     CHECK_MSG(d.nonfinite == 0 && d.rmse <= 2e-4 && d.max_abs <= 5e-3, "scattered: rmse %g max %g", d.rmse, d.max_abs);
     CHECK_MSG(alpha_sum > 2.0, "scattered: reference image is empty");
     free(gpu);
@@ -165,6 +172,8 @@ int main(void)
         if (!loaded) continue;
         CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
         CHECK_OK(leap_renderer_set_tf(renderer, &s.tf, &err), &err);
+        const char *format = leap_renderer_atlas_format(renderer);
+        CHECK(format && strcmp(format, "R32_SFLOAT") == 0); /* small atlases: float (default) */
         for (size_t c = 0; c < sizeof cameras / sizeof cameras[0]; ++c) {
             leap_camera cam;
             CHECK(make_camera(&s, &cameras[c], &cam));
@@ -178,8 +187,10 @@ int main(void)
             image_diff d = compare_rgba(gpu, ref, W * H);
             double alpha_sum = 0;
             for (int i = 0; i < W * H; ++i) alpha_sum += ref[4 * i + 3];
-            printf("%-12s %-12s %-40s rmse %.2e max %.2e mean alpha %.3f spp %.1f\n", volumes[v].file,
-                   s.info->name, cameras[c].name, d.rmse, d.max_abs, alpha_sum / (W * H), st.samples_mean);
+            printf("%-12s %-12s %-40s rmse %.2e max %.2e mean alpha %.3f spp %.1f, opacity corrected %s\n",
+                   volumes[v].file, s.info->name, cameras[c].name, d.rmse, d.max_abs, alpha_sum / (W * H),
+                   st.samples_mean, st.tf_precorrected ? "in the table" : "per sample");
+            CHECK(st.tf_precorrected == leap_tf_precorrect_ok(&s.tf, s.march.step));
             CHECK_MSG(d.nonfinite == 0, "%s %s: %zu non-finite values", volumes[v].file, cameras[c].name, d.nonfinite);
             int steep = strcmp(volumes[v].tf, "labels") == 0;
             CHECK_MSG(d.rmse <= (steep ? 1e-3 : 2e-4), "%s %s: rmse %g", volumes[v].file, cameras[c].name, d.rmse);
@@ -217,7 +228,12 @@ int main(void)
     free(ref);
     free(gpu_samples);
     free(ref_samples);
-    scattered_box(renderer);
+    leap_renderer_destroy(renderer);
+    /* Atlases too large for 32-bit float stay 16-bit: the scattered box is rendered so. */
+    leap_renderer_desc sixteen_bit = {.float_atlas_max_bytes = 1};
+    renderer = make_renderer_with(&sixteen_bit);
+    CHECK(renderer != NULL);
+    if (renderer) scattered_box(renderer);
     leap_renderer_destroy(renderer);
     return check_exit_code();
 }

@@ -191,6 +191,71 @@ static void test_alpha(void)
     CHECK(leap_tf_alpha_for_step(NAN, 0.5) == 0.0);
 }
 
+/* The GPU's table against the contract's model (opacity corrected after interpolation):
+ * exact at the original entries; uncorrected, equal to the model up to float rounding;
+ * precorrected, within leap_tf_precorrect_error, which must be the actual maximum; and the
+ * renderer's choice between the two. */
+static void test_gpu_table(void)
+{
+    static float table[LEAP_TF_GPU_TABLE_SIZE][4];
+    const double steps[] = {0.01, 0.1, 0.5, 1.0, 1.5, 2.0, 8.0};
+    const int label_counts[] = {2, 7, 300};
+    for (const char *const *name = leap_tf_preset_names(); *name; ++name) {
+        for (size_t li = 0; li < sizeof label_counts / sizeof label_counts[0]; ++li) {
+            leap_tf tf;
+            leap_error err;
+            CHECK(leap_tf_preset(*name, label_counts[li], &tf, &err) == LEAP_OK);
+            for (size_t si = 0; si < sizeof steps / sizeof steps[0]; ++si) {
+                const double dt = steps[si];
+                for (int pre = 0; pre < 2; ++pre) {
+                    leap_tf_gpu_table(&tf, dt, pre, table);
+                    for (int j = 0; j < LEAP_TF_TABLE_SIZE; ++j) {
+                        const float *e = table[j * LEAP_TF_GPU_REFINE];
+                        CHECK(e[0] == tf.rgba[j][0] && e[1] == tf.rgba[j][1] && e[2] == tf.rgba[j][2]);
+                        CHECK(e[3] == (pre ? (float)leap_tf_alpha_for_step(tf.rgba[j][3], dt) : tf.rgba[j][3]));
+                    }
+                    /* Dense u: the GPU's linear interpolation of the table against the model. */
+                    double worst = 0.0, worst_rgb = 0.0;
+                    const int n = 100000;
+                    for (int i = 0; i <= n; ++i) {
+                        const double u = (double)i / n, x = u * (LEAP_TF_GPU_TABLE_SIZE - 1);
+                        const int k = x >= LEAP_TF_GPU_TABLE_SIZE - 1 ? LEAP_TF_GPU_TABLE_SIZE - 2 : (int)x;
+                        const double f = x - k;
+                        double ref[4], gpu[4];
+                        leap_tf_eval(&tf, u, ref);
+                        for (int c = 0; c < 4; ++c) gpu[c] = table[k][c] + ((double)table[k + 1][c] - table[k][c]) * f;
+                        const double a = pre ? gpu[3] : leap_tf_alpha_for_step(gpu[3], dt);
+                        worst = fmax(worst, fabs(a - leap_tf_alpha_for_step(ref[3], dt)));
+                        for (int c = 0; c < 3; ++c) worst_rgb = fmax(worst_rgb, fabs(gpu[c] - ref[c]));
+                    }
+                    /* Float rounding of the table (2^-24) plus that of the sampled u. */
+                    const double bound = pre ? leap_tf_precorrect_error(&tf, dt) + 1e-7 : 1e-7;
+                    CHECK_MSG(worst_rgb <= 1e-7, "%s step %g: colour off by %g", *name, dt, worst_rgb);
+                    CHECK_MSG(worst <= bound, "%s/%d step %g %s: opacity off by %g > %g", *name, label_counts[li], dt,
+                              pre ? "precorrected" : "per sample", worst, bound);
+                    if (pre && getenv("LEAP_TEST_VERBOSE"))
+                        printf("gpu table %-8s labels %3d step %-5g: precorrected opacity error %.3g (bound %.3g)%s\n",
+                               *name, label_counts[li], dt, worst, bound - 1e-7,
+                               leap_tf_precorrect_ok(&tf, dt) ? ", used" : "");
+                }
+                /* The bound is the maximum: the dense scan comes close to it when it is large. */
+                const double e = leap_tf_precorrect_error(&tf, dt);
+                CHECK(leap_tf_precorrect_ok(&tf, dt) == (e <= LEAP_TF_PRECORRECT_TOLERANCE * dt));
+            }
+        }
+    }
+    /* The smooth presets are precorrected at every step; steps where the labels preset's jump
+     * or the grey ramp's rise to opacity 1 would be off are corrected per sample. */
+    leap_tf tf;
+    leap_error err;
+    CHECK(leap_tf_preset("viridis", 1, &tf, &err) == LEAP_OK);
+    for (size_t si = 0; si < sizeof steps / sizeof steps[0]; ++si) CHECK(leap_tf_precorrect_ok(&tf, steps[si]));
+    CHECK(leap_tf_preset("labels", 7, &tf, &err) == LEAP_OK);
+    CHECK(!leap_tf_precorrect_ok(&tf, 0.5) && leap_tf_precorrect_ok(&tf, 1.0));
+    CHECK(leap_tf_preset("grey", 1, &tf, &err) == LEAP_OK);
+    CHECK(!leap_tf_precorrect_ok(&tf, 0.5) && leap_tf_precorrect_ok(&tf, 2.0));
+}
+
 static char tmpdir[1024];
 
 static const char *write_tmp(const char *name, const char *text)
@@ -341,6 +406,7 @@ int main(void)
     test_presets();
     test_eval();
     test_alpha();
+    test_gpu_table();
     test_json();
     return check_exit_code();
 }

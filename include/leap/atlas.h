@@ -48,7 +48,8 @@ void leap_atlas_destroy(leap_atlas *atlas); /* accepts NULL */
 /* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);
 
-/* Bytes the atlas needs on the GPU (texels + page table). */
+/* Bytes of the atlas as built: 16-bit texels + page table. (The renderer may upload the
+ * texels as 32-bit float: leap_renderer_volume_bytes.) */
 uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas);
 
 #endif

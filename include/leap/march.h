@@ -12,7 +12,9 @@
  * and stops once T < LEAP_ERT_TRANSMITTANCE (early ray termination). The pixel is
  * (C, 1 - T): premultiplied RGBA over a transparent background.
  * Depth = world distance to the first sample whose a_tf > LEAP_DEPTH_OPACITY (+inf if
- * none); samples = number of samples taken. */
+ * none); samples = number of samples taken.
+ * The GPU may apply the opacity correction to the TF table's entries instead of each sample
+ * where that is within LEAP_TF_PRECORRECT_TOLERANCE (leap_tf_precorrect_ok). */
 #ifndef LEAP_MARCH_H
 #define LEAP_MARCH_H
 

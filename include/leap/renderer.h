@@ -33,7 +33,13 @@ typedef struct leap_renderer_desc {
     const char *const *instance_extensions; /* window-system extensions (the viewer) */
     uint32_t instance_extension_count;
     int swapchain;           /* 1 = the device can present (VK_KHR_swapchain) */
+    uint64_t float_atlas_max_bytes; /* atlases whose texels fit in this many bytes as 32-bit
+                                       float are uploaded so (lavapipe filters them faster
+                                       than 16-bit); larger ones keep 16-bit UNORM. 0 =
+                                       LEAP_FLOAT_ATLAS_MAX_BYTES, UINT64_MAX = always, 1 = never */
 } leap_renderer_desc;
+
+#define LEAP_FLOAT_ATLAS_MAX_BYTES (512ull << 20)
 
 typedef struct leap_renderer leap_renderer;
 
@@ -55,6 +61,7 @@ typedef struct leap_frame_stats {
     uint32_t events_max, segments_max;
     uint32_t overflow_pixels;
     uint32_t composite_chunks; /* dispatches of the composite pass (rays too long for one) */
+    int tf_precorrected;       /* 1: opacity corrected in the TF table, 0: per sample */
     uint32_t width, height;
 } leap_frame_stats;
 
@@ -71,7 +78,12 @@ const char *leap_renderer_driver_name(const leap_renderer *r);
 /* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after). */
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
 
-/* Uploads the transfer-function table. */
+/* "R32_SFLOAT" or "R16_UNORM": how the uploaded volume's texels are stored (the same 16-bit
+ * values either way). NULL before set_volume. */
+const char *leap_renderer_atlas_format(const leap_renderer *r);
+
+/* Keeps the transfer function; render() uploads its table corrected for the frame's step
+ * (again whenever the step changes). */
 leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err);
 
 /* Occupancy for the bbox and sparseleap modes. Not owned: both must outlive their use and

@@ -50,6 +50,27 @@ void leap_tf_eval(const leap_tf *tf, double u, double rgba[4]);
 /* Opacity corrected for step dt (in voxels). */
 double leap_tf_alpha_for_step(double alpha_tf, double dt);
 
+/* The GPU's table: the transfer function resampled LEAP_TF_GPU_REFINE times finer, exactly
+ * (by linear interpolation, so every original entry is kept). With `precorrect`, each
+ * entry's opacity is corrected for step dt (in double), and the march loop interpolates
+ * corrected opacities instead of raising each sample's opacity to a power. That differs
+ * from the contract (correct the interpolated opacity) by the chord error of
+ * 1 - (1 - a)^dt over one table interval: leap_tf_precorrect_error. */
+#define LEAP_TF_GPU_REFINE 4
+#define LEAP_TF_GPU_TABLE_SIZE ((LEAP_TF_TABLE_SIZE - 1) * LEAP_TF_GPU_REFINE + 1)
+void leap_tf_gpu_table(const leap_tf *tf, double dt, int precorrect, float out[LEAP_TF_GPU_TABLE_SIZE][4]);
+
+/* The largest opacity error of one sample that a precorrected table at step dt makes (exact
+ * maximum of the chord error over every table interval). Small for smooth opacity; large
+ * where opacity jumps within one entry (label presets) or rises to 1 at steps below 2. */
+double leap_tf_precorrect_error(const leap_tf *tf, double dt);
+
+/* Whether the renderer precorrects for step dt: when the error above stays within
+ * LEAP_TF_PRECORRECT_TOLERANCE per voxel of ray (so under 2e-3 in sum along the longest
+ * shipped rays, and far below that in practice). */
+#define LEAP_TF_PRECORRECT_TOLERANCE 1e-6
+int leap_tf_precorrect_ok(const leap_tf *tf, double dt);
+
 #ifdef __cplusplus
 }
 #endif
