@@ -5,7 +5,7 @@ set style data histograms
 set style fill solid 0.8
 set ylabel 'x naive frame time'
 set logscale y
-set yrange [0.0540153:*]
+set yrange [0.0575736:*]
 set key outside
 set grid y
 set xtics rotate by -20
@@ -18,7 +18,7 @@ set style data histograms
 set style fill solid 0.8
 set ylabel 'x naive frame time'
 set logscale y
-set yrange [0.0540153:*]
+set yrange [0.0575736:*]
 set key outside
 set grid y
 set xtics rotate by -20
