@@ -84,7 +84,7 @@ void main()
             acc.samples = uint(aux.y);
             j_next = j_lo;
         }
-        uint mode = frame.image.z;
+        const uint mode = leap_mode; // a specialisation constant: the other modes compile out
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
         if (mode == LEAP_MODE_NAIVE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
             leap_march_interval(ray, lat, ca, cb, j_next, acc);

@@ -159,11 +159,17 @@ vec4 leap_tf_lookup(leap_tf_map m, float s)
     return textureLod(tf_table, clamp(s * m.scale + m.offset, m.lo, m.hi), 0.0);
 }
 
-// true: the host corrected the table's opacities for the step (leap_tf_gpu_table), so no
-// sample raises its opacity to a power; the depth threshold is corrected likewise. false:
-// each sample is corrected, for tables where the host's correction would be off
-// (leap_tf_precorrect_ok). A specialisation constant, so the unused path is compiled out.
+// Specialisation constants: the renderer builds one composite pipeline per mode and opacity
+// correction, so lavapipe compiles out the code a pipeline never runs (it executes every
+// side of a branch that any lane takes, even when the condition is uniform).
+// leap_tf_precorrected: the host corrected the table's opacities for the step
+// (leap_tf_gpu_table), so no sample raises its opacity to a power, and the depth threshold
+// is corrected likewise; false: each sample is corrected, for tables where the host's
+// correction would be off (leap_tf_precorrect_ok).
 layout(constant_id = 0) const bool leap_tf_precorrected = false;
+layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
+// Naive and bbox march one long interval per ray, the skipping modes many short ones.
+const bool leap_march_per_cell = leap_mode == LEAP_MODE_NAIVE || leap_mode == LEAP_MODE_BBOX;
 
 // Opacity of one sample of TF colour c, corrected for the step. A zero opacity gives 0
 // exactly (pow(1, x) == 1), leaving the sums untouched.
@@ -188,13 +194,14 @@ void leap_composite_tf(inout leap_accum acc, vec4 c, float t)
     leap_composite(acc, c.rgb, leap_sample_alpha(c), c.a > frame.limits.y, t);
 }
 
-// Marches the lattice samples in [ta, tb], skipping indices below j_next (so adjacent
-// intervals never take a sample twice); j_next ends one past the last index visited.
-#ifdef LEAP_MARCH_PER_CELL
+// Both march loops take the lattice samples in [ta, tb], skipping indices below j_next (so
+// adjacent intervals never take a sample twice); j_next ends one past the last index visited.
+
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
 // colour once, so its samples only composite (lavapipe runs every side of a branch that
 // any lane takes, so per-sample branches would cost both sides).
-void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
+void leap_march_interval_per_cell(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next,
+                                  inout leap_accum acc)
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
     leap_tf_map tf = leap_tf_map_make();
@@ -237,12 +244,11 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     j_next = j;
 }
 
-#else
-
-// The per-sample loop (the skipping modes' pipeline): one loop, the cell checked at every
-// sample. Its calls are cheap when an interval holds few samples, which is what octree
-// leaves and sparseleap segments mostly are; the per-cell loop above costs more per call.
-void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
+// One loop, the cell checked at every sample. Its calls are cheap when an interval holds
+// few samples, which is what octree leaves and sparseleap segments mostly are; the per-cell
+// loop above costs more per call.
+void leap_march_interval_per_sample(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next,
+                                    inout leap_accum acc)
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
     leap_tf_map tf = leap_tf_map_make();
@@ -259,6 +265,12 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     j_next = j;
 }
 
-#endif // LEAP_MARCH_PER_CELL
+void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
+{
+    if (leap_march_per_cell)
+        leap_march_interval_per_cell(r, lat, ta, tb, j_next, acc);
+    else
+        leap_march_interval_per_sample(r, lat, ta, tb, j_next, acc);
+}
 
 #endif

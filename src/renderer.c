@@ -4,6 +4,7 @@
 #include "util.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -14,9 +15,6 @@
 
 static const uint32_t composite_spv[] = {
 #include "composite_comp.inc"
-};
-static const uint32_t composite_cells_spv[] = {
-#include "composite_cells_comp.inc"
 };
 static const uint32_t resolve_spv[] = {
 #include "resolve_comp.inc"
@@ -46,9 +44,11 @@ struct leap_renderer {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     VkPipeline resolve, events;
-    /* The composite pass with the per-sample and the per-cell march loop, each with the
-     * opacity corrected per sample [0] or in the TF table [1]. */
-    VkPipeline composite[2], composite_cells[2];
+    /* The composite pass per mode and opacity correction (per sample [0], in the TF table
+     * [1]): specialisation constants, so each pipeline holds only the code it runs. Created
+     * on first use from composite_module. */
+    VkShaderModule composite_module;
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][2];
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -182,24 +182,41 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
     return LEAP_OK;
 }
 
-/* `precorrected`: the value of the shaders' specialisation constant 0 (leap_tf_precorrected). */
-static leap_result create_compute(leap_renderer *r, const uint32_t *code, size_t bytes, VkBool32 precorrected,
-                                  VkPipeline *out, leap_error *err)
+/* The shaders' specialisation constants (shaders/march.glsl). */
+typedef struct spec_values {
+    VkBool32 tf_precorrected; /* constant_id 0 */
+    uint32_t mode;            /* constant_id 1 */
+} spec_values;
+
+static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
+                                  leap_error *err)
 {
-    VkShaderModule m = make_module(r->gpu->device, code, bytes);
-    if (!m) return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
-    VkSpecializationMapEntry entry = {0, 0, sizeof precorrected};
-    VkSpecializationInfo spec = {1, &entry, sizeof precorrected, &precorrected};
+    const VkSpecializationMapEntry entries[] = {
+        {0, offsetof(spec_values, tf_precorrected), sizeof values.tf_precorrected},
+        {1, offsetof(spec_values, mode), sizeof values.mode},
+    };
+    VkSpecializationInfo spec = {2, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                  .stage = VK_SHADER_STAGE_COMPUTE_BIT, .module = m, .pName = "main", .pSpecializationInfo = &spec},
+        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
+                  .module = module, .pName = "main", .pSpecializationInfo = &spec},
         .layout = r->pipeline_layout,
     };
     VkResult vr = vkCreateComputePipelines(r->gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, out);
-    vkDestroyShaderModule(r->gpu->device, m, NULL);
     if (vr != VK_SUCCESS)
         return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a compute pipeline: %s", leap_vk_result_name(vr));
+    return LEAP_OK;
+}
+
+static leap_result composite_pipeline(leap_renderer *r, leap_mode mode, int precorrected, VkPipeline *out,
+                                      leap_error *err)
+{
+    VkPipeline *p = &r->composite[mode][precorrected != 0];
+    if (!*p) {
+        leap_result lr = create_compute(r, r->composite_module, (spec_values){precorrected != 0, (uint32_t)mode}, p, err);
+        if (lr) return lr;
+    }
+    *out = *p;
     return LEAP_OK;
 }
 
@@ -228,12 +245,13 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .pPushConstantRanges = &push,
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
+    r->composite_module = make_module(dev, composite_spv, sizeof composite_spv);
+    VkShaderModule resolve_module = make_module(dev, resolve_spv, sizeof resolve_spv);
     leap_result lr = LEAP_OK;
-    for (VkBool32 pre = 0; pre < 2 && !lr; ++pre) {
-        lr = create_compute(r, composite_spv, sizeof composite_spv, pre, &r->composite[pre], err);
-        if (!lr) lr = create_compute(r, composite_cells_spv, sizeof composite_cells_spv, pre, &r->composite_cells[pre], err);
-    }
-    if (!lr) lr = create_compute(r, resolve_spv, sizeof resolve_spv, VK_FALSE, &r->resolve, err);
+    if (!r->composite_module || !resolve_module)
+        lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
+    if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
     VkSamplerCreateInfo sci = {
@@ -341,10 +359,10 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->events) vkDestroyPipeline(dev, r->events, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
-        for (int i = 0; i < 2; ++i) {
-            if (r->composite[i]) vkDestroyPipeline(dev, r->composite[i], NULL);
-            if (r->composite_cells[i]) vkDestroyPipeline(dev, r->composite_cells[i], NULL);
-        }
+        for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
+            for (int i = 0; i < 2; ++i)
+                if (r->composite[m][i]) vkDestroyPipeline(dev, r->composite[m][i], NULL);
+        if (r->composite_module) vkDestroyShaderModule(dev, r->composite_module, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
         if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);
     }
@@ -546,9 +564,11 @@ static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
     f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
 }
 
-/* Naive and bbox march one long interval per ray: the per-cell loop reads the page table and
- * a constant cell's colour once per cell. The skipping modes march many short intervals (tree
- * leaves, segments), where the per-sample loop's lower cost per call wins. */
+/* Which march loop a mode's pipeline runs; the shader makes the same choice
+ * (leap_march_per_cell in shaders/march.glsl). Naive and bbox march one long interval per
+ * ray: the per-cell loop reads the page table and a constant cell's colour once per cell.
+ * The skipping modes march many short intervals (tree leaves, segments), where the
+ * per-sample loop's lower cost per call wins. */
 static int per_cell_loop(leap_mode mode)
 {
     return mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX;
@@ -785,6 +805,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
     if (!lr) lr = upload_tf(r, march->step, err);
+    VkPipeline composite = VK_NULL_HANDLE;
+    if (!lr) lr = composite_pipeline(r, mode, r->tf_precorrected, &composite, err);
     uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
     if (!lr && mode == LEAP_RENDER_OCTREE) lr = upload_tree(r, err);
@@ -814,11 +836,10 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);
     }
-    int pre = r->tf_precorrected;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, per_cell_loop(mode) ? r->composite_cells[pre] : r->composite[pre]);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     st.composite_chunks = chunk_count(r, march, mode);
-    st.tf_precorrected = pre;
+    st.tf_precorrected = r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
         if (chunk > 0)
             shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
