@@ -166,10 +166,10 @@ vec4 leap_tf_lookup(leap_tf_map m, float s)
 // (leap_tf_gpu_table), so no sample raises its opacity to a power, and the depth threshold
 // is corrected likewise; false: each sample is corrected, for tables where the host's
 // correction would be off (leap_tf_precorrect_ok).
+// leap_march_per_cell: which march loop the mode runs (per_cell_loop in src/renderer.c).
 layout(constant_id = 0) const bool leap_tf_precorrected = false;
 layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
-// Naive and bbox march one long interval per ray, the skipping modes many short ones.
-const bool leap_march_per_cell = leap_mode == LEAP_MODE_NAIVE || leap_mode == LEAP_MODE_BBOX;
+layout(constant_id = 2) const bool leap_march_per_cell = true;
 
 // Opacity of one sample of TF colour c, corrected for the step. A zero opacity gives 0
 // exactly (pow(1, x) == 1), leaving the sums untouched.

@@ -131,7 +131,7 @@ LEAP_STRUCT(leap_frame_gpu) {
                                  composite chunk, 0 */
     LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
     LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
-    LEAP_UVEC4 image;         /* 256: width, height, mode, ortho */
+    LEAP_UVEC4 image;         /* 256: width, height, 0 (the mode is a specialisation constant), ortho */
     LEAP_VEC4 clip_x;         /* 272: rows of the relative-index-space -> clip matrix */
     LEAP_VEC4 clip_y;         /* 288 */
     LEAP_VEC4 clip_z;         /* 304 */

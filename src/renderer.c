@@ -186,7 +186,10 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
 typedef struct spec_values {
     VkBool32 tf_precorrected; /* constant_id 0 */
     uint32_t mode;            /* constant_id 1 */
+    VkBool32 march_per_cell;  /* constant_id 2 */
 } spec_values;
+
+static int per_cell_loop(leap_mode mode);
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
                                   leap_error *err)
@@ -194,8 +197,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
     const VkSpecializationMapEntry entries[] = {
         {0, offsetof(spec_values, tf_precorrected), sizeof values.tf_precorrected},
         {1, offsetof(spec_values, mode), sizeof values.mode},
+        {2, offsetof(spec_values, march_per_cell), sizeof values.march_per_cell},
     };
-    VkSpecializationInfo spec = {2, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {3, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -213,7 +217,8 @@ static leap_result composite_pipeline(leap_renderer *r, leap_mode mode, int prec
 {
     VkPipeline *p = &r->composite[mode][precorrected != 0];
     if (!*p) {
-        leap_result lr = create_compute(r, r->composite_module, (spec_values){precorrected != 0, (uint32_t)mode}, p, err);
+        spec_values values = {precorrected != 0, (uint32_t)mode, per_cell_loop(mode) != 0};
+        leap_result lr = create_compute(r, r->composite_module, values, p, err);
         if (lr) return lr;
     }
     *out = *p;
@@ -250,7 +255,7 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (!r->composite_module || !resolve_module)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
@@ -564,8 +569,8 @@ static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
     f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
 }
 
-/* Which march loop a mode's pipeline runs; the shader makes the same choice
- * (leap_march_per_cell in shaders/march.glsl). Naive and bbox march one long interval per
+/* Which march loop a mode's pipeline runs (the shader's leap_march_per_cell); the bound on
+ * lattice indices per dispatch depends on it too. Naive and bbox march one long interval per
  * ray: the per-cell loop reads the page table and a constant cell's colour once per cell.
  * The skipping modes march many short intervals (tree leaves, segments), where the
  * per-sample loop's lower cost per call wins. */
@@ -633,7 +638,7 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
                             (float)chunk_indices(r, mode, m->step), 0};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
-    f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, (uint32_t)mode, (uint32_t)view->ortho};
+    f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, 0, (uint32_t)view->ortho};
     clip_matrix(view, f);
     double lo[3] = {1, 1, 1}, hi[3] = {0, 0, 0}; /* empty unless the occupancy says otherwise */
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
