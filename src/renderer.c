@@ -386,7 +386,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     r->has_volume = 0;
     size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
-    leap_result lr;
+    leap_result lr = LEAP_ERR_OOM;
     VkFormatProperties fp;
     vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R32_SFLOAT, &fp);
     int float_ok = (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
@@ -399,9 +399,11 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
         lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, values, texels * sizeof(float),
                                    &r->atlas, err);
         free(values);
-    } else {
-        /* Too large for float, not filterable, or no host memory to convert: 16 bits give
-         * the same values, slower. */
+        if (lr) leap_gpu_image_destroy(r->gpu, &r->atlas);
+    }
+    if (lr) {
+        /* Too large for float, not filterable, no host memory to convert, or the float image
+         * did not fit on the device: 16 bits give the same values, slower. */
         r->texel_bytes = sizeof(uint16_t);
         lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
                                    texels * sizeof(uint16_t), &r->atlas, err);
