@@ -429,11 +429,9 @@ static int uniform_voxels(const double m[4][4])
     return 1;
 }
 
-/* Finds vdb_render, makes the temporary directory and asks for its version. */
+/* Makes the temporary directory and asks r->exe (found on PATH) for its version. */
 static int vdb_runner_open(vdb_runner *r, double shadow_step)
 {
-    if (!find_on_path("vdb_render", r->exe, sizeof r->exe))
-        return cli_runtime_error("vdb_render: not found on PATH");
     r->shadow_step = shadow_step;
     const char *tmp = getenv("TMPDIR");
     snprintf(r->dir, sizeof r->dir, "%s/leap-vdb-render-XXXXXX", tmp && tmp[0] ? tmp : "/tmp");
@@ -823,12 +821,11 @@ int cli_bench(int argc, char **argv)
     /* Asked for the comparison: fail before hours of rendering rather than leave it out. */
     vdb_runner *vdb = NULL;
     if (!rc && o.vs_vdb) {
-        char exe[4096];
-        if (!find_on_path("vdb_render", exe, sizeof exe))
+        if (!(vdb = calloc(1, sizeof *vdb)))
+            rc = cli_runtime_error("out of memory");
+        else if (!find_on_path("vdb_render", vdb->exe, sizeof vdb->exe))
             rc = cli_usage_error("bench", "--vs-vdb-render: vdb_render not found on PATH (Debian: apt-get install "
                                           "libopenvdb-tools)");
-        else if (!(vdb = calloc(1, sizeof *vdb)))
-            rc = cli_runtime_error("out of memory");
     }
     if (rc) {
         free(vdb);

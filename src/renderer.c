@@ -604,12 +604,13 @@ static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
     return n < 1 ? 1 : n;
 }
 
-/* Dispatches needed for the longest ray: the domain box's diagonal in lattice steps. */
-static uint32_t chunk_count(const leap_renderer *r, const leap_march *m, leap_mode mode)
+/* Dispatches needed for the longest ray: the domain box's diagonal in lattice steps, over
+ * the lattice indices per dispatch the frame holds (limits.z, from chunk_indices). */
+static uint32_t chunk_count(const leap_march *m, const leap_frame_gpu *f)
 {
     double d2 = 0;
     for (int i = 0; i < 3; ++i) d2 += (m->domain_max[i] - m->domain_min[i]) * (m->domain_max[i] - m->domain_min[i]);
-    double n = ceil((sqrt(d2) / m->step + 2) / chunk_indices(r, mode, m->step));
+    double n = ceil((sqrt(d2) / m->step + 2) / f->limits.z);
     return n < 1 ? 1 : n > 1e6 ? 1000000u : (uint32_t)n;
 }
 
@@ -845,7 +846,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    st.composite_chunks = chunk_count(r, march, mode);
+    st.composite_chunks = chunk_count(march, r->frame.mapped);
     st.tf_precorrected = r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
         if (chunk > 0)
