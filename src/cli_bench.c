@@ -16,6 +16,7 @@
 #include <unistd.h>
 
 #include "cli_common.h"
+#include "leap/files.h"
 #include "leap/reference.h"
 
 #define MAX_ITEMS 16
@@ -177,13 +178,12 @@ static int apply_option(bench_options *o, const char *name, const char *v)
  * arrays (joined with commas). "volumes" is an array of paths. */
 static int load_config(bench_options *o, const char *path, cJSON **keep)
 {
-    FILE *f = fopen(path, "rb");
-    if (!f) return cli_runtime_error("%s: cannot open: %s", path, strerror(errno));
-    char text[65536];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = '\0';
+    char *text = NULL;
+    leap_error err = {{0}};
+    if (leap_file_read(path, "bench config", (size_t)16 << 20, &text, NULL, &err))
+        return cli_runtime_error("%s", err.msg);
     cJSON *root = cJSON_Parse(text);
+    free(text);
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
         return cli_runtime_error("%s: not a JSON object", path);
@@ -223,7 +223,7 @@ static int load_config(bench_options *o, const char *path, cJSON **keep)
             return cli_runtime_error("%s: bad value for \"%s\"", path, item->string);
         }
         int rc = apply_option(o, item->string, value);
-        if (rc) return EXIT_RUNTIME;
+        if (rc) return rc; /* a bad option is the user's, in a file or not: exit 2 */
     }
     return 0;
 }
@@ -763,6 +763,30 @@ static int write_report(const bench_options *o, const bench_row *rows, size_t nr
     return 0;
 }
 
+/* Every file the bench writes into o->out (results, report, plot data, plots) against
+ * every input (volumes, transfer function, config): a clash is a usage error. */
+static int check_outputs(const bench_options *o, const char *config_path)
+{
+    enum { PER_PLOT = 4, MAX_OUT = 5 + PER_PLOT * (MAX_ITEMS + 2) };
+    static char paths[MAX_OUT][4096];
+    const char *outputs[MAX_OUT], *inputs[MAX_ITEMS + 2];
+    int n = 0, ni = 0;
+    const char *fixed[] = {"results.csv", ".results.csv.tmp", "report.md"};
+    for (int i = 0; i < 3; ++i) snprintf(paths[n++], sizeof paths[0], "%s/%s", o->out, fixed[i]);
+    const char *ext[PER_PLOT] = {"dat", "gp", "png", "svg"};
+    for (int plot = -2; plot < o->nvolumes; ++plot)
+        for (int e = 0; e < PER_PLOT; ++e) {
+            if (plot == -2) snprintf(paths[n++], sizeof paths[0], "%s/speedup.%s", o->out, ext[e]);
+            else if (plot == -1) snprintf(paths[n++], sizeof paths[0], "%s/stages.%s", o->out, ext[e]);
+            else snprintf(paths[n++], sizeof paths[0], "%s/speed_error_%d.%s", o->out, plot, ext[e]);
+        }
+    for (int i = 0; i < n; ++i) outputs[i] = paths[i];
+    for (int i = 0; i < o->nvolumes; ++i) inputs[ni++] = o->volumes[i];
+    inputs[ni++] = o->tf;
+    inputs[ni++] = config_path;
+    return cli_check_outputs("bench", inputs, ni, outputs, n);
+}
+
 int cli_bench(int argc, char **argv)
 {
     bench_options o = {.views = 8, .repeats = 3, .warmup = 1, .ref_factor = 4, .elevation = 25, .vdb_shadow_step = 3};
@@ -774,6 +798,7 @@ int cli_bench(int argc, char **argv)
     o.nsizes = 1;
     o.sizes[0][0] = o.sizes[0][1] = 512;
     cJSON *config = NULL;
+    const char *config_path = NULL;
     int rc = 0;
     for (int i = 2; i < argc && !rc; ++i) {
         const char *a = argv[i], *v;
@@ -791,7 +816,7 @@ int cli_bench(int argc, char **argv)
             o.out = v;
         } else if ((v = cli_option_value(argc, argv, &i, "--config", &missing)) || missing) {
             if (missing) rc = cli_usage_error("bench", "option --config needs a value");
-            else rc = load_config(&o, v, &config);
+            else rc = load_config(&o, config_path = v, &config);
         } else if ((v = cli_option_value(argc, argv, &i, "--device", &missing)) || missing) {
             if (missing) rc = cli_usage_error("bench", "option --device needs a value");
             o.device = v;
@@ -826,6 +851,18 @@ int cli_bench(int argc, char **argv)
         else if (!find_on_path("vdb_render", vdb->exe, sizeof vdb->exe))
             rc = cli_usage_error("bench", "--vs-vdb-render: vdb_render not found on PATH (Debian: apt-get install "
                                           "libopenvdb-tools)");
+    }
+    if (rc) {
+        free(vdb);
+        cJSON_Delete(config);
+        return rc;
+    }
+    if (!rc) rc = check_outputs(&o, config_path);
+    if (!rc && o.tf) { /* a bad --tf fails before the output directory is made */
+        leap_tf tf;
+        leap_error tf_err = {{0}};
+        leap_result tr = leap_tf_from_arg(o.tf, 2, &tf, &tf_err);
+        if (tr) rc = tr == LEAP_ERR_USAGE ? cli_usage_error("bench", "%s", tf_err.msg) : cli_runtime_error("%s", tf_err.msg);
     }
     if (rc) {
         free(vdb);
@@ -878,8 +915,10 @@ int cli_bench(int argc, char **argv)
     char path[4096], tmp_csv[4096];
     snprintf(path, sizeof path, "%s/results.csv", o.out);
     snprintf(tmp_csv, sizeof tmp_csv, "%s/.results.csv.tmp", o.out);
+    int csv_slot = leap_temp_track(tmp_csv);
     FILE *csv = fopen(tmp_csv, "w");
     if (!csv) {
+        leap_temp_untrack(csv_slot);
         leap_renderer_destroy(renderer);
         free(vdb);
         cJSON_Delete(config);
@@ -895,6 +934,7 @@ int cli_bench(int argc, char **argv)
     if (!rows) {
         fclose(csv);
         remove(tmp_csv);
+        leap_temp_untrack(csv_slot);
         leap_renderer_destroy(renderer);
         free(vdb);
         cJSON_Delete(config);
@@ -907,9 +947,10 @@ int cli_bench(int argc, char **argv)
     for (int vi = 0; vi < o.nvolumes && !rc; ++vi) {
         leap_scene_desc sd = {.path = o.volumes[vi], .tf = o.tf, .step = o.steps[0]};
         leap_scene *s = NULL;
-        if (leap_scene_create(&sd, &s, &err) || leap_renderer_set_volume(renderer, s->atlas, &err) ||
-            leap_renderer_set_tf(renderer, &s->tf, &err)) {
-            rc = cli_runtime_error("%s", err.msg);
+        leap_result lr;
+        if ((lr = leap_scene_create(&sd, &s, &err)) || (lr = leap_renderer_set_volume(renderer, s->atlas, &err)) ||
+            (lr = leap_renderer_set_tf(renderer, &s->tf, &err))) {
+            rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
             leap_scene_destroy(s);
             break;
         }
@@ -922,9 +963,9 @@ int cli_bench(int argc, char **argv)
                 leap_camera cam;
                 leap_view view;
                 double az = 360.0 * view_i / o.views;
-                if (leap_camera_orbit(s->center, s->radius, az, o.elevation, 0, 40, 0, &cam, &err) ||
-                    leap_scene_view(s, &cam, w, h, &view, &err)) {
-                    rc = cli_runtime_error("%s", err.msg);
+                if ((lr = leap_camera_orbit(s->center, s->radius, az, o.elevation, 0, 40, 0, &cam, &err)) ||
+                    (lr = leap_scene_view(s, &cam, w, h, &view, &err))) {
+                    rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
                     break;
                 }
                 char what[256];
@@ -951,7 +992,7 @@ int cli_bench(int argc, char **argv)
                         progress(done, total, what);
                         run_result r;
                         if (time_run(renderer, s, &view, o.modes[mi], &o, img, refp, &r, &err)) {
-                            rc = cli_runtime_error("%s", err.msg);
+                            rc = cli_input_error(o.volumes[vi], o.tf, LEAP_ERR_IO, err.msg);
                             break;
                         }
                         if (o.modes[mi] == LEAP_RENDER_NAIVE) naive_ms = r.frame_ms[0];
@@ -1002,12 +1043,14 @@ int cli_bench(int argc, char **argv)
     int closed = fclose(csv) == 0;
     if (rc || !closed || rename(tmp_csv, path) != 0) {
         remove(tmp_csv);
+        leap_temp_untrack(csv_slot);
         free(rows);
         leap_renderer_destroy(renderer);
         free(vdb);
         cJSON_Delete(config);
         return rc ? rc : cli_runtime_error("%s: cannot write", path);
     }
+    leap_temp_untrack(csv_slot);
     char device[512];
     snprintf(device, sizeof device, "%s, %s", leap_renderer_device_name(renderer), leap_renderer_driver_name(renderer));
     leap_renderer_destroy(renderer);

@@ -1,4 +1,5 @@
 #include "cli_common.h"
+#include "leap/files.h"
 
 #include <errno.h>
 #include <math.h>
@@ -12,11 +13,23 @@
 
 /* Formats a message and replaces control characters (a newline in a grid name read from a
  * damaged file, say) so that every message stays on one line. */
+static void replace_controls(char *s)
+{
+    for (char *p = s; *p; ++p)
+        if ((unsigned char)*p < 0x20 || *p == 0x7f) *p = '?';
+}
+
 static void format_line(char *buf, size_t cap, const char *fmt, va_list ap)
 {
     vsnprintf(buf, cap, fmt, ap);
-    for (char *p = buf; *p; ++p)
-        if ((unsigned char)*p < 0x20 || *p == 0x7f) *p = '?';
+    replace_controls(buf);
+}
+
+const char *cli_printable(const char *s, char *buf, size_t cap)
+{
+    snprintf(buf, cap, "%s", s);
+    replace_controls(buf);
+    return buf;
 }
 
 int cli_usage_error(const char *verb, const char *fmt, ...)
@@ -40,6 +53,23 @@ int cli_runtime_error(const char *fmt, ...)
     va_end(ap);
     fprintf(stderr, "leap: %s\n", msg);
     return EXIT_RUNTIME;
+}
+
+/* "PATH: ..." or "'PATH': ..." */
+static int starts_with_path(const char *msg, const char *path)
+{
+    size_t n = path ? strlen(path) : 0;
+    if (*msg == '\'') return n && !strncmp(msg + 1, path, n) && msg[n + 1] == '\'';
+    return n && !strncmp(msg, path, n) && msg[n] == ':';
+}
+
+int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)
+{
+    if (r == LEAP_ERR_USAGE || starts_with_path(msg, volume) || starts_with_path(msg, tf))
+        cli_runtime_error("%s", msg);
+    else
+        cli_runtime_error("%s: %s", volume, msg);
+    return cli_exit_code(r);
 }
 
 int cli_exit_code(leap_result r)
@@ -105,17 +135,18 @@ const char *cli_option_value(int argc, char **argv, int *i, const char *name, in
     return argv[++*i];
 }
 
-int cli_write_text_file(const char *path, const char *text)
+int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs, const char *const *outputs,
+                      int n_outputs)
 {
-    char tmp[4096];
-    if (snprintf(tmp, sizeof tmp, "%s.tmp-%d", path, (int)getpid()) >= (int)sizeof tmp) return 0;
-    FILE *f = fopen(tmp, "w");
-    if (!f) return 0;
-    int ok = fputs(text, f) >= 0;
-    ok = (fclose(f) == 0) && ok;
-    if (ok) ok = rename(tmp, path) == 0;
-    if (!ok) remove(tmp);
-    return ok;
+    for (int o = 0; o < n_outputs; ++o)
+        for (int i = 0; outputs[o] && i < n_inputs; ++i) {
+            struct stat st;
+            if (!inputs[i] || stat(inputs[i], &st) != 0) continue; /* a preset name, or fails later */
+            if (leap_file_same(outputs[o], inputs[i]))
+                return cli_usage_error(verb, "output '%s' is the input '%s' (the same file); it would be overwritten",
+                                       outputs[o], inputs[i]);
+        }
+    return 0;
 }
 
 int cli_dir_writable(const char *path)
@@ -213,16 +244,21 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_view_op
         o->orbit_n = cli_parse_numbers(v, o->orbit, 2, 3);
         if (o->orbit_n < 0 || (o->orbit_n == 3 && !(o->orbit[2] > 0)))
             FAIL("--orbit '%s' must be AZ,EL[,DIST] with DIST > 0", v);
+        if (o->orbit_n == 3 && o->orbit[2] > 1e6)
+            FAIL("--orbit distance %g is more than 1e6 bounding-sphere radii (the volume would be below a pixel)",
+                 o->orbit[2]);
         o->has_orbit = 1;
         break;
     case 9:
-        if (cli_parse_numbers(v, o->eye, 3, 3) != 3) FAIL("--eye '%s' must be X,Y,Z", v);
-        o->has_eye = 1;
+    case 10: {
+        double *p = which == 9 ? o->eye : o->target;
+        if (cli_parse_numbers(v, p, 3, 3) != 3) FAIL("%s '%s' must be X,Y,Z", names[which], v);
+        /* Beyond this, squared distances overflow and the view direction is lost. */
+        for (int k = 0; k < 3; ++k)
+            if (fabs(p[k]) > 1e100) FAIL("%s '%s': coordinates must be within +-1e100", names[which], v);
+        *(which == 9 ? &o->has_eye : &o->has_target) = 1;
         break;
-    case 10:
-        if (cli_parse_numbers(v, o->target, 3, 3) != 3) FAIL("--target '%s' must be X,Y,Z", v);
-        o->has_target = 1;
-        break;
+    }
     case 11:
         if (cli_parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
         o->has_up = 1;

@@ -13,6 +13,14 @@
 int cli_usage_error(const char *verb, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* Prints "leap: message" and returns EXIT_RUNTIME. */
 int cli_runtime_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+/* A copy of s in buf with control characters replaced by '?' (as in messages), for
+ * names read from files that are printed on stdout. Returns buf. */
+const char *cli_printable(const char *s, char *buf, size_t cap);
+/* Reports a failure while working on the input `volume` (with transfer function `tf`,
+ * a preset name or a file; may be NULL): the message is prefixed with the volume's path
+ * unless it already names one of the two or is about the user's options (LEAP_ERR_USAGE).
+ * Returns the exit code for r. */
+int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg);
 /* Exit code for a library error: usage errors are 2, everything else 1. */
 int cli_exit_code(leap_result r);
 
@@ -22,8 +30,10 @@ double cli_now_ms(void);
 /* "--name value" or "--name=value": the value, or NULL (with *missing set when the value is
  * absent); advances *i past what it consumed. */
 const char *cli_option_value(int argc, char **argv, int *i, const char *name, int *missing);
-/* Writes text through a temporary file and a rename; 0 on failure. */
-int cli_write_text_file(const char *path, const char *text);
+/* Usage error (exit 2) naming both paths if any output is the same file as an existing
+ * input (device and inode after links; NULL entries are skipped); 0 otherwise. */
+int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs, const char *const *outputs,
+                      int n_outputs);
 /* 1 if the directory that would hold `path` exists and is writable. */
 int cli_dir_writable(const char *path);
 

@@ -47,7 +47,10 @@ static cJSON *info_json(const leap_grid_info *gi, int loaded)
 
 static void print_info_text(const leap_grid_info *gi, int loaded)
 {
-    printf("grid '%s': %s, %s%s%s\n", gi->name, gi->value_type, gi->grid_class, gi->saved_as_half ? ", saved as half" : "",
+    char name[sizeof gi->name], type[sizeof gi->value_type], cls[sizeof gi->grid_class];
+    printf("grid '%s': %s, %s%s%s\n", cli_printable(gi->name, name, sizeof name),
+           cli_printable(gi->value_type, type, sizeof type), cli_printable(gi->grid_class, cls, sizeof cls),
+           gi->saved_as_half ? ", saved as half" : "",
            gi->scalar ? "" : " (not renderable: not scalar)");
     printf("  voxel size     %g x %g x %g\n", gi->voxel_size[0], gi->voxel_size[1], gi->voxel_size[2]);
     printf("  index->world   [%g %g %g | %g]\n                 [%g %g %g | %g]\n                 [%g %g %g | %g]\n",
@@ -58,9 +61,10 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
     if (!loaded) return;
     if (gi->bbox_min[0] > gi->bbox_max[0]) printf("  bbox           empty\n");
     else
-        printf("  bbox           [%d %d %d] .. [%d %d %d] (%d x %d x %d)\n", gi->bbox_min[0], gi->bbox_min[1],
-               gi->bbox_min[2], gi->bbox_max[0], gi->bbox_max[1], gi->bbox_max[2], gi->bbox_max[0] - gi->bbox_min[0] + 1,
-               gi->bbox_max[1] - gi->bbox_min[1] + 1, gi->bbox_max[2] - gi->bbox_min[2] + 1);
+        printf("  bbox           [%d %d %d] .. [%d %d %d] (%lld x %lld x %lld)\n", gi->bbox_min[0], gi->bbox_min[1],
+               gi->bbox_min[2], gi->bbox_max[0], gi->bbox_max[1], gi->bbox_max[2],
+               (long long)gi->bbox_max[0] - gi->bbox_min[0] + 1, (long long)gi->bbox_max[1] - gi->bbox_min[1] + 1,
+               (long long)gi->bbox_max[2] - gi->bbox_min[2] + 1);
     printf("  active voxels  %llu\n", (unsigned long long)gi->active_voxels);
     printf("  leaves         %llu\n", (unsigned long long)gi->leaf_count);
     printf("  active tiles   %llu (8^3), %llu (128^3), %llu (4096^3)\n", (unsigned long long)gi->active_tiles[0],
@@ -121,9 +125,10 @@ static int info_tfs(const char *path, const char *grid_name, const char *const *
             cJSON_AddNumberToObject(o, "boxes_ms", s->boxes_ms);
             cJSON_AddItemToArray(arr, o);
         } else {
+            char tf_name[sizeof s->tf.name];
             printf("  tf %-12s cells: %llu empty, %llu non-empty, %llu unknown; tree %u nodes, depth %u; "
                    "boxes %u (%u unmerged); %s %.2f ms (classify %.2f, boxes %.2f)\n",
-                   s->tf.name, (unsigned long long)os.cells[LEAP_CLASS_EMPTY],
+                   cli_printable(s->tf.name, tf_name, sizeof tf_name), (unsigned long long)os.cells[LEAP_CLASS_EMPTY],
                    (unsigned long long)os.cells[LEAP_CLASS_NONEMPTY], (unsigned long long)os.cells[LEAP_CLASS_UNKNOWN],
                    os.nodes, os.depth, bs.boxes, bs.boxes_unmerged, i ? "switch" : "build", ms, s->classify_ms,
                    s->boxes_ms);
@@ -170,7 +175,8 @@ int cli_info(int argc, char **argv)
     cJSON *root = json ? cJSON_CreateObject() : NULL;
     cJSON *grids = json ? cJSON_AddArrayToObject(root, "grids") : NULL;
     if (json) cJSON_AddStringToObject(root, "file", input);
-    else printf("%s: %d grid%s\n", input, leap_vdb_grid_count(file), leap_vdb_grid_count(file) == 1 ? "" : "s");
+    char shown[1024];
+    if (!json) printf("%s: %d grid%s\n", cli_printable(input, shown, sizeof shown), leap_vdb_grid_count(file), leap_vdb_grid_count(file) == 1 ? "" : "s");
     int rc = 0;
     for (int i = 0; i < leap_vdb_grid_count(file) && !rc; ++i) {
         leap_grid_info gi;

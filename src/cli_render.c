@@ -5,9 +5,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 #include "cli_common.h"
+#include "leap/files.h"
 #include "leap/image.h"
 #include "leap/reference.h"
 
@@ -31,26 +33,12 @@ typedef struct stage_times {
     double load, atlas, occupancy, classify, boxes, setup, upload, order, render, readback, write;
 } stage_times;
 
-/* 1 if paths a and b name the same file, whether or not it exists yet. */
-static int same_file(const char *a, const char *b)
-{
-    if (!strcmp(a, b)) return 1;
-    struct stat sa, sb;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    const char *na = strrchr(a, '/'), *nb = strrchr(b, '/');
-    if (strcmp(na ? na + 1 : a, nb ? nb + 1 : b) != 0) return 0;
-    char da[PATH_MAX], db[PATH_MAX], ra[PATH_MAX], rb[PATH_MAX];
-    snprintf(da, sizeof da, "%.*s", na ? (int)(na - a) + 1 : 1, na ? a : ".");
-    snprintf(db, sizeof db, "%.*s", nb ? (int)(nb - b) + 1 : 1, nb ? b : ".");
-    return realpath(da, ra) && realpath(db, rb) && !strcmp(ra, rb);
-}
-
 static leap_result write_output(const char *path, int w, int h, const float *rgba, const float *depth,
                                 const float *samples, leap_error *err)
 {
     size_t n = (size_t)w * h;
     const char *ext = strrchr(path, '.');
-    int exr = ext && (!strcmp(ext, ".exr") || !strcmp(ext, ".EXR"));
+    int exr = ext && !strcasecmp(ext, ".exr");
     int channels = exr ? 6 : 3;
     float *px = malloc(n * channels * sizeof(float));
     if (!px) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the output image");
@@ -182,8 +170,11 @@ int cli_render(int argc, char **argv)
     if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
     if (!leap_image_can_write(output))
         return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
-    if (stats && same_file(stats, output))
+    if (stats && leap_file_same(stats, output))
         return cli_usage_error("render", "--stats '%s' is the same file as the output image", stats);
+    const char *inputs[] = {o.input, o.scene.tf};
+    const char *outputs[] = {output, stats};
+    if ((rc = cli_check_outputs("render", inputs, 2, outputs, 2))) return rc;
     if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
     if (stats && !cli_dir_writable(stats))
         return cli_runtime_error("%s: directory does not exist or is not writable", stats);
@@ -195,7 +186,7 @@ int cli_render(int argc, char **argv)
     leap_frame_stats fs = {0};
     stage_times times = {0};
     leap_result r = leap_scene_create(&o.scene, &scene, &err);
-    if (r) return cli_runtime_error("%s", err.msg);
+    if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
     times.load = scene->load_ms;
     times.atlas = scene->atlas_ms;
     times.occupancy = scene->occupancy_ms;
@@ -207,7 +198,7 @@ int cli_render(int argc, char **argv)
     rc = EXIT_RUNTIME;
     if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_view(scene, &cam, o.width, o.height, &view, &err))) {
         rc = cli_exit_code(r);
-        cli_runtime_error("%s", err.msg);
+        cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
     }
     size_t n = (size_t)o.width * o.height;
@@ -215,7 +206,7 @@ int cli_render(int argc, char **argv)
     depth = malloc(n * sizeof(float));
     samples = malloc(n * sizeof(float));
     if (!rgba || !depth || !samples) {
-        fprintf(stderr, "leap: out of memory for a %dx%d image\n", o.width, o.height);
+        cli_runtime_error("out of memory for a %dx%d image", o.width, o.height);
         goto done;
     }
     int mode = leap_mode_from_name(o.mode_name);
@@ -223,7 +214,7 @@ int cli_render(int argc, char **argv)
         double t = cli_now_ms();
         leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .view = &view, .march = &scene->march};
         if (leap_reference_render(&rd, rgba, depth, samples, &err)) {
-            cli_runtime_error("reference renderer: %s", err.msg);
+            cli_runtime_error("%s: reference renderer: %s", o.input, err.msg);
             goto done;
         }
         times.render = cli_now_ms() - t;
@@ -242,15 +233,15 @@ int cli_render(int argc, char **argv)
         }
         times.setup = cli_now_ms() - t;
         t = cli_now_ms();
-        if (leap_renderer_set_volume(renderer, scene->atlas, &err) || leap_renderer_set_tf(renderer, &scene->tf, &err)) {
-            cli_runtime_error("%s: %s", o.input, err.msg);
+        if ((r = leap_renderer_set_volume(renderer, scene->atlas, &err)) || (r = leap_renderer_set_tf(renderer, &scene->tf, &err))) {
+            cli_input_error(o.input, o.scene.tf, r, err.msg);
             goto done;
         }
         times.upload = cli_now_ms() - t;
         leap_renderer_set_occupancy(renderer, scene->occupancy, scene->boxes);
         if ((r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err))) {
             rc = cli_exit_code(r);
-            cli_runtime_error("%s", err.msg);
+            cli_input_error(o.input, o.scene.tf, r, err.msg);
             goto done;
         }
         times.upload += fs.upload_ms - fs.order_ms;
@@ -267,11 +258,12 @@ int cli_render(int argc, char **argv)
     times.write = cli_now_ms() - t;
     if (stats) {
         char *text = stats_json(&o, scene, renderer, &times, &fs, mode);
-        int ok = text && cli_write_text_file(stats, text);
+        r = text ? leap_file_publish_text(stats, text, &err)
+                 : leap_fail(&err, LEAP_ERR_OOM, "%s: out of memory for the stats", stats);
         cJSON_free(text);
-        if (!ok) {
+        if (r) {
             remove(output);
-            cli_runtime_error("%s: cannot write the stats file", stats);
+            cli_runtime_error("%s", err.msg);
             goto done;
         }
     }

@@ -10,6 +10,7 @@
 #include <unistd.h>
 
 #include "cli_common.h"
+#include "leap/files.h"
 #include "leap/dump.h"
 #include "leap/image.h"
 
@@ -281,6 +282,7 @@ typedef struct out_dir {
     int n_created;
     char tmp[F_COUNT][4096], final[F_COUNT][4096];
     int published[F_COUNT];
+    int temp_slot[F_COUNT]; /* leap_temp_track slots, so a signal removes the temporaries */
 } out_dir;
 
 static int make_dirs(const char *path, out_dir *d, leap_error *err)
@@ -320,6 +322,7 @@ static int make_dirs(const char *path, out_dir *d, leap_error *err)
             leap_fail(err, LEAP_ERR_USAGE, "%s: path too long", path);
             return 0;
         }
+        d->temp_slot[i] = leap_temp_track(d->tmp[i]);
     }
     return 1;
 }
@@ -330,6 +333,7 @@ static void out_dir_discard(out_dir *d)
     for (int i = 0; i < F_COUNT; ++i) {
         if (d->tmp[i][0]) remove(d->tmp[i]);
         if (d->published[i]) remove(d->final[i]);
+        if (d->tmp[i][0]) leap_temp_untrack(d->temp_slot[i]);
     }
     for (int i = d->n_created - 1; i >= 0; --i) rmdir(d->created[i]);
 }
@@ -342,6 +346,7 @@ static int out_dir_publish(out_dir *d, leap_error *err)
             return 0;
         }
         d->published[i] = 1;
+        leap_temp_untrack(d->temp_slot[i]);
     }
     return 1;
 }
@@ -606,6 +611,15 @@ int cli_segments(int argc, char **argv)
     leap_dump_frame *frame = NULL;
     float *rgba = NULL, *samples = NULL, *naive = NULL;
     leap_result r;
+    if (o.outdir) {
+        char paths[F_COUNT][4096];
+        const char *outputs[F_COUNT], *inputs[] = {o.view.input, o.view.scene.tf};
+        for (int i = 0; i < F_COUNT; ++i) {
+            snprintf(paths[i], sizeof paths[i], "%s/%s", o.outdir, file_names[i]);
+            outputs[i] = paths[i];
+        }
+        if ((rc = cli_check_outputs("segments", inputs, 2, outputs, F_COUNT))) return rc;
+    }
     rc = EXIT_RUNTIME;
     if (o.outdir) {
         dir = calloc(1, sizeof *dir);
@@ -617,7 +631,7 @@ int cli_segments(int argc, char **argv)
         }
     }
     if ((r = leap_scene_create(&o.view.scene, &scene, &err))) {
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_camera cam;
@@ -625,7 +639,7 @@ int cli_segments(int argc, char **argv)
     if ((r = cli_camera(&o.view, scene, &cam, &err)) ||
         (r = leap_scene_view(scene, &cam, o.view.width, o.view.height, &view, &err))) {
         rc = cli_exit_code(r);
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     size_t n = (size_t)o.view.width * o.view.height;
@@ -633,16 +647,16 @@ int cli_segments(int argc, char **argv)
     samples = malloc(n * sizeof(float));
     naive = o.outdir ? malloc(n * sizeof(float)) : NULL;
     if (!rgba || !samples || (o.outdir && !naive)) {
-        fprintf(stderr, "leap: out of memory for a %dx%d image\n", o.view.width, o.view.height);
+        cli_runtime_error("out of memory for a %dx%d image", o.view.width, o.view.height);
         goto done;
     }
     leap_renderer_desc rd = {.device_name = o.view.device, .max_segments = (uint32_t)o.view.max_segments};
     if (leap_renderer_create(&rd, &renderer, &err)) {
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_runtime_error("%s", err.msg);
         goto done;
     }
-    if (leap_renderer_set_volume(renderer, scene->atlas, &err) || leap_renderer_set_tf(renderer, &scene->tf, &err)) {
-        fprintf(stderr, "leap: %s: %s\n", o.view.input, err.msg);
+    if ((r = leap_renderer_set_volume(renderer, scene->atlas, &err)) || (r = leap_renderer_set_tf(renderer, &scene->tf, &err))) {
+        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_renderer_set_occupancy(renderer, scene->occupancy, scene->boxes);
@@ -653,7 +667,7 @@ int cli_segments(int argc, char **argv)
         progress(&o, msg);
         if ((r = leap_renderer_render(renderer, &view, &scene->march, LEAP_RENDER_NAIVE, NULL, NULL, naive, &fs, &err))) {
             rc = cli_exit_code(r);
-            fprintf(stderr, "leap: %s\n", err.msg);
+            cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
             goto done;
         }
         snprintf(msg, sizeof msg, "rendering %dx%d sparseleap...", o.view.width, o.view.height);
@@ -662,19 +676,19 @@ int cli_segments(int argc, char **argv)
     if ((r = leap_renderer_render(renderer, &view, &scene->march, LEAP_RENDER_SPARSELEAP, rgba, NULL, samples, &fs,
                                   &err))) {
         rc = cli_exit_code(r);
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .view = &view, .march = &scene->march,
                                .rgba = rgba, .samples = samples, .naive_samples = naive};
     if (leap_dump_frame_create(&fd, &frame, &err)) {
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_runtime_error("%s", err.msg);
         goto done;
     }
     if (o.has_pixel) {
         leap_dump_pixel p;
         if (leap_dump_frame_pixel(frame, o.px, o.py, &p, &err)) {
-            fprintf(stderr, "leap: %s\n", err.msg);
+            cli_runtime_error("%s", err.msg);
             goto done;
         }
         resolved *res = malloc(sizeof *res);
@@ -701,7 +715,7 @@ int cli_segments(int argc, char **argv)
                       .fs = &fs, .naive = naive, .samples = samples, .dir = dir};
         if ((r = write_dump(&c, &err))) {
             rc = cli_exit_code(r) == EXIT_USAGE ? EXIT_RUNTIME : cli_exit_code(r);
-            fprintf(stderr, "leap: %s\n", err.msg);
+            cli_runtime_error("%s", err.msg);
             goto done;
         }
     }

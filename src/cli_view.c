@@ -1462,7 +1462,7 @@ int cli_view(int argc, char **argv)
     r = leap_scene_create(&a->o.view.scene, &a->scene, &err);
     if (r) {
         leap_viewer_script_free(&script);
-        fprintf(stderr, "leap: %s\n", err.msg);
+        cli_input_error(a->o.view.input, a->o.view.scene.tf, r, err.msg);
         return cli_exit_code(r);
     }
     glfwSetErrorCallback(on_glfw_error);

@@ -1,8 +1,10 @@
 // OpenImageIO behind the C API of include/leap/image.h. No exception crosses the boundary.
 #include "leap/image.h"
+#include "leap/files.h"
 
 #include <OpenImageIO/imageio.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -21,7 +23,16 @@ std::string extension_of(const std::string &path)
     size_t slash = path.find_last_of('/');
     size_t dot = path.find_last_of('.');
     if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-    return path.substr(dot);
+    std::string ext = path.substr(dot);
+    for (char &c : ext) c = (char)std::tolower((unsigned char)c);
+    return ext;
+}
+
+// The formats leap writes (what --help lists): others OpenImageIO could write are refused,
+// so that a typo or an 8-bit lossy format is an error, not a surprise.
+bool supported_extension(const std::string &ext)
+{
+    return ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff";
 }
 
 // Temporary name in the same directory that keeps the extension, so OpenImageIO still
@@ -34,12 +45,22 @@ std::string temp_path_for(const std::string &path)
     return dir + ".leap-tmp-" + std::to_string(getpid()) + "-" + base;
 }
 
+// OpenImageIO's message names the temporary file and may be empty on a short write
+// (disk full, file-size limit): errno says more then.
+std::string io_reason(const std::string &oiio_message)
+{
+    std::string why = errno ? std::strerror(errno) : "";
+    if (!oiio_message.empty() && oiio_message.find(".leap-tmp-") == std::string::npos)
+        why = why.empty() ? oiio_message : why + " (" + oiio_message + ")";
+    return why.empty() ? "unknown error" : why;
+}
+
 } // namespace
 
 extern "C" int leap_image_can_write(const char *path)
 {
     std::string ext = extension_of(path ? path : "");
-    if (ext.empty()) return 0;
+    if (!supported_extension(ext)) return 0;
     try {
         auto out = ImageOutput::create(ext.substr(1));
         return out ? 1 : 0;
@@ -57,13 +78,13 @@ extern "C" leap_result leap_image_write(const char *path, int width, int height,
     try {
         std::string target(path);
         std::string ext = extension_of(target);
-        std::unique_ptr<ImageOutput> out = ext.empty() ? nullptr : ImageOutput::create(ext.substr(1));
+        std::unique_ptr<ImageOutput> out = supported_extension(ext) ? ImageOutput::create(ext.substr(1)) : nullptr;
         if (!out)
             return leap_fail(err, LEAP_ERR_USAGE,
                              "%s: unknown image file extension '%s' (use .png, .exr or .tif)", path,
                              ext.c_str());
         TypeDesc format = TypeDesc::UINT8;
-        if (ext == ".exr" || ext == ".hdr") format = TypeDesc::FLOAT;
+        if (ext == ".exr") format = TypeDesc::FLOAT;
         else if (ext == ".tif" || ext == ".tiff") format = TypeDesc::UINT16;
         ImageSpec spec(width, height, channels, format);
         spec.channelnames.clear();
@@ -77,23 +98,30 @@ extern "C" leap_result leap_image_write(const char *path, int width, int height,
         if (spec.alpha_channel >= 0 && format != TypeDesc::FLOAT)
             spec.attribute("oiio:UnassociatedAlpha", 1); // we pass straight colour for 8/16-bit files
         std::string tmp = temp_path_for(target);
-        if (!out->open(tmp, spec)) {
-            std::string why = out->geterror();
+        int slot = leap_temp_track(tmp.c_str());
+        // Messages name the user's path; the temporary name would mean nothing to them.
+        auto fail = [&](const char *what, const std::string &why) {
             std::remove(tmp.c_str());
-            return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, why.c_str());
-        }
+            leap_temp_untrack(slot);
+            return leap_fail(err, LEAP_ERR_IO, "%s: %s: %s", path, what, why.c_str());
+        };
+        errno = 0;
+        if (!out->open(tmp, spec)) return fail("cannot write", io_reason(out->geterror()));
         bool ok = out->write_image(TypeDesc::FLOAT, pixels);
         ok = out->close() && ok;
-        if (!ok) {
-            std::string why = out->geterror();
-            std::remove(tmp.c_str());
-            return leap_fail(err, LEAP_ERR_IO, "%s: write failed: %s", path, why.c_str());
-        }
-        if (std::rename(tmp.c_str(), path) != 0) {
-            std::remove(tmp.c_str());
-            return leap_fail(err, LEAP_ERR_IO, "%s: cannot rename the finished file into place: %s",
-                             path, std::strerror(errno));
-        }
+        if (!ok) return fail("write failed", io_reason(out->geterror()));
+        // Some writers (PNG) do not report a short write (disk full, file-size limit): read
+        // the file back before it replaces anything, so a truncated image is never published.
+        errno = 0;
+        auto check = ImageInput::open(tmp);
+        std::vector<float> back;
+        if (check) back.resize((size_t)width * height * channels);
+        if (!check || !check->read_image(0, 0, 0, channels, TypeDesc::FLOAT, back.data()))
+            return fail("write failed", std::string("the written file does not read back") +
+                                            (errno ? std::string(": ") + std::strerror(errno) : std::string("")));
+        check->close();
+        if (std::rename(tmp.c_str(), path) != 0) return fail("cannot rename the finished file into place", std::strerror(errno));
+        leap_temp_untrack(slot);
         return LEAP_OK;
     } catch (const std::exception &e) {
         return leap_fail(err, LEAP_ERR_IO, "%s: %s", path, e.what());

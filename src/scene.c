@@ -66,6 +66,31 @@ static leap_result build_occupancy(leap_scene *s, leap_error *err)
     return r;
 }
 
+/* A transform the cameras can work with: finite, and a translation small enough against the
+ * grid's extent that double precision still resolves the volume around it. */
+static leap_result check_transform(const char *path, const leap_grid_info *gi, const double center[3], double radius,
+                                   leap_error *err)
+{
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c)
+            if (!isfinite(gi->index_to_world[r][c]))
+                return leap_fail(err, LEAP_ERR_FORMAT, "%s: grid '%s' has a non-finite transform (row %d: %g %g %g %g)",
+                                 path, gi->name, r, gi->index_to_world[r][0], gi->index_to_world[r][1],
+                                 gi->index_to_world[r][2], gi->index_to_world[r][3]);
+    double far = fmax(fabs(center[0]), fmax(fabs(center[1]), fabs(center[2])));
+    if (!isfinite(radius) || !isfinite(far))
+        return leap_fail(err, LEAP_ERR_FORMAT,
+                         "%s: grid '%s': its transform (voxel size %g x %g x %g) maps the active box beyond the range "
+                         "of double precision",
+                         path, gi->name, gi->voxel_size[0], gi->voxel_size[1], gi->voxel_size[2]);
+    if (far > radius * 1e12)
+        return leap_fail(err, LEAP_ERR_FORMAT,
+                         "%s: grid '%s' lies %g world units from the origin but is only %g across; double precision "
+                         "cannot place a camera at that ratio (at most 1e12)",
+                         path, gi->name, far, 2 * radius);
+    return LEAP_OK;
+}
+
 leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, double hi, leap_error *err)
 {
     if (tf != &s->tf) s->tf = *tf;
@@ -94,9 +119,16 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);
+        leap_camera_bounds(s->info->index_to_world, s->info->bbox_min, s->info->bbox_max, s->center, &s->radius);
+        r = check_transform(desc->path, s->info, s->center, s->radius, err);
+    }
+    if (!r) {
         s->march.step = desc->step > 0 ? desc->step : 0.5;
         double lo = desc->has_range ? desc->range[0] : s->info->value_min;
         double hi = desc->has_range ? desc->range[1] : s->info->value_max;
+        /* A grid of one value: the range is widened below it, so the value maps onto the
+         * top of the transfer function and renders instead of vanishing in [v, v]. */
+        if (!(hi > lo)) lo = hi - fmax(1.0, fabs(hi) * 1e-3);
         const char *tf = desc->tf ? desc->tf : strcmp(s->info->value_type, "int32") == 0 ? "labels" : "viridis";
         r = leap_tf_from_arg(tf, leap_scene_label_count(lo, hi), &s->tf, err);
         s->march.range_lo = lo;
@@ -110,7 +142,6 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     }
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);
-        leap_camera_bounds(s->info->index_to_world, s->info->bbox_min, s->info->bbox_max, s->center, &s->radius);
         r = build_occupancy(s, err);
     }
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);

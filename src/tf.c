@@ -1,6 +1,7 @@
 /* Transfer functions: built-in presets and ParaView colour-map JSON files, both turned
  * into a LEAP_TF_TABLE_SIZE table sampled at u_i = i / (N - 1). */
 #include "leap/tf.h"
+#include "leap/files.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -208,54 +209,6 @@ leap_result leap_tf_preset(const char *name, int label_count, leap_tf *out, leap
 
 /* ---- ParaView JSON ------------------------------------------------------------------- */
 
-static leap_result read_file(const char *path, char **data, size_t *size, leap_error *err)
-{
-    *data = NULL;
-    *size = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return leap_fail(err, LEAP_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    size_t cap = 4096, len = 0;
-    char *buf = malloc(cap + 1);
-    if (!buf) {
-        fclose(f);
-        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
-    }
-    for (;;) {
-        if (len == cap) {
-            if (cap > ((size_t)1 << 30)) {
-                free(buf);
-                fclose(f);
-                return leap_fail(err, LEAP_ERR_FORMAT, "%s: file too large for a colour map",
-                                 path);
-            }
-            char *nb = realloc(buf, cap * 2 + 1);
-            if (!nb) {
-                free(buf);
-                fclose(f);
-                return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
-            }
-            buf = nb;
-            cap *= 2;
-        }
-        size_t got = fread(buf + len, 1, cap - len, f);
-        len += got;
-        if (got == 0)
-            break;
-    }
-    int failed = ferror(f);
-    int saved = errno;
-    fclose(f);
-    if (failed) {
-        free(buf);
-        return leap_fail(err, LEAP_ERR_IO, "%s: read error: %s", path, strerror(saved));
-    }
-    buf[len] = '\0';
-    *data = buf;
-    *size = len;
-    return LEAP_OK;
-}
-
 /* Reads a JSON array of numbers with a count that is a positive multiple of 4 and at
  * least `min_points` points. The caller frees *vals. */
 static leap_result read_points(const char *path, const cJSON *arr, const char *key,
@@ -338,7 +291,7 @@ leap_result leap_tf_load_json(const char *path, leap_tf *out, leap_error *err)
         return leap_fail(err, LEAP_ERR_USAGE, "transfer function: no path or output table");
     char *text = NULL;
     size_t size = 0;
-    leap_result r = read_file(path, &text, &size, err);
+    leap_result r = leap_file_read(path, "transfer function", (size_t)64 << 20, &text, &size, err);
     if (r != LEAP_OK)
         return r;
 

@@ -1,5 +1,6 @@
 /* Viewer state, input mapping and the script parser (no window system here). */
 #include "leap/viewer.h"
+#include "leap/files.h"
 
 #include <ctype.h>
 #include <errno.h>
@@ -675,41 +676,15 @@ leap_result leap_viewer_script_parse(const char *text, const char *name, leap_vi
 leap_result leap_viewer_script_load(const char *path, leap_viewer_script *out, leap_error *err)
 {
     memset(out, 0, sizeof *out);
-    FILE *f = fopen(path, "rb");
-    if (!f) return leap_fail(err, LEAP_ERR_IO, "%s: cannot open the script: %s", path, strerror(errno));
-    size_t cap = 4096, len = 0;
-    char *text = malloc(cap);
-    while (text) {
-        size_t got = fread(text + len, 1, cap - len - 1, f);
-        len += got;
-        if (len < cap - 1) break;
-        if (cap > ((size_t)64 << 20)) {
-            free(text);
-            fclose(f);
-            return leap_fail(err, LEAP_ERR_FORMAT, "%s: script larger than 64 MiB", path);
-        }
-        char *grown = realloc(text, cap * 2);
-        if (!grown) {
-            free(text);
-            text = NULL;
-            break;
-        }
-        text = grown;
-        cap *= 2;
-    }
-    int read_error = ferror(f);
-    fclose(f);
-    if (!text) return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
-    if (read_error) {
-        free(text);
-        return leap_fail(err, LEAP_ERR_IO, "%s: read error", path);
-    }
-    text[len] = '\0';
+    char *text = NULL;
+    size_t len = 0;
+    leap_result r = leap_file_read(path, "viewer script", (size_t)64 << 20, &text, &len, err);
+    if (r) return r;
     if (strlen(text) != len) {
         free(text);
         return leap_fail(err, LEAP_ERR_FORMAT, "%s: not a text file (NUL byte)", path);
     }
-    leap_result r = leap_viewer_script_parse(text, path, out, err);
+    r = leap_viewer_script_parse(text, path, out, err);
     free(text);
     return r;
 }

@@ -124,8 +124,9 @@ int main(void)
     write_file(path, "{ \"RGBPoints\": [0, 1, 0", 23);
     snprintf(args, sizeof args, "render %s -o %s --tf %s", sphere, out, path);
     EXPECT_FAIL(1, args, "bad_tf.json", out);
+    /* An unknown preset is the user's own option: a usage error. */
     snprintf(args, sizeof args, "render %s -o %s --tf nosuchpreset", sphere, out);
-    EXPECT_FAIL(1, args, "nosuchpreset", out);
+    EXPECT_FAIL(2, args, "nosuchpreset", out);
 
     /* Successful renders: PNG, TIFF, EXR with extra channels, stats JSON. */
     char stats[1024];

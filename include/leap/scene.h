@@ -16,7 +16,7 @@ typedef struct leap_scene_desc {
     const char *path;      /* .vdb file */
     const char *grid;      /* grid name; NULL = the first scalar grid */
     const char *tf;        /* preset or JSON path; NULL = "labels" for int grids, else "viridis" */
-    int has_range;         /* 0 = the grid's value range */
+    int has_range;         /* 0 = the grid's value range; one value v widens to [v - max(1, |v|/1000), v] */
     double range[2];
     double step;           /* voxels; 0 = 0.5 */
     int no_merge;          /* 1 = do not merge same-class sibling boxes */

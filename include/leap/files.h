@@ -1,0 +1,43 @@
+/* Files that leap reads and writes: bounded reads of regular files, file identity, and
+ * outputs published through a temporary name that is removed on failure and on a signal. */
+#ifndef LEAP_FILES_H
+#define LEAP_FILES_H
+
+#include <stddef.h>
+
+#include "leap/error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Reads a whole regular file into a NUL-terminated buffer (caller frees *data).
+ * `what` names the file's role in messages ("transfer function", "bench config"...).
+ * A FIFO, device, socket or directory is refused without blocking (LEAP_ERR_IO); a file
+ * larger than max_bytes is refused before it is read (LEAP_ERR_FORMAT). */
+leap_result leap_file_read(const char *path, const char *what, size_t max_bytes, char **data, size_t *size,
+                           leap_error *err);
+
+/* 1 if a and b name the same file: the same device and inode after following links when
+ * both exist; the same directory and name when either does not exist yet. */
+int leap_file_same(const char *a, const char *b);
+
+/* Temporary files that a signal handler removes: leap_temp_track records a path (copied;
+ * at most 32 at once, returns a slot or -1), leap_temp_untrack(slot) forgets it again
+ * once it was renamed into place or removed. */
+int leap_temp_track(const char *path);
+void leap_temp_untrack(int slot);
+
+/* Installs the process's handlers: SIGINT, SIGTERM and SIGHUP remove every tracked
+ * temporary file and exit with 128 + the signal; SIGXFSZ is ignored so that a write
+ * beyond the file-size limit fails as a write error instead of killing the process. */
+void leap_signals_install(void);
+
+/* Writes `text` to path through a tracked temporary file in the same directory and a
+ * rename, so a failed or interrupted write leaves any previous file intact. */
+leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,166 @@
+#define _GNU_SOURCE
+#include "leap/files.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const char *kind_of(mode_t m)
+{
+    return S_ISDIR(m) ? "a directory" : S_ISFIFO(m) ? "a FIFO" : S_ISCHR(m) ? "a character device"
+           : S_ISBLK(m) ? "a block device" : S_ISSOCK(m) ? "a socket" : "not a regular file";
+}
+
+leap_result leap_file_read(const char *path, const char *what, size_t max_bytes, char **data, size_t *size,
+                           leap_error *err)
+{
+    *data = NULL;
+    if (size) *size = 0;
+    /* O_NONBLOCK: opening a FIFO for reading must not wait for a writer; fstat then refuses it. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return leap_fail(err, LEAP_ERR_IO, "%s: cannot open the %s: %s", path, what, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return leap_fail(err, LEAP_ERR_IO, "%s: the %s is %s; give a regular file", path, what,
+                         kind_of(st.st_mode));
+    }
+    if ((unsigned long long)st.st_size > max_bytes) {
+        close(fd);
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: the %s is %lld bytes, more than the %zu allowed", path, what,
+                         (long long)st.st_size, max_bytes);
+    }
+    size_t cap = (size_t)st.st_size, len = 0;
+    char *buf = malloc(cap + 1);
+    if (!buf) {
+        close(fd);
+        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory reading the %s", path, what);
+    }
+    /* Read no more than the size seen: a file that grows meanwhile is cut, never unbounded. */
+    while (len < cap) {
+        ssize_t got = read(fd, buf + len, cap - len);
+        if (got < 0 && errno == EINTR) continue;
+        if (got < 0) {
+            int e = errno;
+            free(buf);
+            close(fd);
+            return leap_fail(err, LEAP_ERR_IO, "%s: read error in the %s: %s", path, what, strerror(e));
+        }
+        if (got == 0) break;
+        len += (size_t)got;
+    }
+    close(fd);
+    buf[len] = '\0';
+    *data = buf;
+    if (size) *size = len;
+    return LEAP_OK;
+}
+
+/* The canonical directory of a path's last component, and that component. */
+static int split_canonical(const char *path, char *dir, size_t cap, const char **name)
+{
+    const char *slash = strrchr(path, '/');
+    char d[PATH_MAX];
+    if (!slash) snprintf(d, sizeof d, ".");
+    else if (slash == path) snprintf(d, sizeof d, "/");
+    else snprintf(d, sizeof d, "%.*s", (int)(slash - path), path);
+    *name = slash ? slash + 1 : path;
+    char real[PATH_MAX];
+    if (!realpath(d, real)) return 0;
+    return snprintf(dir, cap, "%s", real) < (int)cap;
+}
+
+int leap_file_same(const char *a, const char *b)
+{
+    if (!a || !b) return 0;
+    if (!strcmp(a, b)) return 1;
+    struct stat sa, sb;
+    int ea = stat(a, &sa) == 0, eb = stat(b, &sb) == 0;
+    if (ea && eb) return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    if (ea != eb) return 0;
+    char da[PATH_MAX], db[PATH_MAX];
+    const char *na, *nb;
+    if (!split_canonical(a, da, sizeof da, &na) || !split_canonical(b, db, sizeof db, &nb)) return 0;
+    return !strcmp(da, db) && !strcmp(na, nb);
+}
+
+/* ---- temporary files and signals ---------------------------------------------------- */
+
+#define TEMP_SLOTS 32
+static char temp_paths[TEMP_SLOTS][PATH_MAX];
+static volatile sig_atomic_t temp_used[TEMP_SLOTS];
+
+int leap_temp_track(const char *path)
+{
+    if (!path || strlen(path) >= PATH_MAX) return -1;
+    for (int i = 0; i < TEMP_SLOTS; ++i) {
+        if (temp_used[i]) continue;
+        memcpy(temp_paths[i], path, strlen(path) + 1);
+        temp_used[i] = 1; /* set after the path is complete: the handler reads it only then */
+        return i;
+    }
+    return -1;
+}
+
+void leap_temp_untrack(int slot)
+{
+    if (slot >= 0 && slot < TEMP_SLOTS) temp_used[slot] = 0;
+}
+
+static void on_fatal_signal(int sig)
+{
+    for (int i = 0; i < TEMP_SLOTS; ++i)
+        if (temp_used[i]) unlink(temp_paths[i]); /* async-signal-safe */
+    _exit(128 + sig);
+}
+
+void leap_signals_install(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_fatal_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaddset(&sa.sa_mask, SIGINT);
+    sigaddset(&sa.sa_mask, SIGTERM);
+    sigaddset(&sa.sa_mask, SIGHUP);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+    signal(SIGXFSZ, SIG_IGN);
+}
+
+leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err)
+{
+    char tmp[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    int dir_len = slash ? (int)(slash - path) + 1 : 0;
+    if (snprintf(tmp, sizeof tmp, "%.*s.leap-tmp-%d-%s", dir_len, path, (int)getpid(), path + dir_len) >=
+        (int)sizeof tmp)
+        return leap_fail(err, LEAP_ERR_IO, "%s: path too long", path);
+    int slot = leap_temp_track(tmp);
+    FILE *f = fopen(tmp, "w");
+    if (!f) {
+        leap_temp_untrack(slot);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
+    }
+    size_t n = strlen(text);
+    int ok = fwrite(text, 1, n, f) == n;
+    int e = errno;
+    if (fclose(f) != 0 && ok) {
+        ok = 0;
+        e = errno;
+    }
+    if (ok && rename(tmp, path) != 0) {
+        ok = 0;
+        e = errno;
+    }
+    if (!ok) remove(tmp);
+    leap_temp_untrack(slot);
+    return ok ? LEAP_OK : leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+}
