@@ -20,7 +20,7 @@ jobs="${LEAP_FUZZ_JOBS:-2}"
 seconds="${1:-30}"
 [ $# -gt 0 ] && shift
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(vdb tf cli)
+[ ${#targets[@]} -eq 0 ] && targets=(vdb tf cli script)
 case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 for t in "${targets[@]}"; do
   case "$t" in vdb|tf|cli) ;; *) echo "fuzz.sh: unknown target '$t' (vdb, tf, cli)" >&2; exit 2 ;; esac
