@@ -5,6 +5,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 
 
 const char *leap_vk_result_name(VkResult r)
@@ -111,6 +112,18 @@ static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap
     const char *want = desc && desc->device_name ? desc->device_name : getenv("LEAP_DEVICE");
     leap_result lr = pick_device(gpu, want, err);
     if (lr) return lr;
+    /* lavapipe's vkCreateDevice can corrupt its heap instead of failing when the address
+     * space runs out (seen under ulimit -v 750000): refuse a limit below what a small frame
+     * measurably needs (1.4 GB worked, 1.3 GB failed) before the driver is asked. */
+    struct rlimit as;
+    const rlim_t cpu_driver_need = (rlim_t)1400 << 20;
+    if (gpu->props.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU && getrlimit(RLIMIT_AS, &as) == 0 &&
+        as.rlim_cur != RLIM_INFINITY && as.rlim_cur < cpu_driver_need)
+        return leap_fail(err, LEAP_ERR_OOM,
+                         "Vulkan: the address-space limit (ulimit -v) of %llu MiB is below the %llu MiB that %s "
+                         "needs; raise the limit or remove it",
+                         (unsigned long long)(as.rlim_cur >> 20), (unsigned long long)(cpu_driver_need >> 20),
+                         gpu->props.deviceName);
 
     uint32_t nfam = 0;
     vkGetPhysicalDeviceQueueFamilyProperties(gpu->physical, &nfam, NULL);

@@ -229,6 +229,37 @@ static void signals_and_limits(void)
     }
 }
 
+/* 10. A small address-space limit is refused before the CPU Vulkan driver is created (it
+ * corrupted its heap instead of failing). An AddressSanitizer build cannot run under such a
+ * limit at all (its shadow memory), so the case is for the plain build only. */
+static void address_space_limit(void)
+{
+#if defined(__SANITIZE_ADDRESS__)
+    printf("[address-space limit] skipped: AddressSanitizer build\n");
+#else
+    ++case_count;
+    char err_path[1100], text[4096];
+    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit rl = {(rlim_t)750000 << 10, (rlim_t)750000 << 10};
+        setrlimit(RLIMIT_AS, &rl);
+        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        dup2(e, 2);
+        execl(LEAP_EXE, LEAP_EXE, "render", sphere, "-o", out_path("as.png"), "--size", "16x16", (char *)NULL);
+        _exit(127);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    read_text(err_path, text, sizeof text);
+    CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 1 && strstr(text, "address-space limit"),
+              "[address-space limit] status %#x: %s", status, text);
+    CHECK(access(out_path("as.png"), F_OK) != 0);
+    printf("[address-space limit] %s", text);
+    clean_dir(out_dir);
+#endif
+}
+
 /* Mean alpha of an EXR render (or -1). */
 static double mean_alpha(const char *exr)
 {
@@ -367,6 +398,7 @@ int main(void)
     outputs_never_replace_inputs();
     non_regular_files();
     signals_and_limits();
+    address_space_limit();
     constant_grids();
     file_contents();
     output_formats();
