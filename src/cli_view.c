@@ -222,6 +222,8 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
     if (rc) return rc;
     if (o->script && (o->frames || o->screenshot))
         return cli_usage_error("view", "--script cannot be combined with --frames or --screenshot");
+    const char *inputs[] = {o->view.input, o->view.scene.tf, o->script};
+    if (o->screenshot && (rc = cli_check_outputs("view", inputs, 3, &o->screenshot, 1))) return rc;
     if (o->screenshot && !cli_dir_writable(o->screenshot))
         return cli_runtime_error("%s: directory does not exist or is not writable", o->screenshot);
     return 0;
@@ -1456,6 +1458,17 @@ int cli_view(int argc, char **argv)
     if (a->o.script) r = leap_viewer_script_load(a->o.script, &script, &err);
     else if (a->o.frames || a->o.screenshot) r = frames_script(&a->o, &script, &err);
     if (r) return cli_runtime_error("%s", err.msg);
+    /* Screenshots a script asks for are outputs too: none may replace an input. */
+    const char *inputs[] = {a->o.view.input, a->o.view.scene.tf, a->o.script};
+    for (size_t i = 0; i < script.count; ++i)
+        if (script.cmds[i].op == LEAP_VIEWER_OP_SCREENSHOT) {
+            const char *shot = script.cmds[i].text;
+            int rc = cli_check_outputs("view", inputs, 3, &shot, 1);
+            if (rc) {
+                leap_viewer_script_free(&script);
+                return rc;
+            }
+        }
     int scripted = a->o.script || a->o.frames || a->o.screenshot;
 
     /* The volume first: a bad input is reported whether or not a display exists. */

@@ -61,6 +61,13 @@ static void outputs_never_replace_inputs(void)
     expect_clash("output is a symlink to the input", exr, ARGV("render", exr, "-o", sym));
     expect_clash("output is a hard link of the input", exr, ARGV("render", exr, "-o", hard));
 
+    expect_clash("view --screenshot = volume", png, ARGV("view", png, "--screenshot", png));
+    const char *script = in_path("shots.txt");
+    char text[1400];
+    snprintf(text, sizeof text, "orbit 10 0\nscreenshot %s\n", png);
+    write_text(script, text);
+    expect_clash("view script screenshot = volume", png, ARGV("view", png, "--script", script));
+
     /* 2. --stats onto the volume or the transfer function. */
     const char *vdb = in_path("X.vdb"), *tf = in_path("t.json");
     copy_file(sphere, vdb);
