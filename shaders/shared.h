@@ -48,7 +48,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  *   [0, top_count)           one entry per block of B^3 cells, B = 1 << block_shift
  *   [top_count + b * B^3 ...] the cell entries of block b
  * block_shift (frame slot_dims.w) is LEAP_BLOCK_SHIFT_MAX unless the page table would not
- * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN.
+ * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN, and a
+ * sparse grid whose box is too long for the top level gets larger ones, up to _HUGE.
  * An entry with LEAP_PAGE_CONST set holds a constant value in its low 16 bits (the same
  * 16-bit quantisation as the atlas texels: value / 65535); otherwise it
  * is a block index (top level) or a slot's atlas position (cell level), packed as
@@ -59,6 +60,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_SLOT 9
 #define LEAP_BLOCK_SHIFT_MAX 4
 #define LEAP_BLOCK_SHIFT_MIN 2
+#define LEAP_BLOCK_SHIFT_HUGE 6 /* larger blocks when the top level alone would not fit */
 #define LEAP_PAGE_CONST 0x80000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u

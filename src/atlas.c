@@ -3,6 +3,7 @@
 #include "util.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -20,6 +21,7 @@ typedef struct builder {
     uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
     int page_overflow;        /* the cell level of the page table did not fit */
+    int top_overflow;         /* the top level of the page table did not fit */
 } builder;
 
 /* Page blocks are B^3 cells, B = 1 << a->block_shift. */
@@ -266,19 +268,31 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         for (int i = 0; i < 3; ++i) bmin[i] = info->bbox_min[i], bmax[i] = info->bbox_max[i];
     uint64_t top_count = 1;
     for (int i = 0; i < 3; ++i) {
-        a->origin[i] = (floor_div8(bmin[i]) - 1) * LEAP_CELL;
+        /* One spare cell below the active box: its origin must still be an int32 index. */
+        int64_t origin = ((int64_t)floor_div8(bmin[i]) - 1) * LEAP_CELL;
+        if (origin < INT32_MIN)
+            return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                             "atlas: the active bounding box reaches index %d on axis %c; leap needs a spare "
+                             "8-voxel cell below it, so indices must be at least %d",
+                             bmin[i], "xyz"[i], INT32_MIN + 2 * LEAP_CELL);
+        a->origin[i] = (int32_t)origin;
         /* One spare cell on the + side keeps rounding at the domain's far face in range. */
         int64_t cells = (((int64_t)bmax[i] + 1 - a->origin[i]) >> LEAP_CELL_SHIFT) + 1;
         a->cells[i] = (uint32_t)cells;
         a->top_dims[i] = (uint32_t)((cells + block_edge(a) - 1) >> a->block_shift);
         top_count *= a->top_dims[i];
-        a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - a->origin[i];
-        a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - a->origin[i];
+        a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - (double)a->origin[i];
+        a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - (double)a->origin[i];
     }
-    if (top_count * 4 > MAX_PAGE_BYTES)
+    if (top_count * 4 > MAX_PAGE_BYTES) {
+        b->top_overflow = 1;
+        a->top_count = top_count > UINT32_MAX ? UINT32_MAX : (uint32_t)top_count;
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "atlas: active bounding box of %d x %d x %d voxels is too large for the page table",
-                         bmax[0] - bmin[0] + 1, bmax[1] - bmin[1] + 1, bmax[2] - bmin[2] + 1);
+                         "atlas: active bounding box of %lld x %lld x %lld voxels is too large for the page "
+                         "table (%llu top-level entries of %u^3 cells exceed the 128 MiB storage buffer limit)",
+                         (long long)bmax[0] - bmin[0] + 1, (long long)bmax[1] - bmin[1] + 1,
+                         (long long)bmax[2] - bmin[2] + 1, (unsigned long long)top_count, block_edge(a));
+    }
     a->top_count = (uint32_t)top_count;
     a->pages = malloc(top_count * sizeof *a->pages);
     if (!a->pages) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
@@ -339,16 +353,11 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     }
     b->a = a;
     /* Large page blocks keep the top level small; when scattered data would touch so many
-     * blocks that their cells overflow the storage buffer, smaller blocks are tried. */
+     * blocks that their cells overflow the storage buffer, smaller blocks are tried. When the
+     * top level itself overflows (a sparse grid spanning billions of voxels), larger blocks. */
     leap_result r = LEAP_OK;
-    for (uint32_t shift = LEAP_BLOCK_SHIFT_MAX; shift >= LEAP_BLOCK_SHIFT_MIN; --shift) {
-        if (shift < LEAP_BLOCK_SHIFT_MAX) { /* start over */
-            free(a->pages);
-            free(a->texels);
-            memset(a, 0, sizeof *a);
-            memset(b, 0, sizeof *b);
-            b->a = a;
-        }
+    uint32_t shift = LEAP_BLOCK_SHIFT_MAX;
+    for (;;) {
         a->block_shift = shift;
         r = build(b, desc, err);
         for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
@@ -356,7 +365,20 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         free(b->slots);
         b->blocks = NULL;
         b->slots = NULL;
-        if (!r || !b->page_overflow) break;
+        if (!r) break;
+        /* The top level taking most of the buffer is fixed by larger blocks, not smaller. */
+        int top_heavy = b->top_overflow || (uint64_t)a->top_count * 4 > MAX_PAGE_BYTES / 2;
+        if (b->page_overflow && !top_heavy && shift <= LEAP_BLOCK_SHIFT_MAX && shift > LEAP_BLOCK_SHIFT_MIN)
+            shift--;
+        else if (top_heavy && shift >= LEAP_BLOCK_SHIFT_MAX && shift < LEAP_BLOCK_SHIFT_HUGE)
+            shift++;
+        else
+            break;
+        free(a->pages); /* start over */
+        free(a->texels);
+        memset(a, 0, sizeof *a);
+        memset(b, 0, sizeof *b);
+        b->a = a;
     }
     free(b);
     if (r) {
