@@ -60,7 +60,7 @@ layout(push_constant) uniform Push { leap_push_gpu push; };
 
 void main()
 {
-    uvec2 pix = gl_GlobalInvocationID.xy;
+    uvec2 pix = gl_GlobalInvocationID.xy + uvec2(push.pixel_x, push.pixel_y);
     if (pix.x >= frame.image.x || pix.y >= frame.image.y) return;
     uint pixel = pix.y * frame.image.x + pix.x;
     // Later chunks continue only the rays an earlier chunk left unfinished.

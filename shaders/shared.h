@@ -91,7 +91,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 /* Push constants of the composite pass. */
 LEAP_STRUCT(leap_push_gpu) {
     uint32_t chunk; /* 0: which chunk of every ray's lattice this dispatch marches */
-    uint32_t pad[3];
+    uint32_t pixel_x, pixel_y; /* 4, 8: first pixel of the dispatched rectangle (later chunks
+                                  cover only the pixels whose rays reach them) */
+    uint32_t pad;
 } LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
 
 /* Capacities of the per-pixel lists. */
