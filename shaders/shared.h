@@ -132,7 +132,7 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 atlas_inv_size; /* 176: 1 / atlas texels per axis */
     LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
     LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity (of the table), lattice indices per
-                                 composite chunk, 0 */
+                                 composite chunk, scale of world_row* (a power of two) */
     LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
     LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
     LEAP_UVEC4 image;         /* 256: width, height, 0 (the mode is a specialisation constant), ortho */

@@ -705,10 +705,51 @@ static leap_result chunk_count(const leap_view *view, const leap_march *m, const
     return LEAP_OK;
 }
 
-static void fill_frame(const leap_renderer *r, const leap_view *view, const leap_march *m, leap_mode mode,
+/* 2^k nearest to the length of v (k = 0 for a zero or non-finite length). */
+static int pow2_exponent(const double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(l > 0) || !isfinite(l)) return 0;
+    return (int)lrint(log2(l));
+}
+
+/* Power-of-two exponents that bring the frame's ray directions and index-to-world rows near
+ * unit length, where float squares them without overflow or underflow (voxel sizes from
+ * about 1e-19 and 1e19 on, GPU rays had length 0 or inf). Zero while the lengths are
+ * within 2^-16..2^16, so ordinary grids send the very same floats. Scaling a ray's
+ * direction by a power of two changes neither its normalised direction nor any pixel's
+ * footprint (the clip matrix scales inversely, w with it); the depth is scaled back. */
+#define FRAME_SCALE_FREE 16
+
+static int frame_dir_exponent(const leap_view *v)
+{
+    int k = pow2_exponent(v->dir0);
+    return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
+}
+
+static int frame_world_exponent(const leap_view *v)
+{
+    int k = 0;
+    for (int i = 0; i < 3; ++i) {
+        int e = pow2_exponent(v->index_to_world_linear[i]);
+        if (abs(e) > abs(k)) k = e;
+    }
+    return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
+}
+
+static void fill_frame(const leap_renderer *r, const leap_view *view_in, const leap_march *m, leap_mode mode,
                        uint32_t box_count, leap_frame_gpu *f)
 {
     memset(f, 0, sizeof *f);
+    leap_view scaled = *view_in;
+    const leap_view *view = &scaled;
+    const int kd = frame_dir_exponent(view_in), kw = frame_world_exponent(view_in);
+    for (int c = 0; c < 3; ++c) {
+        scaled.dir0[c] = ldexp(scaled.dir0[c], -kd);
+        scaled.dir_dx[c] = ldexp(scaled.dir_dx[c], -kd);
+        scaled.dir_dy[c] = ldexp(scaled.dir_dy[c], -kd);
+        for (int i = 0; i < 3; ++i) scaled.index_to_world_linear[i][c] = ldexp(scaled.index_to_world_linear[i][c], -kw);
+    }
     f->origin0 = v4(view->origin0, 0);
     f->origin_dx = v4(view->origin_dx, 0);
     f->origin_dy = v4(view->origin_dy, 0);
@@ -729,7 +770,7 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
     /* A precorrected table's opacities are compared with a threshold corrected alike. */
     double depth_opacity = r->tf_precorrected ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
-                            (float)chunk_indices(r, mode, m->step), 0};
+                            (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, 0, (uint32_t)view->ortho};
