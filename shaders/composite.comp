@@ -60,7 +60,7 @@ layout(push_constant) uniform Push { leap_push_gpu push; };
 
 void main()
 {
-    uvec2 pix = gl_GlobalInvocationID.xy;
+    uvec2 pix = gl_GlobalInvocationID.xy + uvec2(push.pixel_x, push.pixel_y);
     if (pix.x >= frame.image.x || pix.y >= frame.image.y) return;
     uint pixel = pix.y * frame.image.x + pix.x;
     // Later chunks continue only the rays an earlier chunk left unfinished.
@@ -119,7 +119,7 @@ void main()
     if (acc.depth_t >= 0.0) {
         vec3 w = vec3(dot(frame.world_row0.xyz, ray.dir), dot(frame.world_row1.xyz, ray.dir),
                       dot(frame.world_row2.xyz, ray.dir));
-        depth = length(w) * acc.depth_t;
+        depth = length(w) * frame.limits.w * acc.depth_t; // limits.w: the rows' scale, 1 for most grids
     }
     out_rgba[pixel] = acc.color;
     out_aux[pixel] = vec4(depth, float(acc.samples), naive_samples, 0.0);

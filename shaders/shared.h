@@ -48,7 +48,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  *   [0, top_count)           one entry per block of B^3 cells, B = 1 << block_shift
  *   [top_count + b * B^3 ...] the cell entries of block b
  * block_shift (frame slot_dims.w) is LEAP_BLOCK_SHIFT_MAX unless the page table would not
- * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN.
+ * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN, and a
+ * sparse grid whose box is too long for the top level gets larger ones, up to _HUGE.
  * An entry with LEAP_PAGE_CONST set holds a constant value in its low 16 bits (the same
  * 16-bit quantisation as the atlas texels: value / 65535); otherwise it
  * is a block index (top level) or a slot's atlas position (cell level), packed as
@@ -59,6 +60,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_SLOT 9
 #define LEAP_BLOCK_SHIFT_MAX 4
 #define LEAP_BLOCK_SHIFT_MIN 2
+#define LEAP_BLOCK_SHIFT_HUGE 6 /* larger blocks when the top level alone would not fit */
 #define LEAP_PAGE_CONST 0x80000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
@@ -89,7 +91,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 /* Push constants of the composite pass. */
 LEAP_STRUCT(leap_push_gpu) {
     uint32_t chunk; /* 0: which chunk of every ray's lattice this dispatch marches */
-    uint32_t pad[3];
+    uint32_t pixel_x, pixel_y; /* 4, 8: first pixel of the dispatched rectangle (later chunks
+                                  cover only the pixels whose rays reach them) */
+    uint32_t pad;
 } LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
 
 /* Capacities of the per-pixel lists. */
@@ -128,7 +132,7 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 atlas_inv_size; /* 176: 1 / atlas texels per axis */
     LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
     LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity (of the table), lattice indices per
-                                 composite chunk, 0 */
+                                 composite chunk, scale of world_row* (a power of two) */
     LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
     LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
     LEAP_UVEC4 image;         /* 256: width, height, 0 (the mode is a specialisation constant), ortho */

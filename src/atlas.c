@@ -3,15 +3,18 @@
 #include "util.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "shared.h"
 
 #define SLOT_TEXELS (LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
 #define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT)
 #define MAX_PAGE_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
+#define LEAP_ATLAS_MAX_BYTES (2.0 * (1u << 30)) /* lavapipe's largest allocation: the 16-bit atlas */
 
 typedef struct builder {
     leap_atlas *a;
@@ -20,6 +23,7 @@ typedef struct builder {
     uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
     int page_overflow;        /* the cell level of the page table did not fit */
+    int top_overflow;         /* the top level of the page table did not fit */
 } builder;
 
 /* Page blocks are B^3 cells, B = 1 << a->block_shift. */
@@ -138,6 +142,81 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
     return LEAP_OK;
 }
 
+/* Atlas texels placed for n slots, as finish() lays them out (0 if they exceed the 3D
+ * texture limit). */
+static uint64_t atlas_texels_for(uint64_t n)
+{
+    if (n == 0) n = 1;
+    uint64_t sx = (uint64_t)ceil(cbrt((double)n));
+    if (sx > MAX_SLOTS_PER_AXIS) sx = MAX_SLOTS_PER_AXIS;
+    uint64_t sy = (n + sx - 1) / sx;
+    if (sy > MAX_SLOTS_PER_AXIS) sy = MAX_SLOTS_PER_AXIS;
+    uint64_t sz = (n + sx * sy - 1) / (sx * sy);
+    if (sz > MAX_SLOTS_PER_AXIS) return 0;
+    return sx * sy * sz * SLOT_TEXELS;
+}
+
+/* The most slots whose 16-bit atlas fits one device allocation and, twice over (the slots
+ * as built and the placed atlas), the host memory available now. */
+static uint64_t slot_budget(void)
+{
+    uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
+    long pages = sysconf(_SC_AVPHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    double host = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
+    while (lo < hi) { /* largest n that fits (texels grow with n) */
+        uint64_t mid = lo + (hi - lo + 1) / 2, t = atlas_texels_for(mid);
+        int fits = t != 0 && (double)t * 2 <= LEAP_ATLAS_MAX_BYTES && (double)mid * SLOT_TEXELS * 2 + (double)t * 2 <= host;
+        if (fits) lo = mid; else hi = mid - 1;
+    }
+    return lo;
+}
+
+static leap_result slots_too_many(uint64_t slots, const char *how, leap_error *err)
+{
+    const double gib = (double)(1u << 30);
+    return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                     "atlas: the grid needs %s %llu bricks (%.2f GiB at 16 bits), more than the %llu that fit one "
+                     "%.0f GiB device allocation and the free host memory (each 8^3 cell not of one value, "
+                     "tile faces included, needs a brick)",
+                     how, (unsigned long long)slots, (double)slots * SLOT_TEXELS * 2 / gib,
+                     (unsigned long long)slot_budget(), LEAP_ATLAS_MAX_BYTES / gib);
+}
+
+/* Before the candidate cells are read (about 12 us each): when they are more than the slot
+ * budget, a fixed pseudo-random sample of them estimates how many will need slots, and a
+ * grid whose estimate exceeds the budget by more than the sampling error is refused in
+ * milliseconds (a 4096^3 tile's shell, 1.5 M cells, used to be read for 18 s into 4.8 GB
+ * before the device allocation failed). The slot count is checked again while reading. */
+#define BUDGET_SAMPLES 4000
+
+static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_t n, const leap_grid *grid,
+                                       uint64_t budget, leap_error *err)
+{
+    if (n <= budget) return LEAP_OK;
+    leap_atlas *a = b->a;
+    leap_grid_reader *reader;
+    leap_result r = leap_grid_reader_create(grid, &reader, err);
+    if (r) return r;
+    float vals[SLOT_TEXELS];
+    uint32_t seed = 0x9e3779b9u, hits = 0;
+    for (int s = 0; s < BUDGET_SAMPLES; ++s) {
+        seed ^= seed << 13, seed ^= seed >> 17, seed ^= seed << 5;
+        uint64_t k = unique[(uint64_t)seed * n >> 32];
+        int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
+        uint64_t c[3] = {k % a->cells[0], k / a->cells[0] % a->cells[1], k / a->cells[0] / a->cells[1]};
+        for (int j = 0; j < 3; ++j) min[j] = a->origin[j] + (int32_t)c[j] * LEAP_CELL;
+        leap_grid_reader_box(reader, min, dim, vals);
+        uint16_t q0 = quantize(a, vals[0]);
+        int uniform = 1;
+        for (int j = 1; j < SLOT_TEXELS && uniform; ++j) uniform = quantize(a, vals[j]) == q0;
+        hits += !uniform;
+    }
+    leap_grid_reader_destroy(reader);
+    double p = (double)hits / BUDGET_SAMPLES, sigma = sqrt(p * (1 - p) / BUDGET_SAMPLES);
+    if ((p - 4 * sigma) * (double)n > (double)budget) return slots_too_many((uint64_t)(p * (double)n), "about", err);
+    return LEAP_OK;
+}
+
 /* Reads the footprint of each candidate cell; uniform footprints become constants, the
  * rest atlas slots. */
 static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *grid, int dense,
@@ -145,13 +224,19 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
 {
     leap_atlas *a = b->a;
     qsort(l->keys, l->count, sizeof(uint64_t), cmp_u64);
+    size_t unique = 0; /* the keys, deduplicated in place */
+    for (size_t i = 0; i < l->count; ++i)
+        if (i == 0 || l->keys[i] != l->keys[i - 1]) l->keys[unique++] = l->keys[i];
+    l->count = unique;
+    const uint64_t budget = slot_budget();
+    leap_result r = check_slot_estimate(b, l->keys, unique, grid, budget, err);
+    if (r) return r;
     leap_grid_reader *reader;
-    leap_result r = leap_grid_reader_create(grid, &reader, err);
+    r = leap_grid_reader_create(grid, &reader, err);
     if (r) return r;
     float vals[SLOT_TEXELS];
     uint16_t q[SLOT_TEXELS];
     for (size_t i = 0; i < l->count && !r; ++i) {
-        if (i > 0 && l->keys[i] == l->keys[i - 1]) continue;
         uint64_t k = l->keys[i];
         uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
                          (uint32_t)(k / a->cells[0] / a->cells[1])};
@@ -167,6 +252,10 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (uniform && !dense) {
             entry = const_entry(q[0]);
         } else {
+            if (a->slot_count + 1 > budget) {
+                r = slots_too_many(a->slot_count + 1, "more than", err);
+                break;
+            }
             if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t))) {
                 r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
                 break;
@@ -266,19 +355,31 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         for (int i = 0; i < 3; ++i) bmin[i] = info->bbox_min[i], bmax[i] = info->bbox_max[i];
     uint64_t top_count = 1;
     for (int i = 0; i < 3; ++i) {
-        a->origin[i] = (floor_div8(bmin[i]) - 1) * LEAP_CELL;
+        /* One spare cell below the active box: its origin must still be an int32 index. */
+        int64_t origin = ((int64_t)floor_div8(bmin[i]) - 1) * LEAP_CELL;
+        if (origin < INT32_MIN)
+            return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                             "atlas: the active bounding box reaches index %d on axis %c; leap needs a spare "
+                             "8-voxel cell below it, so indices must be at least %d",
+                             bmin[i], "xyz"[i], INT32_MIN + 2 * LEAP_CELL);
+        a->origin[i] = (int32_t)origin;
         /* One spare cell on the + side keeps rounding at the domain's far face in range. */
         int64_t cells = (((int64_t)bmax[i] + 1 - a->origin[i]) >> LEAP_CELL_SHIFT) + 1;
         a->cells[i] = (uint32_t)cells;
         a->top_dims[i] = (uint32_t)((cells + block_edge(a) - 1) >> a->block_shift);
         top_count *= a->top_dims[i];
-        a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - a->origin[i];
-        a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - a->origin[i];
+        a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - (double)a->origin[i];
+        a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - (double)a->origin[i];
     }
-    if (top_count * 4 > MAX_PAGE_BYTES)
+    if (top_count * 4 > MAX_PAGE_BYTES) {
+        b->top_overflow = 1;
+        a->top_count = top_count > UINT32_MAX ? UINT32_MAX : (uint32_t)top_count;
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "atlas: active bounding box of %d x %d x %d voxels is too large for the page table",
-                         bmax[0] - bmin[0] + 1, bmax[1] - bmin[1] + 1, bmax[2] - bmin[2] + 1);
+                         "atlas: active bounding box of %lld x %lld x %lld voxels is too large for the page "
+                         "table (%llu top-level entries of %u^3 cells exceed the 128 MiB storage buffer limit)",
+                         (long long)bmax[0] - bmin[0] + 1, (long long)bmax[1] - bmin[1] + 1,
+                         (long long)bmax[2] - bmin[2] + 1, (unsigned long long)top_count, block_edge(a));
+    }
     a->top_count = (uint32_t)top_count;
     a->pages = malloc(top_count * sizeof *a->pages);
     if (!a->pages) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
@@ -339,16 +440,11 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     }
     b->a = a;
     /* Large page blocks keep the top level small; when scattered data would touch so many
-     * blocks that their cells overflow the storage buffer, smaller blocks are tried. */
+     * blocks that their cells overflow the storage buffer, smaller blocks are tried. When the
+     * top level itself overflows (a sparse grid spanning billions of voxels), larger blocks. */
     leap_result r = LEAP_OK;
-    for (uint32_t shift = LEAP_BLOCK_SHIFT_MAX; shift >= LEAP_BLOCK_SHIFT_MIN; --shift) {
-        if (shift < LEAP_BLOCK_SHIFT_MAX) { /* start over */
-            free(a->pages);
-            free(a->texels);
-            memset(a, 0, sizeof *a);
-            memset(b, 0, sizeof *b);
-            b->a = a;
-        }
+    uint32_t shift = LEAP_BLOCK_SHIFT_MAX;
+    for (;;) {
         a->block_shift = shift;
         r = build(b, desc, err);
         for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
@@ -356,7 +452,20 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         free(b->slots);
         b->blocks = NULL;
         b->slots = NULL;
-        if (!r || !b->page_overflow) break;
+        if (!r) break;
+        /* The top level taking most of the buffer is fixed by larger blocks, not smaller. */
+        int top_heavy = b->top_overflow || (uint64_t)a->top_count * 4 > MAX_PAGE_BYTES / 2;
+        if (b->page_overflow && !top_heavy && shift <= LEAP_BLOCK_SHIFT_MAX && shift > LEAP_BLOCK_SHIFT_MIN)
+            shift--;
+        else if (top_heavy && shift >= LEAP_BLOCK_SHIFT_MAX && shift < LEAP_BLOCK_SHIFT_HUGE)
+            shift++;
+        else
+            break;
+        free(a->pages); /* start over */
+        free(a->texels);
+        memset(a, 0, sizeof *a);
+        memset(b, 0, sizeof *b);
+        b->a = a;
     }
     free(b);
     if (r) {

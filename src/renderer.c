@@ -604,20 +604,152 @@ static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
     return n < 1 ? 1 : n;
 }
 
-/* Dispatches needed for the longest ray: the domain box's diagonal in lattice steps, over
- * the lattice indices per dispatch the frame holds (limits.z, from chunk_indices). */
-static uint32_t chunk_count(const leap_march *m, const leap_frame_gpu *f)
+/* Lattice indices a ray can hold before float stops representing them exactly: the shader
+ * computes t_j = t0 + j * dt with j a float, so j must stay below 2^24. */
+#define LATTICE_INDEX_LIMIT 16777216.0
+
+/* Dispatches needed: the most lattice indices any pixel's ray holds inside the domain box,
+ * over the lattice indices per dispatch the frame holds (limits.z, from chunk_indices).
+ * Computed per pixel on the host in double, with the box grown by a voxel plus a relative
+ * margin so that float rounding on the GPU can only shorten a ray, never lengthen it past
+ * the bound: a chunk beyond every ray's last index would do nothing. This is what the frame
+ * really marches (a sparse grid whose box is long but thin costs what its rays cross), not
+ * the box diagonal. Fails when a ray holds more indices than float can count. */
+typedef struct chunk_rect {
+    uint32_t x0, y0, x1, y1; /* pixels [x0, x1) x [y0, y1); empty if x0 >= x1 */
+} chunk_rect;
+
+static leap_result chunk_count(const leap_view *view, const leap_march *m, const leap_frame_gpu *f,
+                               uint32_t *count, chunk_rect **rects_out, leap_error *err)
 {
-    double d2 = 0;
-    for (int i = 0; i < 3; ++i) d2 += (m->domain_max[i] - m->domain_min[i]) * (m->domain_max[i] - m->domain_min[i]);
-    double n = ceil((sqrt(d2) / m->step + 2) / f->limits.z);
-    return n < 1 ? 1 : n > 1e6 ? 1000000u : (uint32_t)n;
+    *count = 1;
+    *rects_out = NULL;
+    double box_lo[3], box_hi[3], centre[3], diag = 0;
+    for (int i = 0; i < 3; ++i) {
+        if (!(m->domain_min[i] <= m->domain_max[i])) return LEAP_OK;
+        box_lo[i] = m->domain_min[i];
+        box_hi[i] = m->domain_max[i];
+        centre[i] = 0.5 * (box_lo[i] + box_hi[i]);
+        diag += (box_hi[i] - box_lo[i]) * (box_hi[i] - box_lo[i]);
+    }
+    diag = sqrt(diag);
+    const size_t pixels = (size_t)view->width * view->height;
+    uint32_t *need = malloc(pixels * sizeof *need); /* dispatches each pixel's ray needs */
+    if (!need) return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %zu pixels", pixels);
+    double most = 0; /* lattice indices of the longest ray */
+    uint32_t chunks = 1;
+    for (int py = 0; py < view->height; ++py)
+        for (int px = 0; px < view->width; ++px) {
+            double o[3], d[3];
+            leap_view_ray(view, px + 0.5, py + 0.5, o, d);
+            /* Grown by more than the float error of the GPU's ray over any t up to the far
+             * side of the box (relative 1e-5 of the coordinates involved, plus a voxel). */
+            double far = diag, lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) far += fabs(o[a] - centre[a]) + fabs(o[a]) + fabs(centre[a]);
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = box_lo[a] - (1.0 + 1e-5 * far);
+                hi[a] = box_hi[a] + (1.0 + 1e-5 * far);
+            }
+            double t0 = 0, t1 = INFINITY;
+            int hit = 1;
+            for (int a = 0; a < 3 && hit; ++a) {
+                if (d[a] == 0) {
+                    hit = o[a] >= lo[a] && o[a] <= hi[a];
+                } else {
+                    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+                    t0 = fmax(t0, fmin(ta, tb));
+                    t1 = fmin(t1, fmax(ta, tb));
+                }
+            }
+            double n = 0;
+            if (hit && t0 <= t1) n = ((t1 - floor(t0 / m->step) * m->step) / m->step + 2) * (1 + 1e-5) + 2;
+            if (n > most) most = n;
+            double k = n > LATTICE_INDEX_LIMIT ? 0 : ceil(n / f->limits.z);
+            need[(size_t)py * view->width + px] = k < 1 ? 1 : (uint32_t)k;
+            if (k > chunks) chunks = (uint32_t)k;
+        }
+    if (most > LATTICE_INDEX_LIMIT) {
+        free(need);
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "a ray crosses %.4g samples of step %g inside the volume box; the GPU counts "
+                         "lattice samples in float, exactly only up to 2^24 = 16777216 per ray (use a "
+                         "larger --step or a view that crosses less of the box)",
+                         most, m->step);
+    }
+    /* rects[c]: the pixels whose rays need more than c dispatches (chunk c marches them). */
+    chunk_rect *rects = malloc(chunks * sizeof *rects);
+    if (!rects) {
+        free(need);
+        return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %u composite chunks", chunks);
+    }
+    for (uint32_t c = 0; c < chunks; ++c) rects[c] = (chunk_rect){UINT32_MAX, UINT32_MAX, 0, 0};
+    for (uint32_t py = 0; py < (uint32_t)view->height; ++py)
+        for (uint32_t px = 0; px < (uint32_t)view->width; ++px) {
+            chunk_rect *q = &rects[need[(size_t)py * view->width + px] - 1];
+            if (px < q->x0) q->x0 = px;
+            if (py < q->y0) q->y0 = py;
+            if (px + 1 > q->x1) q->x1 = px + 1;
+            if (py + 1 > q->y1) q->y1 = py + 1;
+        }
+    free(need);
+    for (uint32_t c = chunks - 1; c-- > 0;) { /* union with every later chunk's rectangle */
+        chunk_rect *q = &rects[c], *n = &rects[c + 1];
+        if (n->x0 < q->x0) q->x0 = n->x0;
+        if (n->y0 < q->y0) q->y0 = n->y0;
+        if (n->x1 > q->x1) q->x1 = n->x1;
+        if (n->y1 > q->y1) q->y1 = n->y1;
+    }
+    rects[0] = (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height}; /* every pixel is written */
+    *count = chunks;
+    *rects_out = rects;
+    return LEAP_OK;
 }
 
-static void fill_frame(const leap_renderer *r, const leap_view *view, const leap_march *m, leap_mode mode,
+/* 2^k nearest to the length of v (k = 0 for a zero or non-finite length). */
+static int pow2_exponent(const double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(l > 0) || !isfinite(l)) return 0;
+    return (int)lrint(log2(l));
+}
+
+/* Power-of-two exponents that bring the frame's ray directions and index-to-world rows near
+ * unit length, where float squares them without overflow or underflow (voxel sizes from
+ * about 1e-19 and 1e19 on, GPU rays had length 0 or inf). Zero while the lengths are
+ * within 2^-16..2^16, so ordinary grids send the very same floats. Scaling a ray's
+ * direction by a power of two changes neither its normalised direction nor any pixel's
+ * footprint (the clip matrix scales inversely, w with it); the depth is scaled back. */
+#define FRAME_SCALE_FREE 16
+
+static int frame_dir_exponent(const leap_view *v)
+{
+    int k = pow2_exponent(v->dir0);
+    return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
+}
+
+static int frame_world_exponent(const leap_view *v)
+{
+    int k = 0;
+    for (int i = 0; i < 3; ++i) {
+        int e = pow2_exponent(v->index_to_world_linear[i]);
+        if (abs(e) > abs(k)) k = e;
+    }
+    return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
+}
+
+static void fill_frame(const leap_renderer *r, const leap_view *view_in, const leap_march *m, leap_mode mode,
                        uint32_t box_count, leap_frame_gpu *f)
 {
     memset(f, 0, sizeof *f);
+    leap_view scaled = *view_in;
+    const leap_view *view = &scaled;
+    const int kd = frame_dir_exponent(view_in), kw = frame_world_exponent(view_in);
+    for (int c = 0; c < 3; ++c) {
+        scaled.dir0[c] = ldexp(scaled.dir0[c], -kd);
+        scaled.dir_dx[c] = ldexp(scaled.dir_dx[c], -kd);
+        scaled.dir_dy[c] = ldexp(scaled.dir_dy[c], -kd);
+        for (int i = 0; i < 3; ++i) scaled.index_to_world_linear[i][c] = ldexp(scaled.index_to_world_linear[i][c], -kw);
+    }
     f->origin0 = v4(view->origin0, 0);
     f->origin_dx = v4(view->origin_dx, 0);
     f->origin_dy = v4(view->origin_dy, 0);
@@ -638,7 +770,7 @@ static void fill_frame(const leap_renderer *r, const leap_view *view, const leap
     /* A precorrected table's opacities are compared with a threshold corrected alike. */
     double depth_opacity = r->tf_precorrected ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
-                            (float)chunk_indices(r, mode, m->step), 0};
+                            (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, 0, (uint32_t)view->ortho};
@@ -827,12 +959,17 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         st.boxes = box_count;
     }
     fill_frame(r, view, march, mode, box_count, r->frame.mapped);
+    chunk_rect *rects = NULL;
+    if ((lr = chunk_count(view, march, r->frame.mapped, &st.composite_chunks, &rects, err))) return lr;
     write_descriptors(r);
     double t1 = leap__now_ms();
     st.upload_ms = t1 - t0;
 
     leap_gpu *gpu = r->gpu;
-    if ((lr = leap_gpu_begin(gpu, err))) return lr;
+    if ((lr = leap_gpu_begin(gpu, err))) {
+        free(rects);
+        return lr;
+    }
     VkCommandBuffer cmd = gpu->cmd;
     if (gpu->timestamps) {
         vkCmdResetQueryPool(cmd, gpu->timestamps, 0, TS_COUNT);
@@ -846,17 +983,19 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    st.composite_chunks = chunk_count(march, r->frame.mapped);
     st.tf_precorrected = r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
+        chunk_rect q = rects ? rects[chunk] : (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height};
+        if (q.x0 >= q.x1 || q.y0 >= q.y1) continue;
         if (chunk > 0)
             shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                            VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        leap_push_gpu push = {.chunk = chunk};
+        leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0};
         vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-        vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                      ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+        vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                      (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
     }
+    free(rects);
     if (gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,

@@ -1,0 +1,371 @@
+/* Limits of the render path through the real `leap` binary, each run under a wall-clock
+ * watchdog (`timeout`): a grid spanning nearly 2^32 voxels renders in every GPU mode (no
+ * composite dispatches for lattice indices no ray holds) and matches naive bit for bit and
+ * the reference; a ray holding more lattice samples than float can count is refused at once;
+ * voxel sizes from 1e-4 (OpenVDB's smallest) to 1e35 render what the reference renders;
+ * the smallest accepted field of view matches the reference and a smaller one is refused;
+ * a file with one 4096^3 tile fails fast without allocating gigabytes. Crafted files are
+ * written here with the writer API. */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <time.h>
+#include <unistd.h>
+
+#include "check.h"
+#include "leap/image.h"
+#include "leap/vdb.h"
+
+#define MAX_ARGS 32
+#define ALPHA_MEAN_TOL 1e-3 /* mean |alpha GPU - alpha reference| over the image */
+
+static char tmp_dir[512];
+
+typedef struct run_result {
+    int code;        /* exit code, 128 + signal, 124 for a timeout */
+    double seconds;  /* wall clock */
+    long max_rss_kb; /* of the child */
+    char err[8192];  /* stderr */
+} run_result;
+
+static run_result res;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+static void read_text(const char *path, char *buf, size_t cap)
+{
+    buf[0] = '\0';
+    FILE *f = fopen(path, "rb");
+    if (!f) return;
+    size_t n = fread(buf, 1, cap - 1, f);
+    buf[n] = '\0';
+    fclose(f);
+}
+
+/* Runs `timeout LIMIT leap ARGV...` (argv NULL-terminated), stderr captured. */
+static int run_leap(const char *limit_s, const char *const *argv)
+{
+    char err_path[700];
+    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
+    const char *full[MAX_ARGS + 6] = {"timeout", "-k", "5", limit_s, LEAP_EXE};
+    int n = 5;
+    for (int i = 0; argv[i] && n < MAX_ARGS + 5; ++i) full[n++] = argv[i];
+    full[n] = NULL;
+    fflush(stdout);
+    fflush(stderr);
+    double t0 = now_s();
+    pid_t pid = fork();
+    if (pid < 0) return -1;
+    if (pid == 0) {
+        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        int z = open("/dev/null", O_RDWR);
+        if (e < 0 || z < 0) _exit(126);
+        dup2(z, 0);
+        dup2(z, 1);
+        dup2(e, 2);
+        execvp(full[0], (char *const *)full);
+        _exit(127);
+    }
+    int status = 0;
+    struct rusage ru;
+    memset(&ru, 0, sizeof ru);
+    while (wait4(pid, &status, 0, &ru) < 0 && errno == EINTR) {
+    }
+    res.seconds = now_s() - t0;
+    res.max_rss_kb = ru.ru_maxrss;
+    res.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    read_text(err_path, res.err, sizeof res.err);
+    return res.code;
+}
+
+#define ARGV(...) ((const char *const[]){__VA_ARGS__, NULL})
+
+static const char *path_in_tmp(const char *name)
+{
+    static char paths[32][700];
+    static int next = 0;
+    char *p = paths[next++ % 32];
+    snprintf(p, 700, "%s/%s", tmp_dir, name);
+    return p;
+}
+
+typedef struct image {
+    int w, h, c;
+    float *px;
+} image;
+
+static int read_exr(const char *path, image *im)
+{
+    leap_error err = {0};
+    memset(im, 0, sizeof *im);
+    leap_result r = leap_image_read(path, &im->w, &im->h, &im->c, &im->px, &err);
+    CHECK_MSG(r == LEAP_OK && im->c >= 4, "%s: %s", path, err.msg);
+    return r == LEAP_OK && im->c >= 4;
+}
+
+/* 1 if the RGBA channels of a and b are the same floats. */
+static int same_rgba(const char *pa, const char *pb)
+{
+    image a, b;
+    int ok = read_exr(pa, &a) && read_exr(pb, &b) && a.w == b.w && a.h == b.h;
+    size_t diff = 0;
+    for (size_t i = 0; ok && i < (size_t)a.w * a.h; ++i)
+        diff += memcmp(a.px + i * a.c, b.px + i * b.c, 4 * sizeof(float)) != 0;
+    free(a.px);
+    free(b.px);
+    if (diff) printf("  %s vs %s: %zu pixels differ\n", pa, pb, diff);
+    return ok && diff == 0;
+}
+
+/* Mean |alpha_a - alpha_b| (or -1 if unreadable); *mean_a: a's mean alpha. */
+static double alpha_error(const char *pa, const char *pb, double *mean_a)
+{
+    image a, b;
+    int ok = read_exr(pa, &a) && read_exr(pb, &b) && a.w == b.w && a.h == b.h;
+    double sum = 0, sa = 0;
+    size_t n = ok ? (size_t)a.w * a.h : 1;
+    for (size_t i = 0; ok && i < n; ++i) {
+        sum += fabs((double)a.px[i * a.c + 3] - b.px[i * b.c + 3]);
+        sa += a.px[i * a.c + 3];
+    }
+    free(a.px);
+    free(b.px);
+    if (mean_a) *mean_a = sa / n;
+    return ok ? sum / n : -1;
+}
+
+static leap_vdb_writer *writer_new(int *grid, double voxel)
+{
+    leap_error err = {0};
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    double m[4][4] = {{voxel, 0, 0, 0}, {0, voxel, 0, 0}, {0, 0, voxel, 0}, {0, 0, 0, 1}};
+    *grid = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, m, 1, &err) : -1;
+    CHECK_MSG(*grid >= 0, "add grid (voxel %g): %s", voxel, err.msg);
+    return w;
+}
+
+static int writer_done(leap_vdb_writer *w, const char *path)
+{
+    leap_error err = {0};
+    leap_result r = w ? leap_vdb_writer_save(w, path, &err) : LEAP_ERR_USAGE;
+    CHECK_MSG(r == LEAP_OK, "save %s: %s", path, err.msg);
+    leap_vdb_writer_destroy(w);
+    return r == LEAP_OK;
+}
+
+static const char *const gpu_modes[] = {"naive", "bbox", "octree", "sparseleap"};
+
+/* A ball of radius 12 voxels with a soft edge, at voxel size `voxel`. */
+static int write_ball(const char *path, double voxel)
+{
+    int g;
+    leap_vdb_writer *w = writer_new(&g, voxel);
+    if (g < 0) {
+        leap_vdb_writer_destroy(w);
+        return 0;
+    }
+    const int R = 12;
+    for (int i = -R; i <= R; ++i)
+        for (int j = -R; j <= R; ++j)
+            for (int k = -R; k <= R; ++k) {
+                double r = sqrt((double)(i * i + j * j + k * k));
+                if (r <= R) leap_vdb_writer_set(w, g, i, j, k, fmin(1.0, (R - r) / 4.0));
+            }
+    return writer_done(w, path);
+}
+
+/* ---- (a) a grid spanning nearly 2^32 voxels ----------------------------------------- */
+
+static void test_huge_span(void)
+{
+    const char *vdb = path_in_tmp("span.vdb");
+    int g;
+    leap_vdb_writer *w = writer_new(&g, 1.0);
+    /* Near +-2^31, within the reference renderer's index range (|i| <= 2147483000). */
+    leap_vdb_writer_set(w, g, 2147482000, 0, 0, 1.0);
+    leap_vdb_writer_set(w, g, -2147482000, 0, 0, 1.0);
+    leap_vdb_writer_set(w, g, -2147481990, 3, 2, 0.5);
+    if (!writer_done(w, vdb)) return;
+
+    char ref[700];
+    snprintf(ref, sizeof ref, "%s", path_in_tmp("span_reference.exr"));
+    run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "256x256"));
+    CHECK_MSG(res.code == 0, "reference: exit %d: %s", res.code, res.err);
+    char naive[700] = "";
+    for (size_t m = 0; m < sizeof gpu_modes / sizeof *gpu_modes; ++m) {
+        char out[700];
+        snprintf(out, sizeof out, "%s/span_%s.exr", tmp_dir, gpu_modes[m]);
+        run_leap("120", ARGV("render", vdb, "-o", out, "--mode", gpu_modes[m], "-q", "--size", "256x256"));
+        printf("[span 2^32] %s: exit %d in %.2f s, %ld MB\n", gpu_modes[m], res.code, res.seconds, res.max_rss_kb / 1024);
+        CHECK_MSG(res.code == 0, "%s: exit %d (124 = over 120 s): %s", gpu_modes[m], res.code, res.err);
+        if (res.code) continue;
+        if (m == 0) {
+            snprintf(naive, sizeof naive, "%s", out);
+            double mean, e = alpha_error(out, ref, &mean);
+            CHECK_MSG(e >= 0 && e <= ALPHA_MEAN_TOL, "naive vs reference: mean alpha error %g", e);
+        } else {
+            CHECK_MSG(same_rgba(naive, out), "%s differs from naive", gpu_modes[m]);
+        }
+    }
+
+    /* A view straight along the span: the centre ray of an odd-sized image crosses 2^32
+     * voxels, 8.6e9 lattice samples, which float lattice indices cannot count: refused with
+     * the figure, at once, not marched for hours. */
+    const char *out = path_in_tmp("span_long.exr");
+    run_leap("120", ARGV("render", vdb, "-o", out, "--mode", "naive", "-q", "--size", "65x65", "--eye",
+                         "3e9,0,0", "--target", "0,0,0"));
+    printf("[span 2^32] ray along the span: exit %d in %.2f s: %s", res.code, res.seconds, res.err);
+    /* exit 2: the CLI may bound --eye against the grid first; either way a clear refusal. */
+    CHECK_MSG((res.code == 1 && strstr(res.err, "2^24") != NULL) || (res.code == 2 && res.err[0]),
+              "ray along the span: exit %d: %s", res.code, res.err);
+    CHECK_MSG(res.seconds < 30, "refusing took %.1f s", res.seconds);
+}
+
+/* A ray along a long, thin grid takes 8 M lattice indices but only a few samples matter:
+ * the dispatches after the first cover only the pixels whose rays reach them. The image
+ * must be the naive one of every mode. */
+static void test_long_ray(void)
+{
+    const char *vdb = path_in_tmp("needle.vdb");
+    int g;
+    leap_vdb_writer *w = writer_new(&g, 1.0);
+    leap_vdb_writer_set(w, g, 1 << 21, 0, 0, 1.0);
+    leap_vdb_writer_set(w, g, -(1 << 21), 0, 0, 1.0);
+    for (int i = -4; i <= 4; ++i) leap_vdb_writer_set(w, g, i, 0, 0, 0.8);
+    if (!writer_done(w, vdb)) return;
+    char naive[700] = "";
+    for (size_t m = 0; m < sizeof gpu_modes / sizeof *gpu_modes; ++m) {
+        char out[700];
+        snprintf(out, sizeof out, "%s/needle_%s.exr", tmp_dir, gpu_modes[m]);
+        run_leap("120", ARGV("render", vdb, "-o", out, "--mode", gpu_modes[m], "-q", "--size", "65x65", "--eye",
+                             "3e6,0,0", "--target", "0,0,0", "--step", "1"));
+        printf("[needle 2^22] %s along the needle: exit %d in %.2f s\n", gpu_modes[m], res.code, res.seconds);
+        CHECK_MSG(res.code == 0, "%s: exit %d: %s", gpu_modes[m], res.code, res.err);
+        if (res.code) continue;
+        if (m == 0)
+            snprintf(naive, sizeof naive, "%s", out);
+        else
+            CHECK_MSG(same_rgba(naive, out), "%s differs from naive", gpu_modes[m]);
+    }
+}
+
+/* ---- (b) voxel sizes ------------------------------------------------------------------ */
+
+static void test_voxel_sizes(void)
+{
+    /* OpenVDB itself refuses transforms below about 1e-4 ("nearly singular" / "non-zero
+     * scale"), so smaller voxels cannot be written (nor read) by any VDB tool. */
+    const double sizes[] = {1e-4, 1e-2, 1.0, 1e6, 1e18, 1e19, 1e20, 1e25, 1e30, 1e35};
+    for (size_t i = 0; i < sizeof sizes / sizeof *sizes; ++i) {
+        char name[64];
+        snprintf(name, sizeof name, "ball_%g.vdb", sizes[i]);
+        const char *vdb = path_in_tmp(name);
+        if (!write_ball(vdb, sizes[i])) continue;
+        char ref[700];
+        snprintf(ref, sizeof ref, "%s/ball_%g_reference.exr", tmp_dir, sizes[i]);
+        run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "96x96"));
+        int ref_ok = res.code == 0;
+        CHECK_MSG(res.code == 0 || (res.code == 1 && res.err[0]), "voxel %g reference: exit %d: %s", sizes[i],
+                  res.code, res.err);
+        const char *modes[] = {"naive", "sparseleap"};
+        for (int m = 0; m < 2; ++m) {
+            char out[700];
+            snprintf(out, sizeof out, "%s/ball_%g_%s.exr", tmp_dir, sizes[i], modes[m]);
+            run_leap("120", ARGV("render", vdb, "-o", out, "--mode", modes[m], "-q", "--size", "96x96"));
+            if (res.code != 0) { /* a refusal must be a runtime error that says why */
+                printf("[voxel %g] %s refused: %s", sizes[i], modes[m], res.err);
+                CHECK_MSG(res.code == 1 && res.err[0], "voxel %g %s: exit %d: %s", sizes[i], modes[m], res.code,
+                          res.err);
+                continue;
+            }
+            CHECK_MSG(ref_ok, "voxel %g: %s renders but the reference refused", sizes[i], modes[m]);
+            if (!ref_ok) continue;
+            double mean, e = alpha_error(out, ref, &mean);
+            printf("[voxel %g] %s: mean alpha %.4f, mean error against the reference %.2g\n", sizes[i], modes[m],
+                   mean, e);
+            CHECK_MSG(e >= 0 && e <= ALPHA_MEAN_TOL && mean > 0.05, "voxel %g %s: mean alpha %g, error %g",
+                      sizes[i], modes[m], mean, e);
+        }
+    }
+}
+
+/* ---- (c) field of view ----------------------------------------------------------------- */
+
+static void test_small_fov(void)
+{
+    const char *vdb = path_in_tmp("ball_fov.vdb");
+    if (!write_ball(vdb, 1.0)) return;
+    /* Rays at least 2^-18 rad apart: at 256 pixels high, fov >= 2 atan(128 * 2^-18) = 0.05595
+     * degrees. */
+    const char *ok_fov = "0.056", *small_fov[] = {"0.05", "1e-5", "1e-9"};
+    char ref[700];
+    snprintf(ref, sizeof ref, "%s", path_in_tmp("fov_reference.exr"));
+    run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "256x256", "--fov", ok_fov));
+    CHECK_MSG(res.code == 0, "fov %s reference: exit %d: %s", ok_fov, res.code, res.err);
+    const char *modes[] = {"naive", "sparseleap"};
+    for (int m = 0; m < 2 && res.code == 0; ++m) {
+        char out[700];
+        snprintf(out, sizeof out, "%s/fov_%s.exr", tmp_dir, modes[m]);
+        run_leap("120", ARGV("render", vdb, "-o", out, "--mode", modes[m], "-q", "--size", "256x256", "--fov", ok_fov));
+        CHECK_MSG(res.code == 0, "fov %s %s: exit %d: %s", ok_fov, modes[m], res.code, res.err);
+        if (res.code) continue;
+        double mean, e = alpha_error(out, ref, &mean);
+        printf("[fov %s] %s: mean alpha %.4f, mean error against the reference %.2g\n", ok_fov, modes[m], mean, e);
+        CHECK_MSG(e >= 0 && e <= ALPHA_MEAN_TOL && mean > 0.05, "fov %s %s: mean alpha %g, error %g", ok_fov, modes[m],
+                  mean, e);
+    }
+    for (size_t i = 0; i < sizeof small_fov / sizeof *small_fov; ++i) {
+        const char *modes2[] = {"naive", "reference"};
+        for (int m = 0; m < 2; ++m) {
+            run_leap("60", ARGV("render", vdb, "-o", path_in_tmp("fov_small.exr"), "--mode", modes2[m], "-q", "--size",
+                                "256x256", "--fov", small_fov[i]));
+            printf("[fov %s] %s: exit %d: %s", small_fov[i], modes2[m], res.code, res.err);
+            CHECK_MSG(res.code == 2 && strstr(res.err, "2^-18") != NULL, "fov %s %s: exit %d: %s", small_fov[i],
+                      modes2[m], res.code, res.err);
+        }
+    }
+}
+
+/* ---- (d) one 4096^3 tile ---------------------------------------------------------------- */
+
+static void test_big_tile(void)
+{
+    const char *vdb = path_in_tmp("tile4096.vdb");
+    int g;
+    leap_vdb_writer *w = writer_new(&g, 1.0);
+    const int32_t lo[3] = {0, 0, 0}, hi[3] = {4095, 4095, 4095};
+    leap_vdb_writer_fill(w, g, lo, hi, 1.0, 1);
+    if (!writer_done(w, vdb)) return;
+    struct stat st;
+    CHECK(stat(vdb, &st) == 0 && st.st_size < 4096);
+    run_leap("120", ARGV("render", vdb, "-o", path_in_tmp("tile.exr"), "-q", "--size", "128x128"));
+    printf("[tile 4096^3] exit %d in %.2f s, %ld MB: %s", res.code, res.seconds, res.max_rss_kb / 1024, res.err);
+    CHECK_MSG(res.code == 0 || (res.code == 1 && strstr(res.err, "bricks") != NULL), "exit %d: %s", res.code, res.err);
+    CHECK_MSG(res.seconds < 20, "took %.1f s", res.seconds);
+    CHECK_MSG(res.max_rss_kb < 1024L * 1024, "peak memory %ld MB", res.max_rss_kb / 1024);
+}
+
+int main(void)
+{
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", LEAP_TEST_TMP);
+    mkdir(tmp_dir, 0755);
+    test_huge_span();
+    test_long_ray();
+    test_voxel_sizes();
+    test_small_fov();
+    test_big_tile();
+    return check_exit_code();
+}
