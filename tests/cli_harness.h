@@ -11,8 +11,10 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include "check.h"
@@ -26,6 +28,8 @@ static int case_count = 0;
 
 typedef struct run_result {
     int code;          /* exit code, 128 + signal, 124 for a timeout */
+    double seconds;    /* wall clock */
+    long max_rss_kb;   /* peak resident memory of the child */
     char err[16384];   /* stderr */
     char out[16384];   /* stdout */
 } run_result;
@@ -42,18 +46,21 @@ static __attribute__((unused)) void read_text(const char *path, char *buf, size_
     fclose(f);
 }
 
-/* Runs `timeout 60 leap ARGV...` (argv NULL-terminated) with stdout and stderr captured. */
-static __attribute__((unused)) int run_leap(const char *const *argv)
+/* Runs `timeout LIMIT_S leap ARGV...` (argv NULL-terminated) with stdout and stderr
+ * captured, its wall-clock time and peak memory recorded. */
+static __attribute__((unused)) int run_leap_limit(const char *limit_s, const char *const *argv)
 {
     char err_path[1100], out_path[1100];
     snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
     snprintf(out_path, sizeof out_path, "%s/stdout.txt", tmp_dir);
-    const char *full[MAX_ARGS + 6] = {"timeout", "-k", "5", RUN_LIMIT_S, LEAP_EXE};
+    const char *full[MAX_ARGS + 6] = {"timeout", "-k", "5", limit_s, LEAP_EXE};
     int n = 5;
     for (int i = 0; argv[i] && n < MAX_ARGS + 5; ++i) full[n++] = argv[i];
     full[n] = NULL;
     fflush(stdout);
     fflush(stderr);
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
     pid_t pid = fork();
     if (pid < 0) return -1;
     if (pid == 0) {
@@ -68,12 +75,23 @@ static __attribute__((unused)) int run_leap(const char *const *argv)
         _exit(127);
     }
     int status = 0;
-    while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+    struct rusage ru;
+    memset(&ru, 0, sizeof ru);
+    while (wait4(pid, &status, 0, &ru) < 0 && errno == EINTR) {
     }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    res.seconds = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    res.max_rss_kb = ru.ru_maxrss;
     res.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
     read_text(err_path, res.err, sizeof res.err);
     read_text(out_path, res.out, sizeof res.out);
     return res.code;
+}
+
+/* The same with the default limit of RUN_LIMIT_S seconds. */
+static __attribute__((unused)) int run_leap(const char *const *argv)
+{
+    return run_leap_limit(RUN_LIMIT_S, argv);
 }
 
 static __attribute__((unused)) int line_count(const char *s)

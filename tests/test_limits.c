@@ -19,78 +19,10 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "check.h"
+#include "cli_harness.h"
 #include "leap/image.h"
-#include "leap/vdb.h"
 
-#define MAX_ARGS 32
 #define ALPHA_MEAN_TOL 1e-3 /* mean |alpha GPU - alpha reference| over the image */
-
-static char tmp_dir[512];
-
-typedef struct run_result {
-    int code;        /* exit code, 128 + signal, 124 for a timeout */
-    double seconds;  /* wall clock */
-    long max_rss_kb; /* of the child */
-    char err[8192];  /* stderr */
-} run_result;
-
-static run_result res;
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec + 1e-9 * ts.tv_nsec;
-}
-
-static void read_text(const char *path, char *buf, size_t cap)
-{
-    buf[0] = '\0';
-    FILE *f = fopen(path, "rb");
-    if (!f) return;
-    size_t n = fread(buf, 1, cap - 1, f);
-    buf[n] = '\0';
-    fclose(f);
-}
-
-/* Runs `timeout LIMIT leap ARGV...` (argv NULL-terminated), stderr captured. */
-static int run_leap(const char *limit_s, const char *const *argv)
-{
-    char err_path[700];
-    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-    const char *full[MAX_ARGS + 6] = {"timeout", "-k", "5", limit_s, LEAP_EXE};
-    int n = 5;
-    for (int i = 0; argv[i] && n < MAX_ARGS + 5; ++i) full[n++] = argv[i];
-    full[n] = NULL;
-    fflush(stdout);
-    fflush(stderr);
-    double t0 = now_s();
-    pid_t pid = fork();
-    if (pid < 0) return -1;
-    if (pid == 0) {
-        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        int z = open("/dev/null", O_RDWR);
-        if (e < 0 || z < 0) _exit(126);
-        dup2(z, 0);
-        dup2(z, 1);
-        dup2(e, 2);
-        execvp(full[0], (char *const *)full);
-        _exit(127);
-    }
-    int status = 0;
-    struct rusage ru;
-    memset(&ru, 0, sizeof ru);
-    while (wait4(pid, &status, 0, &ru) < 0 && errno == EINTR) {
-    }
-    res.seconds = now_s() - t0;
-    res.max_rss_kb = ru.ru_maxrss;
-    res.code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    read_text(err_path, res.err, sizeof res.err);
-    return res.code;
-}
-
-#define ARGV(...) ((const char *const[]){__VA_ARGS__, NULL})
 
 static const char *path_in_tmp(const char *name)
 {
@@ -202,7 +134,7 @@ static void test_huge_span(void)
 
     char ref[700];
     snprintf(ref, sizeof ref, "%s", path_in_tmp("span_reference.exr"));
-    run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "256x256"));
+    run_leap_limit("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "256x256"));
     CHECK_MSG(res.code == 0, "reference: exit %d: %s", res.code, res.err);
     /* The GPU samples float positions relative to the box corner; across 2^32 voxels they
      * are 512 voxels apart at the far end (an up-close view there rendered nothing while the
@@ -211,7 +143,7 @@ static void test_huge_span(void)
         char out[700];
         snprintf(out, sizeof out, "%s/span_%s.exr", tmp_dir, gpu_modes[m]);
         remove(out); /* from an earlier run */
-        run_leap("120", ARGV("render", vdb, "-o", out, "--mode", gpu_modes[m], "-q", "--size", "256x256"));
+        run_leap_limit("120", ARGV("render", vdb, "-o", out, "--mode", gpu_modes[m], "-q", "--size", "256x256"));
         printf("[span 2^32] %s: exit %d in %.2f s, %ld MB: %s", gpu_modes[m], res.code, res.seconds,
                res.max_rss_kb / 1024, res.err);
         CHECK_MSG(res.code == 1 && strstr(res.err, "span.vdb") && strstr(res.err, "float"),
@@ -235,7 +167,7 @@ static void test_long_ray(void)
     for (int i = -4; i <= 4; ++i) leap_vdb_writer_set(w, g, i, 0, 0, 0.8);
     if (!writer_done(w, vdb)) return;
     const char *ref = path_in_tmp("needle_reference.exr");
-    run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "65x65", "--eye",
+    run_leap_limit("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "65x65", "--eye",
                          "2e5,0,0", "--target", "0,0,0", "--step", "0.05"));
     CHECK_MSG(res.code == 0, "needle reference: exit %d: %s", res.code, res.err);
     char naive[700] = "";
@@ -243,7 +175,7 @@ static void test_long_ray(void)
         char out[700];
         snprintf(out, sizeof out, "%s/needle_%s.exr", tmp_dir, gpu_modes[m]);
         /* 2.4 M lattice indices along the centre ray: many composite dispatches. */
-        run_leap("120", ARGV("render", vdb, "-o", out, "--mode", gpu_modes[m], "-q", "--size", "65x65", "--eye",
+        run_leap_limit("120", ARGV("render", vdb, "-o", out, "--mode", gpu_modes[m], "-q", "--size", "65x65", "--eye",
                              "2e5,0,0", "--target", "0,0,0", "--step", "0.05"));
         printf("[needle 120000] %s along the needle: exit %d in %.2f s\n", gpu_modes[m], res.code, res.seconds);
         CHECK_MSG(res.code == 0, "%s: exit %d: %s", gpu_modes[m], res.code, res.err);
@@ -259,7 +191,7 @@ static void test_long_ray(void)
     /* More lattice indices on one ray than float counts (2^24): refused at once, with the
      * figure, not marched for hours. */
     const char *out = path_in_tmp("needle_long.exr");
-    run_leap("120", ARGV("render", vdb, "-o", out, "--mode", "naive", "-q", "--size", "65x65", "--eye", "2e5,0,0",
+    run_leap_limit("120", ARGV("render", vdb, "-o", out, "--mode", "naive", "-q", "--size", "65x65", "--eye", "2e5,0,0",
                          "--target", "0,0,0", "--step", "0.005"));
     printf("[needle 120000] step 0.005 along the needle: exit %d in %.2f s: %s", res.code, res.seconds, res.err);
     CHECK_MSG(res.code == 1 && strstr(res.err, "2^24") != NULL, "ray of 2.4e7 samples: exit %d: %s", res.code,
@@ -284,10 +216,10 @@ static void test_far_corner(void)
             }
     if (!writer_done(w, vdb)) return;
     const char *ref = path_in_tmp("far_reference.exr"), *gpu = path_in_tmp("far_naive.exr");
-    run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "96x96", "--eye",
+    run_leap_limit("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "96x96", "--eye",
                          "65536,3,25", "--target", "65536,0,0"));
     CHECK_MSG(res.code == 0, "far ball reference: exit %d: %s", res.code, res.err);
-    run_leap("120", ARGV("render", vdb, "-o", gpu, "--mode", "naive", "-q", "--size", "96x96", "--eye", "65536,3,25",
+    run_leap_limit("120", ARGV("render", vdb, "-o", gpu, "--mode", "naive", "-q", "--size", "96x96", "--eye", "65536,3,25",
                          "--target", "65536,0,0"));
     CHECK_MSG(res.code == 0, "far ball naive: exit %d: %s", res.code, res.err);
     double mean = 0, e = res.code ? -1 : alpha_error(gpu, ref, &mean);
@@ -309,7 +241,7 @@ static void test_voxel_sizes(void)
         if (!write_ball(vdb, sizes[i])) continue;
         char ref[700];
         snprintf(ref, sizeof ref, "%s/ball_%g_reference.exr", tmp_dir, sizes[i]);
-        run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "96x96"));
+        run_leap_limit("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "96x96"));
         int ref_ok = res.code == 0;
         CHECK_MSG(res.code == 0 || (res.code == 1 && res.err[0]), "voxel %g reference: exit %d: %s", sizes[i],
                   res.code, res.err);
@@ -317,7 +249,7 @@ static void test_voxel_sizes(void)
         for (int m = 0; m < 2; ++m) {
             char out[700];
             snprintf(out, sizeof out, "%s/ball_%g_%s.exr", tmp_dir, sizes[i], modes[m]);
-            run_leap("120", ARGV("render", vdb, "-o", out, "--mode", modes[m], "-q", "--size", "96x96"));
+            run_leap_limit("120", ARGV("render", vdb, "-o", out, "--mode", modes[m], "-q", "--size", "96x96"));
             if (res.code != 0) { /* a refusal must be a runtime error that says why */
                 printf("[voxel %g] %s refused: %s", sizes[i], modes[m], res.err);
                 CHECK_MSG(res.code == 1 && res.err[0], "voxel %g %s: exit %d: %s", sizes[i], modes[m], res.code,
@@ -346,13 +278,13 @@ static void test_small_fov(void)
     const char *ok_fov = "0.056", *small_fov[] = {"0.05", "1e-5", "1e-9"};
     char ref[700];
     snprintf(ref, sizeof ref, "%s", path_in_tmp("fov_reference.exr"));
-    run_leap("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "256x256", "--fov", ok_fov));
+    run_leap_limit("120", ARGV("render", vdb, "-o", ref, "--mode", "reference", "-q", "--size", "256x256", "--fov", ok_fov));
     CHECK_MSG(res.code == 0, "fov %s reference: exit %d: %s", ok_fov, res.code, res.err);
     const char *modes[] = {"naive", "sparseleap"};
     for (int m = 0; m < 2 && res.code == 0; ++m) {
         char out[700];
         snprintf(out, sizeof out, "%s/fov_%s.exr", tmp_dir, modes[m]);
-        run_leap("120", ARGV("render", vdb, "-o", out, "--mode", modes[m], "-q", "--size", "256x256", "--fov", ok_fov));
+        run_leap_limit("120", ARGV("render", vdb, "-o", out, "--mode", modes[m], "-q", "--size", "256x256", "--fov", ok_fov));
         CHECK_MSG(res.code == 0, "fov %s %s: exit %d: %s", ok_fov, modes[m], res.code, res.err);
         if (res.code) continue;
         double mean, e = alpha_error(out, ref, &mean);
@@ -363,7 +295,7 @@ static void test_small_fov(void)
     for (size_t i = 0; i < sizeof small_fov / sizeof *small_fov; ++i) {
         const char *modes2[] = {"naive", "reference"};
         for (int m = 0; m < 2; ++m) {
-            run_leap("60", ARGV("render", vdb, "-o", path_in_tmp("fov_small.exr"), "--mode", modes2[m], "-q", "--size",
+            run_leap_limit("60", ARGV("render", vdb, "-o", path_in_tmp("fov_small.exr"), "--mode", modes2[m], "-q", "--size",
                                 "256x256", "--fov", small_fov[i]));
             printf("[fov %s] %s: exit %d: %s", small_fov[i], modes2[m], res.code, res.err);
             CHECK_MSG(res.code == 2 && strstr(res.err, "2^-18") != NULL, "fov %s %s: exit %d: %s", small_fov[i],
@@ -384,7 +316,7 @@ static void test_big_tile(void)
     if (!writer_done(w, vdb)) return;
     struct stat st;
     CHECK(stat(vdb, &st) == 0 && st.st_size < 4096);
-    run_leap("120", ARGV("render", vdb, "-o", path_in_tmp("tile.exr"), "-q", "--size", "128x128"));
+    run_leap_limit("120", ARGV("render", vdb, "-o", path_in_tmp("tile.exr"), "-q", "--size", "128x128"));
     printf("[tile 4096^3] exit %d in %.2f s, %ld MB: %s", res.code, res.seconds, res.max_rss_kb / 1024, res.err);
     CHECK_MSG(res.code == 0 || (res.code == 1 && strstr(res.err, "bricks") != NULL), "exit %d: %s", res.code, res.err);
     CHECK_MSG(res.seconds < 20, "took %.1f s", res.seconds);
@@ -393,8 +325,7 @@ static void test_big_tile(void)
 
 int main(void)
 {
-    snprintf(tmp_dir, sizeof tmp_dir, "%s", LEAP_TEST_TMP);
-    mkdir(tmp_dir, 0755);
+    harness_init();
     test_huge_span();
     test_long_ray();
     test_far_corner();
