@@ -204,7 +204,7 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
         uint64_t k = unique[(uint64_t)seed * n >> 32];
         int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
         uint64_t c[3] = {k % a->cells[0], k / a->cells[0] % a->cells[1], k / a->cells[0] / a->cells[1]};
-        for (int j = 0; j < 3; ++j) min[j] = a->origin[j] + (int32_t)c[j] * LEAP_CELL;
+        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
         leap_grid_reader_box(reader, min, dim, vals);
         uint16_t q0 = quantize(a, vals[0]);
         int uniform = 1;
@@ -241,7 +241,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
                          (uint32_t)(k / a->cells[0] / a->cells[1])};
         int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
-        for (int j = 0; j < 3; ++j) min[j] = a->origin[j] + (int32_t)c[j] * LEAP_CELL;
+        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
         leap_grid_reader_box(reader, min, dim, vals);
         int uniform = 1;
         for (int j = 0; j < SLOT_TEXELS; ++j) {
