@@ -26,7 +26,12 @@ leap_result leap_file_read(const char *path, const char *what, size_t max_bytes,
     int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) return leap_fail(err, LEAP_ERR_IO, "%s: cannot open the %s: %s", path, what, strerror(errno));
     struct stat st;
-    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    if (fstat(fd, &st) != 0) {
+        int e = errno;
+        close(fd);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot read the %s: %s", path, what, strerror(e));
+    }
+    if (!S_ISREG(st.st_mode)) {
         close(fd);
         return leap_fail(err, LEAP_ERR_IO, "%s: the %s is %s; give a regular file", path, what,
                          kind_of(st.st_mode));
