@@ -3,7 +3,7 @@
 # build-fuzz/ and runs each for a set time, then prints executions and crashes per target.
 #
 #   scripts/fuzz.sh [SECONDS] [TARGET...]     SECONDS per target (default 30);
-#                                             TARGETs: vdb tf cli (default all three)
+#                                             TARGETs: vdb tf cli script (default all four)
 #
 # The seeds in tests/fuzz/corpus/<target>/ are copied into build-fuzz/fuzz/<target>/corpus,
 # which collects what the fuzzer finds from run to run; the seed directory is not modified.
@@ -23,7 +23,7 @@ targets=("$@")
 [ ${#targets[@]} -eq 0 ] && targets=(vdb tf cli script)
 case "$seconds" in ''|*[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;; esac
 for t in "${targets[@]}"; do
-  case "$t" in vdb|tf|cli) ;; *) echo "fuzz.sh: unknown target '$t' (vdb, tf, cli)" >&2; exit 2 ;; esac
+  case "$t" in vdb|tf|cli|script) ;; *) echo "fuzz.sh: unknown target '$t' (vdb, tf, cli, script)" >&2; exit 2 ;; esac
 done
 
 cmake -S "$root" -B "$build" -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ \
