@@ -646,6 +646,22 @@ static leap_result chunk_count(const leap_view *view, const leap_march *m, const
         diag += (box_hi[i] - box_lo[i]) * (box_hi[i] - box_lo[i]);
     }
     diag = sqrt(diag);
+    /* The grown box's diagonal bounds every pixel's chord (rays are unit length in index
+     * space; origins are linear in the pixel, so the image corners bound their size). When
+     * that bound fits one dispatch, every ray does and the per-pixel pass below is skipped:
+     * the usual frame pays nothing for it. */
+    double far_bound = diag;
+    for (int a = 0; a < 3; ++a) {
+        double o_abs = 0, o[3], d[3];
+        for (int corner = 0; corner < 4; ++corner) {
+            leap_view_ray(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
+            o_abs = fmax(o_abs, fabs(o[a]));
+        }
+        far_bound += o_abs + fabs(centre[a]) + o_abs + fabs(centre[a]);
+    }
+    double chord_bound = diag + 2 * sqrt(3.0) * (1.0 + 1e-5 * far_bound);
+    double n_bound = ((chord_bound + m->step) / m->step + 2) * (1 + 1e-5) + 2;
+    if (n_bound <= f->limits.z) return LEAP_OK;
     const size_t pixels = (size_t)view->width * view->height;
     uint32_t *need = malloc(pixels * sizeof *need); /* dispatches each pixel's ray needs */
     if (!need) return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %zu pixels", pixels);
