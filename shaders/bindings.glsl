@@ -9,9 +9,9 @@ layout(std430, set = 0, binding = LEAP_BINDING_PAGES) readonly buffer Pages { ui
 layout(std430, set = 0, binding = LEAP_BINDING_OUT_RGBA) buffer OutRgba { vec4 out_rgba[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_OUT_AUX) buffer OutAux { vec4 out_aux[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_BOXES) readonly buffer Boxes { leap_box_gpu boxes[]; };
-layout(std430, set = 0, binding = LEAP_BINDING_HEADS) buffer Heads { uint heads[]; };
-layout(std430, set = 0, binding = LEAP_BINDING_EVENTS) buffer Events { leap_event_gpu events[]; };
-layout(std430, set = 0, binding = LEAP_BINDING_COUNTERS) buffer Counters { uint counters[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_EVENT_COUNTS) buffer EventCounts { uint event_counts[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_EVENT_T) buffer EventT { float event_t[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_EVENT_KEY) buffer EventKey { uint event_key[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_SEGMENTS) buffer Segments { vec2 segments[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_PIXELS) buffer Pixels { uvec4 pixel_lists[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint tree[]; };

@@ -86,9 +86,11 @@ void main()
         }
         const uint mode = leap_mode; // a specialisation constant: the other modes compile out
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
-        if (mode == LEAP_MODE_NAIVE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
+        if (mode == LEAP_MODE_NAIVE) {
             leap_march_interval(ray, lat, ca, cb, j_next, acc);
-        } else if (mode == LEAP_MODE_OCTREE) {
+        } else if (mode == LEAP_MODE_OCTREE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
+            // A pixel whose events or segments did not fit walks the exact occupancy tree
+            // instead: it still skips every EMPTY leaf, and takes the same samples.
             leap_march_octree(ray, lat, ca, cb, j_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;

@@ -20,16 +20,14 @@ void main()
     // no single view order could place it for rays on both sides; the boxes the ray runs
     // through are still entered at t = 0.
     if (!leap_clip_box(ray, b.lo.xyz, b.hi.xyz, t0, t1) || !(t1 > 0.0)) return;
+    // The pixel's own slots: one atomic on its own counter (no shared pool). A count beyond
+    // the capacity tells the resolve pass that the pixel overflowed.
     uint pixel = pix.y * frame.image.x + pix.x;
-    uint first = atomicAdd(counters[0], 2u);
-    if (first + 2u > frame.lists.x) {
-        atomicOr(pixel_lists[pixel].x, LEAP_PIXEL_OVERFLOW);
-        return;
-    }
-    events[first].t = t0;
-    events[first].key = (b.info.x << 2) | b.info.z;
-    events[first + 1u].t = t1;
-    events[first + 1u].key = (b.info.y << 2) | b.info.w;
-    events[first + 1u].next = first + 1u; // entry follows exit in the list
-    events[first].next = atomicExchange(heads[pixel], first + 2u);
+    uint n = atomicAdd(event_counts[pixel], 2u);
+    if (n + 2u > frame.lists.x) return;
+    uint slot = pixel * uint(LEAP_PIXEL_EVENTS) + n;
+    event_t[slot] = t0;
+    event_key[slot] = (b.info.x << 2) | b.info.z;
+    event_t[slot + 1u] = t1;
+    event_key[slot + 1u] = (b.info.y << 2) | b.info.w;
 }

@@ -4,38 +4,47 @@
 #include "shared.h"
 #include "bindings.glsl"
 
-// One instance per box, 36 vertices: 6 faces x 2 triangles. Only back faces (seen from the
-// eye) are kept, so every covered pixel gets exactly one fragment per box; front faces are
-// moved outside the clip volume. The box grows by a fraction of a pixel so that raster
-// snapping never loses a pixel whose ray touches the box; the fragment shader tests the
-// exact box.
+// One instance per box, 6 vertices: a screen rectangle (two triangles) bounding the box's
+// projection, so every pixel whose ray can touch the box gets exactly one fragment; the
+// fragment shader tests the exact box. A rectangle costs the rasteriser far less per box than
+// the box's faces would (2 triangles instead of 12), for some more fragments at its corners.
+// The box grows by a fraction of a pixel and the rectangle by one pixel, so raster snapping
+// never loses a pixel. A box reaching behind the eye plane takes the whole screen; one wholly
+// behind it is dropped.
 layout(location = 0) flat out uint box_index;
 
 void main()
 {
     leap_box_gpu b = boxes[gl_InstanceIndex];
-    int face = gl_VertexIndex / 6, corner = gl_VertexIndex % 6;
-    int axis = face >> 1, side = face & 1;
-    const int quad[6] = int[6](0, 1, 2, 2, 1, 3);
-    int q = quad[corner];
-    int u = (axis + 1) % 3, v = (axis + 2) % 3;
     vec3 centre = 0.5 * (b.lo.xyz + b.hi.xyz);
     float grow_px = frame.raster.y;
     float grow = frame.image.w != 0u ? frame.raster.x * grow_px
                                      : frame.raster.x * grow_px * (distance(frame.origin0.xyz, centre) + length(b.hi.xyz - b.lo.xyz));
     vec3 lo = b.lo.xyz - grow, hi = b.hi.xyz + grow;
-    vec3 p;
-    p[axis] = side == 1 ? hi[axis] : lo[axis];
-    p[u] = (q & 1) != 0 ? hi[u] : lo[u];
-    p[v] = (q & 2) != 0 ? hi[v] : lo[v];
-
-    // Outward normal of this face; back face = the eye (or, orthographic, the view
-    // direction) lies on its inner side.
-    float sgn = side == 1 ? 1.0 : -1.0;
-    bool back = frame.image.w != 0u ? sgn * frame.dir0[axis] > 0.0
-                                    : sgn * (frame.origin0[axis] - p[axis]) < 0.0;
-    vec4 pos = vec4(p, 1.0);
-    gl_Position = vec4(dot(frame.clip_x, pos), dot(frame.clip_y, pos), 0.0, dot(frame.clip_w, pos));
-    if (!back) gl_Position = vec4(4.0, 4.0, 0.0, 1.0); // culled: outside the clip volume
+    vec2 rmin = vec2(3.0e38), rmax = vec2(-3.0e38);
+    float wmin = 3.0e38, wmax = -3.0e38;
+    for (int k = 0; k < 8; ++k) {
+        vec4 p = vec4((k & 1) != 0 ? hi.x : lo.x, (k & 2) != 0 ? hi.y : lo.y, (k & 4) != 0 ? hi.z : lo.z, 1.0);
+        float w = dot(frame.clip_w, p);
+        vec2 ndc = vec2(dot(frame.clip_x, p), dot(frame.clip_y, p)) / w;
+        rmin = min(rmin, ndc);
+        rmax = max(rmax, ndc);
+        wmin = min(wmin, w);
+        wmax = max(wmax, w);
+    }
+    vec2 margin = 2.0 / vec2(frame.image.xy); // one pixel in NDC
+    const float edge = 1.5;                   // past the screen edge, inside the guard band
+    if (!(wmin > 1.0e-6)) {
+        rmin = vec2(-edge);
+        rmax = vec2(edge);
+    } else {
+        rmin = clamp(rmin - margin, -edge, edge);
+        rmax = clamp(rmax + margin, -edge, edge);
+    }
+    int corner = gl_VertexIndex;
+    const int quad[6] = int[6](0, 1, 2, 2, 1, 3);
+    int q = quad[corner];
+    gl_Position = vec4((q & 1) != 0 ? rmax.x : rmin.x, (q & 2) != 0 ? rmax.y : rmin.y, 0.0, 1.0);
+    if (!(wmax > 0.0)) gl_Position = vec4(4.0, 4.0, 0.0, 1.0); // wholly behind the eye
     box_index = uint(gl_InstanceIndex);
 }

@@ -166,10 +166,8 @@ vec4 leap_tf_lookup(leap_tf_map m, float s)
 // (leap_tf_gpu_table), so no sample raises its opacity to a power, and the depth threshold
 // is corrected likewise; false: each sample is corrected, for tables where the host's
 // correction would be off (leap_tf_precorrect_ok).
-// leap_march_per_cell: which march loop the mode runs (per_cell_loop in src/renderer.c).
 layout(constant_id = 0) const bool leap_tf_precorrected = false;
 layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
-layout(constant_id = 2) const bool leap_march_per_cell = true;
 
 // Opacity of one sample of TF colour c, corrected for the step. A zero opacity gives 0
 // exactly (pow(1, x) == 1), leaving the sums untouched.
@@ -194,14 +192,13 @@ void leap_composite_tf(inout leap_accum acc, vec4 c, float t)
     leap_composite(acc, c.rgb, leap_sample_alpha(c), c.a > frame.limits.y, t);
 }
 
-// Both march loops take the lattice samples in [ta, tb], skipping indices below j_next (so
-// adjacent intervals never take a sample twice); j_next ends one past the last index visited.
-
+// Takes the lattice samples in [ta, tb], skipping indices below j_next (so adjacent intervals
+// never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
 // colour once, so its samples only composite (lavapipe runs every side of a branch that
-// any lane takes, so per-sample branches would cost both sides).
-void leap_march_interval_per_cell(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next,
-                                  inout leap_accum acc)
+// any lane takes, so per-sample branches would cost both sides). Every mode runs this loop:
+// measured on lavapipe, it beat a loop that checks the cell at every sample in all of them.
+void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
     leap_tf_map tf = leap_tf_map_make();
@@ -242,35 +239,6 @@ void leap_march_interval_per_cell(leap_ray r, leap_lattice lat, float ta, float 
         }
     }
     j_next = j;
-}
-
-// One loop, the cell checked at every sample. Its calls are cheap when an interval holds
-// few samples, which is what octree leaves and sparseleap segments mostly are; the per-cell
-// loop above costs more per call.
-void leap_march_interval_per_sample(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next,
-                                    inout leap_accum acc)
-{
-    float j = max(leap_lattice_first(lat, ta), j_next);
-    leap_tf_map tf = leap_tf_map_make();
-    leap_cell_cursor cur = leap_cursor_init();
-    for (float t = lat.t0 + j * lat.dt; t <= tb; j += 1.0, t = lat.t0 + j * lat.dt) {
-        // No clamp on q: see the per-cell loop.
-        vec3 q = r.origin + t * r.dir;
-        ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
-        if (any(notEqual(cell, cur.cell))) leap_cursor_seek(cur, cell);
-        float s = cur.constant ? cur.value : textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-        leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
-        if (leap_accum_done(acc)) { j += 1.0; break; }
-    }
-    j_next = j;
-}
-
-void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
-{
-    if (leap_march_per_cell)
-        leap_march_interval_per_cell(r, lat, ta, tb, j_next, acc);
-    else
-        leap_march_interval_per_sample(r, lat, ta, tb, j_next, acc);
 }
 
 #endif

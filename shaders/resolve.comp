@@ -18,48 +18,60 @@ void main()
     uvec2 pix = gl_GlobalInvocationID.xy;
     if (pix.x >= frame.image.x || pix.y >= frame.image.y) return;
     uint pixel = pix.y * frame.image.x + pix.x;
-    uint flags = pixel_lists[pixel].x & LEAP_PIXEL_OVERFLOW; // pool overflow from the raster pass
-
-    float ts[LEAP_MAX_EVENTS];
-    uint keys[LEAP_MAX_EVENTS];
-    uint n = 0u, total = 0u;
-    for (uint e = heads[pixel]; e != 0u; e = events[e - 1u].next) {
-        if (n < uint(LEAP_MAX_EVENTS)) {
-            // Insertion sort on the way in: lists are short.
-            float t = events[e - 1u].t;
-            uint key = events[e - 1u].key;
-            uint j = n;
-            while (j > 0u && (ts[j - 1u] > t || (ts[j - 1u] == t && keys[j - 1u] > key))) {
-                ts[j] = ts[j - 1u];
-                keys[j] = keys[j - 1u];
-                --j;
-            }
-            ts[j] = t;
-            keys[j] = key;
-            ++n;
-        }
-        ++total;
+    uint total = event_counts[pixel];
+    uint flags = total > frame.lists.x ? LEAP_PIXEL_OVERFLOW : 0u;
+    uint n = min(total, frame.lists.x);
+    if (total == 0u) { // most pixels of a sparse scene: nothing to sort or walk
+        pixel_lists[pixel] = uvec4(0u);
+        return;
     }
-    if (total > n) flags |= LEAP_PIXEL_OVERFLOW;
+
+    // Sorted insertion into a fixed set of slots indexed only by constants (the loops over
+    // slots unroll), so the arrays live in registers: lavapipe runs dynamically indexed
+    // arrays through memory, lane by lane. Empty slots hold t = +inf, which sorts last.
+    float ts[LEAP_PIXEL_EVENTS];
+    uint keys[LEAP_PIXEL_EVENTS];
+    for (int s = 0; s < LEAP_PIXEL_EVENTS; ++s) {
+        ts[s] = 1.0 / 0.0;
+        keys[s] = 0xffffffffu;
+    }
+    uint base = pixel * uint(LEAP_PIXEL_EVENTS);
+    for (uint e = 0u; e < n; ++e) {
+        float t = event_t[base + e];
+        uint key = event_key[base + e];
+        for (int s = 0; s < LEAP_PIXEL_EVENTS; ++s) {
+            bool before = t < ts[s] || (t == ts[s] && key < keys[s]);
+            float ts_s = ts[s];
+            uint keys_s = keys[s];
+            ts[s] = before ? t : ts_s;
+            keys[s] = before ? key : keys_s;
+            t = before ? ts_s : t;
+            key = before ? keys_s : key;
+        }
+    }
 
     uint seg_base = pixel * frame.lists.y;
     uint count = 0u, unknown_mask = 0u;
     uint cls = LEAP_CLASS_EMPTY; // outside every box
     float start = 0.0;
-    uint i = 0u;
-    while (i < n && flags == 0u) {
-        float t = ts[i];
-        uint next = cls;
-        for (; i < n && ts[i] == t; ++i) next = keys[i] & 3u;
-        if (next == cls) continue;
-        if (marched(cls)) {
-            if (count == frame.lists.y) { flags |= LEAP_PIXEL_OVERFLOW; break; }
-            segments[seg_base + count] = vec2(start, t);
-            if (cls == LEAP_CLASS_UNKNOWN) unknown_mask |= 1u << count;
-            ++count;
+    for (int s = 0; s < LEAP_PIXEL_EVENTS; ++s) {
+        if (uint(s) >= n) break;
+        // The last event of a group of equal t gives the class of what follows.
+        bool last = uint(s) + 1u >= n || ts[min(s + 1, LEAP_PIXEL_EVENTS - 1)] != ts[s];
+        uint next = keys[s] & 3u;
+        if (uint(s) < n && flags == 0u && last && next != cls) {
+            if (marched(cls)) {
+                if (count == frame.lists.y) {
+                    flags |= LEAP_PIXEL_OVERFLOW;
+                } else {
+                    segments[seg_base + count] = vec2(start, ts[s]);
+                    if (cls == LEAP_CLASS_UNKNOWN) unknown_mask |= 1u << count;
+                    ++count;
+                }
+            }
+            cls = next;
+            start = ts[s];
         }
-        cls = next;
-        start = t;
     }
     pixel_lists[pixel] = uvec4(count | flags, total, unknown_mask, 0u);
 }

@@ -31,9 +31,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_OUT_AUX 5    /* storage vec4[] per pixel: depth, samples, naive samples,
                                      w = 1 while the ray waits for its next chunk */
 #define LEAP_BINDING_BOXES 6      /* storage leap_box_gpu[] in view DFS order */
-#define LEAP_BINDING_HEADS 7      /* storage uint[] per pixel: head of its event list + 1 (0 = empty) */
-#define LEAP_BINDING_EVENTS 8     /* storage leap_event_gpu[]: event pool */
-#define LEAP_BINDING_COUNTERS 9   /* storage uint[4]: x = event pool entries used */
+#define LEAP_BINDING_EVENT_COUNTS 7 /* storage uint[] per pixel: events appended (may exceed the capacity) */
+#define LEAP_BINDING_EVENT_T 8    /* storage float[] per pixel, LEAP_PIXEL_EVENTS each: event t */
+#define LEAP_BINDING_EVENT_KEY 9  /* storage uint[] per pixel, LEAP_PIXEL_EVENTS each: order << 2 | class after */
 #define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel max_segments (t0, t1) */
 #define LEAP_BINDING_PIXELS 11    /* storage uvec4[] per pixel: see LEAP_PIXEL_* */
 #define LEAP_BINDING_TREE 12      /* storage uint[]: occupancy tree, 8 words per node */
@@ -96,8 +96,10 @@ LEAP_STRUCT(leap_push_gpu) {
     uint32_t pad;
 } LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
 
-/* Capacities of the per-pixel lists. */
-#define LEAP_MAX_EVENTS 64    /* events one pixel can sort in the resolve pass */
+/* Capacities of the per-pixel lists. Each pixel owns LEAP_PIXEL_EVENTS event slots (the raster
+ * pass appends with one atomic on the pixel's own counter, no shared pool), and the resolve
+ * pass sorts them in registers. */
+#define LEAP_PIXEL_EVENTS 16  /* events one pixel can hold and sort (8 box hits) */
 #define LEAP_MAX_SEGMENTS 12  /* marched segments stored per pixel */
 
 /* Occupancy classes. */
@@ -144,16 +146,9 @@ LEAP_STRUCT(leap_frame_gpu) {
                                  pixel (ortho), y = box growth in pixels for raster coverage */
     LEAP_VEC4 bbox_min;       /* 352: xyz, non-empty bounds (bbox mode) */
     LEAP_VEC4 bbox_max;       /* 368 */
-    LEAP_UVEC4 lists;         /* 384: x = event pool capacity, y = segments per pixel, z = box count,
+    LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,
                                  w = occupancy tree depth (root edge = 2^w cells) */
 } LEAP_STRUCT_END(leap_frame_gpu) /* 400 bytes */
 
-/* One ray event in the pool; a pixel's events form a linked list. */
-LEAP_STRUCT(leap_event_gpu) {
-    float t;       /* 0: ray parameter (index units) */
-    uint32_t key;  /* 4: order << 2 | class after the event */
-    uint32_t next; /* 8: next event index + 1 in this pixel's list (0 = end) */
-    uint32_t pad;  /* 12 */
-} LEAP_STRUCT_END(leap_event_gpu) /* 16 bytes */
 
 #endif

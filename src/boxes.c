@@ -46,6 +46,7 @@
 #include "leap/occupancy.h"
 #include "util.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -83,7 +84,17 @@ struct leap_boxes {
     uint32_t count;
     uint32_t boxes, boxes_unmerged, max_depth;
     double build_ms;
+    int clip;          /* the cut: boxes end at the grid's cells */
+    uint32_t cells[3];
+    double cost_ns;    /* the cut's estimate (per unit ray density), 0 for exact boxes */
 };
+
+/* The cost-model cut: per stored node and parent class, the cheapest cost of its subtree and
+ * the class the node takes for it. */
+typedef struct cut_entry {
+    double cost[LEAP_CLASS_COUNT];
+    uint8_t cls[LEAP_CLASS_COUNT];
+} cut_entry;
 
 typedef struct vbuilder {
     const leap_occupancy *occ;
@@ -93,6 +104,12 @@ typedef struct vbuilder {
     int merge;
     uint32_t unmerged;
     int oom;
+    /* cut (step > 0): classes chosen by cost, boxes clipped to the grid */
+    int cut;
+    double step, hit_ns, dense_ns, const_ns;
+    double box_fixed;   /* box_ns / ray density: a box's fixed cost in the same units */
+    uint32_t cells[3];
+    cut_entry *table;   /* per stored node */
 } vbuilder;
 
 static int reserve(vbuilder *b, size_t need)
@@ -168,14 +185,119 @@ static void merge_slots(vbuilder *b, uint32_t slot[8], uint32_t child_level)
     }
 }
 
+/* ---- cost-model cut ----------------------------------------------------------------------
+ * Every point of a NONEMPTY leaf must lie in a marched region; an EMPTY leaf may be marched too
+ * (its samples have zero opacity, so the image is unchanged). The cut picks, per node, the
+ * class that minimises the expected frame cost, estimated per unit of ray density for rays
+ * from all directions (Cauchy: the rays crossing a convex box number its surface area / 4,
+ * and their chords sum to its volume):
+ *   - an emitted box costs hit_ns per ray that crosses it (two raster events, their share of
+ *     the resolve, one more segment to start in the composite), plus box_ns once per frame
+ *     (set-up of its instance in the raster), divided by the ray density to share the units;
+ *   - a marched EMPTY leaf costs its volume / step samples, at const_ns where the GPU volume
+ *     stores it as constants and dense_ns where it is sampled from the atlas.
+ * A NONEMPTY leaf is always marched (a constant offset, left out). UNKNOWN leaves keep their
+ * class (an occupancy miss must be reported). The minimum is found bottom-up over the stored
+ * nodes for each possible parent class; a single-class subtree (implicit or stored leaf) is
+ * priced directly. Boxes are clipped to the grid's cells: the composite never marches beyond
+ * the domain, so neither their events nor their samples are paid outside it. */
+
+/* Clipped extent in voxels of the cube of edge 2^height cells at org; 0 when outside. */
+static int clipped_extent(const vbuilder *b, const uint32_t org[3], uint32_t height, double ext[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        double lo = org[a], hi = (double)org[a] + (double)((uint64_t)1 << height);
+        if (hi > b->cells[a]) hi = b->cells[a];
+        if (!(hi > lo)) return 0;
+        ext[a] = (hi - lo) * LEAP_CELL;
+    }
+    return 1;
+}
+
+static double box_cost(const vbuilder *b, const double e[3])
+{
+    return b->box_fixed + b->hit_ns * 0.5 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
+}
+
+/* Cheapest class and cost of a single-class subtree under a parent of class p. */
+static uint32_t leaf_choice(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p,
+                            double *cost)
+{
+    const uint32_t cls = leap_occ_internal_ref_class(b->occ, ref);
+    double e[3];
+    if (!clipped_extent(b, org, height, e)) {
+        *cost = 0.0;
+        return p; /* outside the grid: never marched, never emitted */
+    }
+    const double box = box_cost(b, e);
+    if (cls != LEAP_CLASS_EMPTY) {
+        *cost = cls != p ? box : 0.0;
+        return cls;
+    }
+    const double ns = leap_occ_internal_ref_constant(b->occ, ref) ? b->const_ns : b->dense_ns;
+    const double march = e[0] * e[1] * e[2] / b->step * ns;
+    const double as_empty = p != LEAP_CLASS_EMPTY ? box : 0.0;
+    const double as_marched = (p != LEAP_CLASS_NONEMPTY ? box : 0.0) + march;
+    *cost = as_empty <= as_marched ? as_empty : as_marched;
+    return as_empty <= as_marched ? LEAP_CLASS_EMPTY : LEAP_CLASS_NONEMPTY;
+}
+
+static double child_cost(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p)
+{
+    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) return b->table[ref].cost[p];
+    double c;
+    leaf_choice(b, ref, height, org, p, &c);
+    return c;
+}
+
+/* Fills the table bottom-up: children are stored after their parents. */
+static void cut_solve(vbuilder *b)
+{
+    for (size_t i = leap_occ_internal_node_count(b->occ); i-- > 0;) {
+        uint32_t org[3], level, child[8];
+        leap_occ_internal_node(b->occ, (uint32_t)i, org, &level, child, NULL);
+        double e[3];
+        const int inside = clipped_extent(b, org, level, e);
+        const double box = inside ? box_cost(b, e) : 0.0;
+        double sum[LEAP_CLASS_COUNT] = {0};
+        for (int k = 0; k < 8; ++k) {
+            uint32_t corg[3];
+            for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (level - 1));
+            for (uint32_t c = 0; c < LEAP_CLASS_COUNT; ++c) sum[c] += child_cost(b, child[k], level - 1, corg, c);
+        }
+        cut_entry *t = &b->table[i];
+        for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
+            uint32_t best = p;
+            double best_cost = sum[p];
+            for (uint32_t c = 0; c < LEAP_CLASS_COUNT; ++c)
+                if (sum[c] + box < best_cost) best = c, best_cost = sum[c] + box;
+            t->cost[p] = best_cost;
+            t->cls[p] = (uint8_t)best;
+        }
+    }
+}
+
+/* The class the node `ref` takes under a parent of class p: its own (exact boxes), or the
+ * cut's choice. */
+static uint32_t node_class(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p)
+{
+    if (!b->cut) return leap_occ_internal_ref_class(b->occ, ref);
+    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) return b->table[ref].cls[p];
+    double c;
+    return leaf_choice(b, ref, height, org, p, &c);
+}
+
 /* Builds the vnodes of the subtree of `ref` (a node of edge 2^height cells at org). Returns
  * the vnode that stands for it, or NONE when it emits nothing. */
 static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3],
                        uint32_t pcls, int is_root)
 {
     if (b->oom) return NONE;
-    const uint32_t cls = leap_occ_internal_ref_class(b->occ, ref);
-    const int emitted = is_root || cls != pcls;
+    const uint32_t cls = node_class(b, ref, height, org, pcls);
+    /* Exact boxes keep the root's box whatever its class; the cut drops it when it is EMPTY
+     * (the class outside every box), and anything outside the grid. */
+    double e[3];
+    const int emitted = b->cut ? cls != pcls && clipped_extent(b, org, height, e) : is_root || cls != pcls;
     const uint32_t level = b->depth - height;
     uint32_t slot[8];
     for (int k = 0; k < 8; ++k) slot[k] = NONE;
@@ -214,22 +336,144 @@ static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const uint32_
     return vi;
 }
 
-leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, leap_boxes **out,
-                              leap_error *err)
+/* Cost of marching every EMPTY part of the subtree `ref` (cube of edge 2^height cells at org)
+ * inside the cell box [lo, hi); INFINITY if UNKNOWN cells lie there (their segments must be
+ * listed as such). */
+static double marched_empty_cost(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3],
+                                 const uint32_t lo[3], const uint32_t hi[3])
+{
+    double volume = 1.0;
+    for (int a = 0; a < 3; ++a) {
+        const double l = fmax((double)org[a], (double)lo[a]);
+        const double h = fmin((double)org[a] + (double)((uint64_t)1 << height), (double)hi[a]);
+        if (!(h > l)) return 0.0;
+        volume *= (h - l) * LEAP_CELL;
+    }
+    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+        uint32_t child[8];
+        leap_occ_internal_node(b->occ, ref, NULL, NULL, child, NULL);
+        double sum = 0.0;
+        for (int k = 0; k < 8; ++k) {
+            uint32_t corg[3];
+            for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (height - 1));
+            sum += marched_empty_cost(b, child[k], height - 1, corg, lo, hi);
+        }
+        return sum;
+    }
+    const uint32_t cls = leap_occ_internal_ref_class(b->occ, ref);
+    if (cls == LEAP_CLASS_UNKNOWN) return INFINITY;
+    if (cls != LEAP_CLASS_EMPTY) return 0.0;
+    return volume / b->step * (leap_occ_internal_ref_constant(b->occ, ref) ? b->const_ns : b->dense_ns);
+}
+
+/* Defaults of the cut's cost model, measured on lavapipe (2 cores, 512x512, scans and sparse
+ * grids; see docs/ARCHITECTURE.md). */
+#define CUT_HIT_NS 75.0
+#define CUT_DENSE_NS 12.0
+#define CUT_CONST_NS 0.5
+#define CUT_BOX_NS 2400.0
+#define CUT_PIXELS (512.0 * 512.0)
+/* Per pixel and frame, what building lists costs whatever the boxes: the resolve pass's
+ * invocation and the raster's set-up (measured: a frame with no box hit). */
+#define CUT_LIST_NS_PER_PIXEL 25.0
+
+leap_result leap_boxes_create(const leap_boxes_desc *desc, leap_boxes **out, leap_error *err)
 {
     if (out) *out = NULL;
-    if (!occ || !out) return leap_fail(err, LEAP_ERR_USAGE, "boxes: missing occupancy or output");
+    if (!desc || !desc->occupancy || !out) return leap_fail(err, LEAP_ERR_USAGE, "boxes: missing occupancy or output");
+    if (desc->step < 0 || !isfinite(desc->step))
+        return leap_fail(err, LEAP_ERR_USAGE, "boxes: the step must be 0 (exact boxes) or positive, not %g", desc->step);
+    const leap_occupancy *occ = desc->occupancy;
     const double t0 = leap__now_ms();
     vbuilder b;
     memset(&b, 0, sizeof b);
     b.occ = occ;
-    b.merge = merge_siblings != 0;
+    b.merge = desc->merge_siblings != 0;
+    b.cut = desc->step > 0;
+    b.step = desc->step;
+    b.hit_ns = desc->costs.hit_ns > 0 ? desc->costs.hit_ns : CUT_HIT_NS;
+    b.dense_ns = desc->costs.dense_sample_ns > 0 ? desc->costs.dense_sample_ns : CUT_DENSE_NS;
+    b.const_ns = desc->costs.const_sample_ns > 0 ? desc->costs.const_sample_ns : CUT_CONST_NS;
+    leap_occ_internal_cells(occ, b.cells);
+    /* Ray density: the frame's pixels spread over the square of the grid's diagonal, about
+     * what a camera framing the grid sees. */
+    double diag2 = 0.0;
+    for (int a = 0; a < 3; ++a) diag2 += ((double)b.cells[a] * LEAP_CELL) * ((double)b.cells[a] * LEAP_CELL);
+    const double pixels = desc->pixels > 0 ? desc->pixels : CUT_PIXELS;
+    const double box_ns = desc->costs.box_ns > 0 ? desc->costs.box_ns : CUT_BOX_NS;
+    b.box_fixed = diag2 > 0 ? box_ns * diag2 / pixels : 0.0;
     leap_occupancy_stats ost;
     leap_occupancy_get_stats(occ, &ost);
     if (!reserve(&b, ost.nodes / 4 + 64)) b.oom = 1;
+    const size_t stored = leap_occ_internal_node_count(occ);
+    if (!b.oom && b.cut) {
+        b.table = malloc((stored ? stored : 1) * sizeof *b.table);
+        if (!b.table) b.oom = 1;
+        else cut_solve(&b);
+    }
     const uint32_t org[3] = {0, 0, 0};
     const uint32_t root_ref = leap_occ_internal_root(occ, &b.depth);
-    const uint32_t root = b.oom ? NONE : vbuild(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY, 1);
+    double cost = 0.0;
+    if (!b.oom && b.cut) cost = child_cost(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY);
+    /* One box around every non-EMPTY cell needs no lists at all (the renderer marches its
+     * chord): it wins when what the cut saves does not pay for building lists. */
+    double nb_lo[3], nb_hi[3];
+    int single = 0;
+    uint32_t single_lo[3] = {0}, single_hi[3] = {0};
+    if (!b.oom && b.cut && leap_occupancy_nonempty_bounds(occ, nb_lo, nb_hi)) {
+        double e[3];
+        for (int a = 0; a < 3; ++a) {
+            single_lo[a] = (uint32_t)floor(nb_lo[a] / LEAP_CELL);
+            single_hi[a] = (uint32_t)ceil(nb_hi[a] / LEAP_CELL);
+            e[a] = ((double)single_hi[a] - single_lo[a]) * LEAP_CELL;
+        }
+        const double single_cost = box_cost(&b, e) + marched_empty_cost(&b, root_ref, b.depth, org, single_lo, single_hi);
+        single = single_cost <= cost + CUT_LIST_NS_PER_PIXEL * diag2;
+        if (single) cost = single_cost;
+    }
+    const uint32_t root = b.oom || single ? NONE : vbuild(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY, 1);
+    free(b.table);
+    b.table = NULL;
+    if (single) {
+        leap_boxes *bx = calloc(1, sizeof *bx);
+        bnode *n = calloc(1, sizeof *n);
+        free(b.v);
+        if (!bx || !n) {
+            free(bx);
+            free(n);
+            return leap_fail(err, LEAP_ERR_OOM, "boxes: out of memory");
+        }
+        for (int a = 0; a < 3; ++a) {
+            n->lo[a] = single_lo[a];
+            while (((uint64_t)1 << n->ext[a]) < (uint64_t)single_hi[a] - single_lo[a]) n->ext[a]++;
+        }
+        n->cls = LEAP_CLASS_NONEMPTY;
+        n->pcls = LEAP_CLASS_EMPTY;
+        n->flags = F_EMITTED;
+        bx->n = n;
+        bx->count = 1;
+        bx->boxes = bx->boxes_unmerged = 1;
+        bx->clip = 1; /* the box ends where the non-EMPTY cells end */
+        memcpy(bx->cells, single_hi, sizeof bx->cells);
+        bx->cost_ns = cost;
+        bx->build_ms = leap__now_ms() - t0;
+        *out = bx;
+        return LEAP_OK;
+    }
+    /* The cut may emit nothing at all (nothing to march): an empty box set. */
+    if (!b.oom && root == NONE && b.cut) {
+        leap_boxes *bx = calloc(1, sizeof *bx);
+        if (!bx) {
+            free(b.v);
+            return leap_fail(err, LEAP_ERR_OOM, "boxes: out of memory");
+        }
+        bx->clip = 1;
+        memcpy(bx->cells, b.cells, sizeof bx->cells);
+        bx->build_ms = leap__now_ms() - t0;
+        free(b.v);
+        *out = bx;
+        return LEAP_OK;
+    }
 
     /* count the reachable vnodes, then lay them out breadth-first */
     uint32_t *queue = NULL;
@@ -283,6 +527,9 @@ leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, lea
     free(b.v);
     bx->boxes = ids;
     bx->boxes_unmerged = b.unmerged;
+    bx->clip = b.cut;
+    memcpy(bx->cells, b.cells, sizeof bx->cells);
+    bx->cost_ns = cost;
     bx->max_depth = max_level;
     bx->build_ms = leap__now_ms() - t0;
     *out = bx;
@@ -306,10 +553,12 @@ void leap_boxes_get_stats(const leap_boxes *boxes, leap_boxes_stats *out)
     out->boxes_unmerged = boxes->boxes_unmerged;
     out->max_depth = boxes->max_depth;
     out->build_ms = boxes->build_ms;
+    out->cost_ns = boxes->cost_ns;
 }
 
 typedef struct order_ctx {
     const bnode *n;
+    const leap_boxes *boxes;
     double eye[3];
     int ortho;
     uint32_t ortho_oct;
@@ -329,7 +578,9 @@ static void visit(order_ctx *c, uint32_t ni)
         float lo[3], hi[3];
         for (int a = 0; a < 3; ++a) {
             lo[a] = (float)((double)v->lo[a] * LEAP_CELL);
-            hi[a] = (float)(((double)v->lo[a] + (double)((uint64_t)1 << v->ext[a])) * LEAP_CELL);
+            double h = (double)v->lo[a] + (double)((uint64_t)1 << v->ext[a]);
+            if (c->boxes->clip && h > c->boxes->cells[a]) h = c->boxes->cells[a];
+            hi[a] = (float)(h * LEAP_CELL);
         }
         g->lo.x = lo[0], g->lo.y = lo[1], g->lo.z = lo[2], g->lo.w = 0.0f;
         g->hi.x = hi[0], g->hi.y = hi[1], g->hi.z = hi[2], g->hi.w = 0.0f;
@@ -367,10 +618,11 @@ double leap_boxes_order(const leap_boxes *boxes, const double eye_or_dir[3], int
                         leap_box_gpu *out, leap_box_meta *meta)
 {
     const double t0 = leap__now_ms();
-    if (!boxes || !out) return 0.0;
+    if (!boxes || !out || !boxes->n) return 0.0;
     order_ctx c;
     memset(&c, 0, sizeof c);
     c.n = boxes->n;
+    c.boxes = boxes;
     c.ortho = ortho != 0;
     c.out = out;
     c.meta = meta;

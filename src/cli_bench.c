@@ -29,7 +29,12 @@ static const char *bench_help =
     "Renders every volume x mode x step x view x size, times each frame per stage (median\n"
     "and spread of --repeats after --warmup frames), and measures its error against the CPU\n"
     "double-precision reference rendered with a step --ref-factor times finer. Writes\n"
-    "DIR/results.csv, DIR/report.md and plots DIR/*.png + *.svg (gnuplot).\n"
+    "DIR/results.csv, DIR/report.md and plots DIR/*.png + *.svg (gnuplot). The report gives\n"
+    "per configuration the stages' ms, the share of list generation (order + raster +\n"
+    "resolve) in the frame, ns per sample, events and segments per pixel, the ideal speedup\n"
+    "(naive samples / the mode's samples) and frame / floor (floor = the mode's samples at\n"
+    "naive's ns per sample + 40 ns per pixel), and per volume and size the fixed ns per\n"
+    "pixel of a frame in which no ray takes a sample (every value transparent).\n"
     "\n"
     "  -o DIR              output directory (created if missing)\n"
     "  --config FILE.json  the options below as JSON keys (volumes, modes, steps, views,\n"
@@ -46,6 +51,8 @@ static const char *bench_help =
     "  --ref-factor F      reference step = smallest step / F (default 4)\n"
     "  --tf PRESET|FILE    transfer function for every volume (default per volume)\n"
     "  --no-reference      skip the reference and the error columns\n"
+    "  --exact-boxes       sparseleap rasterizes every class change of the occupancy tree\n"
+    "                      (default: the cost-model cut for each step)\n"
     "  --vs-vdb-render     also time OpenVDB's vdb_render (looked up on PATH) on every volume x\n"
     "                      view x size x step: same grid, camera (eye, target, up, field of\n"
     "                      view), image size and primary step (both count steps in index-space\n"
@@ -69,7 +76,7 @@ typedef struct bench_options {
     double steps[MAX_ITEMS];
     int nsteps;
     int sizes[MAX_ITEMS][2], nsizes;
-    int views, repeats, warmup, no_reference;
+    int views, repeats, warmup, no_reference, exact_boxes;
     double ref_factor, elevation;
     const char *tf, *device, *out;
     int vs_vdb;             /* --vs-vdb-render */
@@ -85,6 +92,14 @@ struct run_result {
     double rmse, psnr, max_abs;
     double trace_ms; /* vdb_render rows: its own ray-tracing time (median); NaN otherwise */
 };
+
+/* Fixed per-pixel cost, per volume x size x mode: the composite pass of a frame in which no
+ * ray takes a sample in the skipping modes (every value transparent, first view), in ns per
+ * pixel; naive still takes every sample there, so its entry is its ns per sample. NaN: not
+ * measured. */
+typedef struct fixed_costs {
+    double ns[MAX_ITEMS][MAX_ITEMS][MAX_ITEMS];
+} fixed_costs;
 
 /* mode is an index into bench_options.modes, or VDB_MODE for a vdb_render row. */
 typedef struct bench_row {
@@ -291,6 +306,38 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_v
     else r.rmse = r.psnr = r.max_abs = NAN;
     *out = r;
     return LEAP_OK;
+}
+
+/* Fills fixed->ns[vi][si][*] (see fixed_costs): every value transparent, the first orbit
+ * view, the first step; the scene's transfer function is restored afterwards. */
+static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const bench_options *o, int vi, int si,
+                                 float *img, fixed_costs *fixed, leap_error *err)
+{
+    const int w = o->sizes[si][0], h = o->sizes[si][1];
+    const double pixels = (double)w * h;
+    leap_camera cam;
+    leap_view view;
+    leap_result lr;
+    if ((lr = leap_camera_orbit(s->center, s->radius, 0.0, o->elevation, 0, 40, 0, &cam, err)) ||
+        (lr = leap_scene_view(s, &cam, w, h, &view, err)) || (lr = leap_scene_set_step(s, o->steps[0], err)))
+        return lr;
+    leap_tf keep = s->tf, blank = s->tf;
+    for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) blank.rgba[i][3] = 0.0f;
+    const double lo = s->march.range_lo, hi = s->march.range_hi;
+    if ((lr = leap_scene_set_tf(s, &blank, lo, hi, err)) || (lr = leap_renderer_set_tf(renderer, &s->tf, err)))
+        return lr;
+    leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
+    for (int m = 0; m < o->nmodes && !lr; ++m) {
+        run_result r;
+        if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, &r, err))) break;
+        fixed->ns[vi][si][m] = o->modes[m] == LEAP_RENDER_NAIVE
+                                   ? (r.spp > 0 ? r.composite_ms * 1e6 / (r.spp * pixels) : NAN)
+                                   : r.composite_ms * 1e6 / pixels;
+    }
+    leap_result restore = leap_scene_set_tf(s, &keep, lo, hi, err);
+    if (!restore) restore = leap_renderer_set_tf(renderer, &s->tf, err);
+    leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
+    return lr ? lr : restore;
 }
 
 /* ---- vdb_render, OpenVDB's example ray tracer, as an external timing baseline ----
@@ -554,6 +601,7 @@ static const char *base_name(const char *path)
 /* Median over views of one (volume, size, mode, step) group; means for the other columns. */
 typedef struct summary {
     double frame_ms, raster_ms, resolve_ms, composite_ms, order_ms, spp, naive_spp, rmse, psnr, max_abs;
+    double events, segments;
     double trace_ms; /* vdb_render: median over views of its ray-tracing time */
     int n;
 } summary;
@@ -569,6 +617,7 @@ static summary summarize(const bench_row *rows, size_t nrows, int vol, int size,
         frames[s.n++] = r->r.frame_ms[0];
         s.raster_ms += r->r.raster_ms, s.resolve_ms += r->r.resolve_ms, s.composite_ms += r->r.composite_ms;
         s.order_ms += r->r.order_ms, s.spp += r->r.spp, s.naive_spp += r->r.naive_spp;
+        s.events += r->r.events, s.segments += r->r.segments;
         s.rmse += r->r.rmse, s.psnr += r->r.psnr, s.max_abs = fmax(s.max_abs, r->r.max_abs);
     }
     if (!s.n) return s;
@@ -578,6 +627,7 @@ static summary summarize(const bench_row *rows, size_t nrows, int vol, int size,
     s.trace_ms = traces[s.n / 2];
     double k = 1.0 / s.n;
     s.raster_ms *= k, s.resolve_ms *= k, s.composite_ms *= k, s.order_ms *= k, s.spp *= k, s.naive_spp *= k;
+    s.events *= k, s.segments *= k;
     s.rmse *= k, s.psnr *= k;
     return s;
 }
@@ -595,8 +645,8 @@ static int fastest_mode(const bench_options *o, const bench_row *rows, size_t nr
 }
 
 /* vdb: NULL without --vs-vdb-render. */
-static int write_report(const bench_options *o, const bench_row *rows, size_t nrows, const char *device,
-                        const vdb_runner *vdb)
+static int write_report(const bench_options *o, const bench_row *rows, size_t nrows, const fixed_costs *fixed,
+                        const char *device, const vdb_runner *vdb)
 {
     int have_errors = !o->no_reference;
     char path[4096];
@@ -647,8 +697,11 @@ static int write_report(const bench_options *o, const bench_row *rows, size_t nr
     double sp_min = 1; /* smallest speedup drawn: the log axis starts below it */
     for (int v = 0; v < o->nvolumes; ++v) {
         for (int si = 0; si < o->nsizes; ++si) {
+            const double pixels = (double)o->sizes[si][0] * o->sizes[si][1];
             fprintf(md, "\n## %s, %dx%d\n\n| mode | step | frame ms | speedup vs naive | samples/px | ideal speedup | "
-                        "raster | resolve | composite | order | RMSE | PSNR dB | max abs |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+                        "raster | resolve | composite | order | lists %% of frame | ns/sample | events/px | segments/px | "
+                        "frame / floor | RMSE | PSNR dB | max abs |\n"
+                        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
                     base_name(o->volumes[v]), o->sizes[si][0], o->sizes[si][1]);
             for (int st = 0; st < o->nsteps; ++st) {
                 summary naive = {0};
@@ -660,17 +713,39 @@ static int write_report(const bench_options *o, const bench_row *rows, size_t nr
                     char speed[32] = "n/a";
                     if (naive.n && s.frame_ms > 0) snprintf(speed, sizeof speed, "%.2f", naive.frame_ms / s.frame_ms);
                     if (!have_errors) s.max_abs = NAN;
-                    fprintf(md, "| %s | %g | %.1f | %s | %.2f | %.1f | %.1f | %.1f | %.1f | %.2f | %.2e | %.1f | %.2e |\n",
+                    /* floor: this mode's samples at naive's ns per sample, plus 40 ns per pixel */
+                    double naive_ns = naive.n && naive.spp > 0 ? naive.composite_ms * 1e6 / (naive.spp * pixels) : NAN;
+                    double floor_ms = (s.spp * pixels * naive_ns + 40.0 * pixels) * 1e-6;
+                    fprintf(md, "| %s | %g | %.1f | %s | %.2f | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f | %.2f | %.2f | %.2f "
+                                "| %.2f | %.2e | %.1f | %.2e |\n",
                             leap_mode_name((leap_mode)o->modes[m]), o->steps[st], s.frame_ms,
                             speed, s.spp, s.spp > 0 ? s.naive_spp / s.spp : 0, s.raster_ms,
-                            s.resolve_ms, s.composite_ms, s.order_ms, s.rmse, s.psnr, s.max_abs);
+                            s.resolve_ms, s.composite_ms, s.order_ms,
+                            s.frame_ms > 0 ? 100.0 * (s.order_ms + s.raster_ms + s.resolve_ms) / s.frame_ms : 0.0,
+                            s.spp > 0 ? s.composite_ms * 1e6 / (s.spp * pixels) : NAN, s.events, s.segments,
+                            floor_ms > 0 ? s.frame_ms / floor_ms : NAN, s.rmse, s.psnr, s.max_abs);
                 }
                 summary s = summarize(rows, nrows, v, si, VDB_MODE, st);
                 if (vdb && s.n) {
                     char speed[32] = "n/a";
                     if (naive.n && s.frame_ms > 0) snprintf(speed, sizeof speed, "%.2f", naive.frame_ms / s.frame_ms);
-                    fprintf(md, "| %s | %g | %.1f | %s | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a |\n",
+                    fprintf(md, "| %s | %g | %.1f | %s | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a "
+                                "| n/a | n/a | n/a |\n",
                             VDB_NAME, o->steps[st], s.frame_ms, speed);
+                }
+            }
+            if (fixed) {
+                fprintf(md, "\nFixed per-pixel cost: composite pass of a frame in which no ray takes a sample (every "
+                            "value transparent; first view, step %g). Naive still takes every sample there: its "
+                            "figure is ns per sample.\n\n| mode | fixed ns/pixel | naive ns/sample |\n|---|---|---|\n",
+                        o->steps[0]);
+                for (int m = 0; m < o->nmodes; ++m) {
+                    double x = fixed->ns[v][si][m];
+                    if (!isfinite(x)) continue;
+                    if (o->modes[m] == LEAP_RENDER_NAIVE)
+                        fprintf(md, "| naive | n/a | %.2f |\n", x);
+                    else
+                        fprintf(md, "| %s | %.1f | n/a |\n", leap_mode_name((leap_mode)o->modes[m]), x);
                 }
             }
             if (vdb && vdb->note[v][0]) {
@@ -809,6 +884,8 @@ int cli_bench(int argc, char **argv)
             return 0;
         } else if (!strcmp(a, "--no-reference")) {
             o.no_reference = 1;
+        } else if (!strcmp(a, "--exact-boxes")) {
+            o.exact_boxes = 1;
         } else if (!strcmp(a, "--vs-vdb-render")) {
             o.vs_vdb = 1;
         } else if ((v = cli_option_value(argc, argv, &i, "-o", &missing)) || missing) {
@@ -931,7 +1008,14 @@ int cli_bench(int argc, char **argv)
     for (int i = 1; i < o.nsteps; ++i) min_step = fmin(min_step, o.steps[i]);
     bench_row *rows = calloc((size_t)o.nvolumes * o.nsizes * o.views * o.nsteps * (o.nmodes + 1), sizeof *rows);
     size_t nrows = 0;
-    if (!rows) {
+    fixed_costs *fixed = malloc(sizeof *fixed);
+    if (fixed)
+        for (int a = 0; a < MAX_ITEMS; ++a)
+            for (int b = 0; b < MAX_ITEMS; ++b)
+                for (int c = 0; c < MAX_ITEMS; ++c) fixed->ns[a][b][c] = NAN;
+    if (!rows || !fixed) {
+        free(rows);
+        free(fixed);
         fclose(csv);
         remove(tmp_csv);
         leap_temp_untrack(csv_slot);
@@ -940,12 +1024,12 @@ int cli_bench(int argc, char **argv)
         cJSON_Delete(config);
         return cli_runtime_error("out of memory");
     }
-    int total = o.nvolumes * o.nsizes * o.views * (o.nsteps * o.nmodes + !o.no_reference) +
+    int total = o.nvolumes * o.nsizes * (o.views * (o.nsteps * o.nmodes + !o.no_reference) + 1) +
                 vdb_runs * o.nsizes * o.views * o.nsteps,
         done = 0;
     rc = vdb ? vdb_runner_open(vdb, o.vdb_shadow_step) : 0;
     for (int vi = 0; vi < o.nvolumes && !rc; ++vi) {
-        leap_scene_desc sd = {.path = o.volumes[vi], .tf = o.tf, .step = o.steps[0]};
+        leap_scene_desc sd = {.path = o.volumes[vi], .tf = o.tf, .step = o.steps[0], .exact_boxes = o.exact_boxes};
         leap_scene *s = NULL;
         leap_result lr;
         if ((lr = leap_scene_create(&sd, &s, &err)) || (lr = leap_renderer_set_volume(renderer, s->atlas, &err)) ||
@@ -984,7 +1068,11 @@ int cli_bench(int argc, char **argv)
                     ++done;
                 }
                 for (int st = 0; st < o.nsteps && !rc; ++st) {
-                    s->march.step = o.steps[st];
+                    if ((lr = leap_scene_set_step(s, o.steps[st], &err))) {
+                        rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
+                        break;
+                    }
+                    leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
                     double naive_ms = NAN;
                     for (int mi = 0; mi < o.nmodes && !rc; ++mi) {
                         snprintf(what, sizeof what, "%s view %d step %g %s", base_name(o.volumes[vi]), view_i,
@@ -1032,6 +1120,14 @@ int cli_bench(int argc, char **argv)
                     ++done;
                 }
             }
+            if (!rc && img) {
+                char what[256];
+                snprintf(what, sizeof what, "%s %dx%d: fixed cost per pixel", base_name(o.volumes[vi]), w, h);
+                progress(done, total, what);
+                if ((lr = measure_fixed(renderer, s, &o, vi, si, img, fixed, &err)))
+                    rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
+                ++done;
+            }
             free(img);
             free(ref);
         }
@@ -1045,6 +1141,7 @@ int cli_bench(int argc, char **argv)
         remove(tmp_csv);
         leap_temp_untrack(csv_slot);
         free(rows);
+        free(fixed);
         leap_renderer_destroy(renderer);
         free(vdb);
         cJSON_Delete(config);
@@ -1054,11 +1151,12 @@ int cli_bench(int argc, char **argv)
     char device[512];
     snprintf(device, sizeof device, "%s, %s", leap_renderer_device_name(renderer), leap_renderer_driver_name(renderer));
     leap_renderer_destroy(renderer);
-    rc = write_report(&o, rows, nrows, device, vdb);
+    rc = write_report(&o, rows, nrows, fixed, device, vdb);
     if (!rc && vdb && vdb->failures)
         rc = cli_runtime_error("vdb_render failed on %d volume(s) (see above); the results hold the runs that "
                                "succeeded", vdb->failures);
     free(rows);
+    free(fixed);
     free(vdb);
     cJSON_Delete(config);
     return rc;

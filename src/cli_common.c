@@ -174,8 +174,12 @@ const char *cli_view_options_help =
     "                      octree (per-ray traversal of the occupancy tree), naive\n"
     "                      (march the whole volume box)\n"
     "  --no-merge          do not merge same-class sibling boxes\n"
+    "  --exact-boxes       one box per class change of the occupancy tree (default: a cut\n"
+    "                      chosen by a cost model, which may march some empty space where\n"
+    "                      skipping it costs more than it saves; same image)\n"
     "  --segments N        ray segments stored per pixel (1..12, default 12); pixels with\n"
-    "                      more march their whole ray and are counted as overflowed\n"
+    "                      more walk the occupancy tree instead (as --mode octree) and\n"
+    "                      are counted as overflowed\n"
     "  --device NAME       Vulkan device whose name contains NAME (env LEAP_DEVICE)\n"
     "camera (world space):\n"
     "  --orbit AZ,EL[,DIST]  azimuth and elevation in degrees, distance in bounding-sphere\n"
@@ -202,6 +206,10 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_view_op
     }
     if (!strcmp(a, "--no-merge")) {
         o->scene.no_merge = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--exact-boxes")) {
+        o->scene.exact_boxes = 1;
         return 1;
     }
     const char *names[] = {"--grid", "--tf", "--range", "--step", "--size", "--mode", "--segments", "--device",

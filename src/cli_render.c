@@ -89,6 +89,10 @@ static char *stats_json(const cli_view_options *o, const leap_scene *s, const le
                                 fs->total_samples ? (double)fs->naive_samples / (double)fs->total_samples : 0);
         cJSON_AddNumberToObject(root, "ns_per_sample",
                                 fs->total_samples ? fs->gpu_composite_ms * 1e6 / (double)fs->total_samples : 0);
+        /* Composite ns per pixel: in a frame where no ray takes a sample, the fixed per-pixel cost. */
+        cJSON_AddNumberToObject(root, "composite_ns_per_pixel",
+                                fs->width && fs->height ? fs->gpu_composite_ms * 1e6 / ((double)fs->width * fs->height) : 0);
+        cJSON_AddBoolToObject(root, "single_box_chord", fs->single_box != 0);
         cJSON_AddNumberToObject(root, "composite_dispatches", fs->composite_chunks);
         cJSON_AddStringToObject(root, "opacity_correction", fs->tf_precorrected ? "table" : "per_sample");
     }

@@ -101,7 +101,7 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
 /* ---- one pixel --------------------------------------------------------------------------- */
 
 typedef struct resolved {
-    leap_segment seg[4 * LEAP_MAX_EVENTS];
+    leap_segment seg[4 * LEAP_PIXEL_EVENTS];
     size_t count;
     int gpu_match; /* the marched runs equal the GPU's segments */
 } resolved;
@@ -133,7 +133,7 @@ static void resolve_cpu(const leap_dump_pixel *p, resolved *out)
 static const char *samples_note(const leap_dump_pixel *p)
 {
     if (!p->in_domain) return "the ray misses the volume's domain: nothing to sample";
-    if (p->flags & LEAP_DUMP_OVERFLOW) return "the pixel's lists overflowed: it marched its whole ray in the domain";
+    if (p->flags & LEAP_DUMP_OVERFLOW) return "the pixel's lists overflowed: it walked the occupancy tree instead (as --mode octree)";
     if (p->flags & LEAP_DUMP_EARLY_STOP) return "early ray termination stopped the ray before its last lattice point";
     if (p->flags & LEAP_DUMP_ROUNDING)
         return "the renderer's count differs by lattice points lying within float rounding of a segment or "
@@ -258,7 +258,7 @@ static void pixel_text(const seg_options *o, const leap_scene *s, const leap_dum
     for (size_t i = 0; i < res->count; ++i)
         printf("  %14.7f  %14.7f  %s\n", res->seg[i].t0, res->seg[i].t1, leap_dump_class_name(res->seg[i].cls));
     printf("\n%u segments marched%s:\n", p->segment_count,
-           (p->flags & LEAP_DUMP_OVERFLOW) ? " (overflowed: the whole ray was marched instead)" : "");
+           (p->flags & LEAP_DUMP_OVERFLOW) ? " (overflowed: the occupancy tree was walked instead)" : "");
     printf("  %14s  %14s  %-8s  %7s\n", "t0", "t1", "class", "samples");
     for (uint32_t i = 0; i < p->segment_count; ++i)
         printf("  %14.7f  %14.7f  %-8s  %7u\n", p->segments[i].t0, p->segments[i].t1,
@@ -650,7 +650,7 @@ int cli_segments(int argc, char **argv)
         cli_runtime_error("out of memory for a %dx%d image", o.view.width, o.view.height);
         goto done;
     }
-    leap_renderer_desc rd = {.device_name = o.view.device, .max_segments = (uint32_t)o.view.max_segments};
+    leap_renderer_desc rd = {.device_name = o.view.device, .max_segments = (uint32_t)o.view.max_segments, .keep_lists = 1};
     if (leap_renderer_create(&rd, &renderer, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;
@@ -679,7 +679,7 @@ int cli_segments(int argc, char **argv)
         cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
-    leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .view = &view, .march = &scene->march,
+    leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .occupancy = scene->occupancy, .view = &view, .march = &scene->march,
                                .rgba = rgba, .samples = samples, .naive_samples = naive};
     if (leap_dump_frame_create(&fd, &frame, &err)) {
         cli_runtime_error("%s", err.msg);

@@ -13,7 +13,9 @@ struct leap_dump_frame {
     leap_view view;
     leap_march march;
     const float *rgba, *samples, *naive;
+    const leap_occupancy *occupancy;
     uint32_t box_count;
+    uint32_t overflow_near; /* the current overflowed pixel's samples near a class-changing cell plane */
     leap_dump_box *boxes;
     uint32_t *order_map;   /* order -> box index | exit flag (bit 31); 2 * box_count entries */
     leap_event *raw;       /* scratch for one pixel */
@@ -81,8 +83,8 @@ uint32_t leap_dump_lattice_count(double ta, double tb, double step, double *k_ne
 leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_frame **out, leap_error *err)
 {
     *out = NULL;
-    if (!desc || !desc->renderer || !desc->boxes || !desc->view || !desc->march)
-        return leap_fail(err, LEAP_ERR_USAGE, "dump: renderer, boxes, view and march are required");
+    if (!desc || !desc->renderer || !desc->boxes || !desc->occupancy || !desc->view || !desc->march)
+        return leap_fail(err, LEAP_ERR_USAGE, "dump: renderer, boxes, occupancy, view and march are required");
     if (!leap_renderer_pixel_lists(desc->renderer))
         return leap_fail(err, LEAP_ERR_USAGE, "dump: the renderer's last frame was not a sparseleap frame");
     uint32_t count = 0;
@@ -96,7 +98,7 @@ leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_f
     if (f) {
         f->boxes = malloc((count ? count : 1) * sizeof *f->boxes);
         f->order_map = malloc((count ? 2 * (size_t)count : 1) * sizeof *f->order_map);
-        f->event_cap = 2 * LEAP_MAX_EVENTS;
+        f->event_cap = 2 * LEAP_PIXEL_EVENTS;
         f->raw = malloc(f->event_cap * sizeof *f->raw);
         f->events = malloc(f->event_cap * sizeof *f->events);
     }
@@ -111,6 +113,7 @@ leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_f
     f->rgba = desc->rgba;
     f->samples = desc->samples;
     f->naive = desc->naive_samples;
+    f->occupancy = desc->occupancy;
     f->box_count = count;
 
     double eye[3];
@@ -184,14 +187,54 @@ static int near_lattice(double t, double step)
 
 /* Interval ends of the marched part of the ray that sit on a lattice point up to rounding:
  * each can make the float march take one sample more or less than the double count. */
-static uint32_t near_lattice_ends(const leap_dump_pixel *p, double step)
+static uint32_t near_lattice_ends(const leap_dump_frame *f, const leap_dump_pixel *p, double step)
 {
     uint32_t n = near_lattice(p->t_enter, step) + near_lattice(p->t_exit, step);
-    if (p->flags & LEAP_DUMP_OVERFLOW) return n;
+    if (p->flags & LEAP_DUMP_OVERFLOW) return n + f->overflow_near;
     for (uint32_t i = 0; i < p->segment_count; ++i) {
         const leap_dump_segment *s = &p->segments[i];
         n += s->t0 > p->t_enter && s->t0 < p->t_exit && near_lattice(s->t0, step);
         n += s->t1 > p->t_enter && s->t1 < p->t_exit && near_lattice(s->t1, step);
+    }
+    return n;
+}
+
+static int cell_marched(const leap_occupancy *occ, const double q[3], int axis, int shift)
+{
+    int64_t cell[3];
+    for (int a = 0; a < 3; ++a) cell[a] = (int64_t)floor(q[a] / LEAP_CELL);
+    if (axis >= 0) cell[axis] += shift;
+    return leap_occupancy_cell_class(occ, cell) != LEAP_CLASS_EMPTY;
+}
+
+/* An overflowed pixel walks the occupancy tree (as the octree mode does): the lattice points
+ * of the domain whose leaf cell is not EMPTY. *near counts those within float rounding of a
+ * cell plane whose two sides differ in that (the GPU's float ray may place them across it). */
+static uint32_t tree_walk_samples(const leap_dump_frame *f, const leap_dump_pixel *p, double step, uint32_t *near)
+{
+    *near = 0;
+    double k = fmax(ceil(fmax(p->t_enter, 0.0) / step), 0.0);
+    uint32_t n = 0;
+    for (double t = k * step; t <= p->t_exit; k += 1.0, t = k * step) {
+        double q[3];
+        for (int a = 0; a < 3; ++a) q[a] = p->origin[a] + t * p->dir[a];
+        int marched = cell_marched(f->occupancy, q, -1, 0);
+        /* A sample exactly on the face through which the ray leaves its cell backwards (floor
+         * puts it in the cell it is leaving) is taken when the cell ahead is marched: the tree
+         * walk marches from a sample on its leaf's exit face into the next leaf. */
+        for (int a = 0; a < 3 && !marched; ++a)
+            if (p->dir[a] < 0 && q[a] == LEAP_CELL * floor(q[a] / LEAP_CELL))
+                marched = cell_marched(f->occupancy, q, a, -1);
+        n += (uint32_t)marched;
+        for (int a = 0; a < 3; ++a) {
+            double plane = LEAP_CELL * floor(q[a] / LEAP_CELL + 0.5);
+            if (fabs(q[a] - plane) > 1e-4 * fmax(1.0, fabs(q[a]))) continue;
+            int side = q[a] >= plane ? -1 : 1; /* the cell across the plane */
+            if (cell_marched(f->occupancy, q, a, side) != marched) {
+                ++*near;
+                break;
+            }
+        }
     }
     return n;
 }
@@ -259,7 +302,7 @@ leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pi
     if (p->in_domain) {
         double k0 = 0.0;
         p->domain_samples = leap_dump_lattice_count(p->t_enter, p->t_exit, step, &k0);
-        if (overflow) p->lattice_samples = p->domain_samples;
+        if (overflow) p->lattice_samples = tree_walk_samples(f, p, step, &f->overflow_near);
     }
 
     size_t pixel = (size_t)y * f->view.width + x;
@@ -273,7 +316,7 @@ leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pi
         uint32_t diff = (uint32_t)abs((int32_t)p->lattice_samples - p->samples);
         if (stopped)
             p->flags |= LEAP_DUMP_EARLY_STOP;
-        else if (p->in_domain && diff <= near_lattice_ends(p, step))
+        else if (p->in_domain && diff <= near_lattice_ends(f, p, step))
             p->flags |= LEAP_DUMP_ROUNDING;
         else
             p->flags |= LEAP_DUMP_MISMATCH;

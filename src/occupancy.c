@@ -662,6 +662,19 @@ uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32
     return n->cls;
 }
 
+size_t leap_occ_internal_node_count(const leap_occupancy *occ) { return occ->node_count; }
+
+int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref)
+{
+    float lo, hi;
+    return ref_range(occ, ref, &lo, &hi) && lo == hi;
+}
+
+void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3])
+{
+    memcpy(cells, occ->cells, sizeof occ->cells);
+}
+
 /* ---- events and segments ------------------------------------------------------------- */
 
 static int event_before(const leap_event *a, const leap_event *b)
@@ -730,10 +743,19 @@ size_t leap_resolve_events(leap_event *events, size_t count, uint32_t outside, l
     return segs;
 }
 
+/* A stored node whose subtree holds one class only (its counts say so) is one leaf for the
+ * GPU walk: the walk then skips it in one step instead of visiting every stored leaf. */
+static int single_class(const leap_occupancy *occ, uint32_t ref)
+{
+    if ((ref & OCC_REF_LEAF) || ref == OCC_REF_IMPLICIT) return 1;
+    const uint64_t *c = occ->nodes[ref].count;
+    return (c[0] != 0) + (c[1] != 0) + (c[2] != 0) <= 1;
+}
+
 size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth)
 {
     uint32_t root = leap_occ_internal_root(occ, depth);
-    if ((root & OCC_REF_LEAF) || root == OCC_REF_IMPLICIT) {
+    if (single_class(occ, root)) {
         for (size_t k = 0; k < 8 && k < cap; ++k) words[k] = LEAP_TREE_LEAF | ref_class(occ, root);
         return 8;
     }
@@ -748,7 +770,7 @@ size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t
         leap_occ_internal_node(occ, order[next], NULL, NULL, child, NULL);
         for (int k = 0; k < 8; ++k) {
             uint32_t w;
-            if ((child[k] & OCC_REF_LEAF) || child[k] == OCC_REF_IMPLICIT) {
+            if (single_class(occ, child[k])) {
                 w = LEAP_TREE_LEAF | ref_class(occ, child[k]);
             } else {
                 w = (uint32_t)nodes;

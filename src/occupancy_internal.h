@@ -13,5 +13,12 @@ uint32_t leap_occ_internal_root(const leap_occupancy *occ, uint32_t *depth);
 uint32_t leap_occ_internal_ref_class(const leap_occupancy *occ, uint32_t ref);
 uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32_t origin[3],
                                 uint32_t *level, uint32_t child[8], uint64_t count[3]);
+/* Stored internal nodes (indices 0 .. count-1, pre-order: children after their parent). */
+size_t leap_occ_internal_node_count(const leap_occupancy *occ);
+/* 1 if the single-class subtree `ref` (implicit or a stored leaf) holds one value throughout,
+ * so the GPU volume stores it as page-table constants (cheap to march). */
+int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref);
+/* Cells per axis of the grid (the tree's root cube may reach beyond them). */
+void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3]);
 
 #endif

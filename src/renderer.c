@@ -31,7 +31,6 @@ static const uint32_t events_frag_spv[] = {
 
 _Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-_Static_assert(sizeof(leap_event_gpu) == 16, "leap_event_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 13
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
@@ -40,7 +39,7 @@ enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
 struct leap_renderer {
     leap_gpu *gpu;
     char driver[2 * VK_MAX_DRIVER_NAME_SIZE];
-    uint32_t event_pool, max_segments;
+    uint32_t pixel_events, max_segments;
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     VkPipeline resolve, events;
@@ -64,8 +63,9 @@ struct leap_renderer {
     double tf_step;
     int tf_precorrected; /* the table's opacities are corrected for tf_step */
     leap_buffer out_rgba, out_aux;
-    leap_buffer boxes, heads, events_pool, counters, segments, pixel_lists, tree;
+    leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, tree;
     uint32_t tree_depth;
+    int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
     size_t pixels_allocated;
     /* From the uploaded atlas. */
     int has_volume;
@@ -186,10 +186,7 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
 typedef struct spec_values {
     VkBool32 tf_precorrected; /* constant_id 0 */
     uint32_t mode;            /* constant_id 1 */
-    VkBool32 march_per_cell;  /* constant_id 2 */
 } spec_values;
-
-static int per_cell_loop(leap_mode mode);
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
                                   leap_error *err)
@@ -197,9 +194,8 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
     const VkSpecializationMapEntry entries[] = {
         {0, offsetof(spec_values, tf_precorrected), sizeof values.tf_precorrected},
         {1, offsetof(spec_values, mode), sizeof values.mode},
-        {2, offsetof(spec_values, march_per_cell), sizeof values.march_per_cell},
     };
-    VkSpecializationInfo spec = {3, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {2, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -217,7 +213,7 @@ static leap_result composite_pipeline(leap_renderer *r, leap_mode mode, int prec
 {
     VkPipeline *p = &r->composite[mode][precorrected != 0];
     if (!*p) {
-        spec_values values = {precorrected != 0, (uint32_t)mode, per_cell_loop(mode) != 0};
+        spec_values values = {precorrected != 0, (uint32_t)mode};
         leap_result lr = create_compute(r, r->composite_module, values, p, err);
         if (lr) return lr;
     }
@@ -255,7 +251,7 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (!r->composite_module || !resolve_module)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
@@ -290,10 +286,6 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
     };
     LEAP_VK_CHECK(vkAllocateDescriptorSets(dev, &dsai, &r->set));
     lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_frame_gpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &r->frame, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT,
-                                         &r->counters, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, (VkDeviceSize)r->event_pool * sizeof(leap_event_gpu),
-                                         VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->events_pool, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_box_gpu), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, 32, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
     return lr;
@@ -304,9 +296,10 @@ leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer *
     *out = NULL;
     leap_renderer *r = calloc(1, sizeof *r);
     if (!r) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
-    uint32_t max_pool = MAX_BUFFER_BYTES / sizeof(leap_event_gpu);
-    r->event_pool = desc && desc->event_pool ? desc->event_pool : max_pool;
-    if (r->event_pool > max_pool) r->event_pool = max_pool;
+    r->pixel_events = desc && desc->pixel_events ? desc->pixel_events : LEAP_PIXEL_EVENTS;
+    r->keep_lists = desc && desc->keep_lists;
+    if (r->pixel_events > LEAP_PIXEL_EVENTS) r->pixel_events = LEAP_PIXEL_EVENTS;
+    if (r->pixel_events < 2) r->pixel_events = 2;
     r->max_segments = desc && desc->max_segments ? desc->max_segments : LEAP_MAX_SEGMENTS;
     if (r->max_segments > LEAP_MAX_SEGMENTS) r->max_segments = LEAP_MAX_SEGMENTS;
     r->float_atlas_max_bytes = desc && desc->float_atlas_max_bytes ? desc->float_atlas_max_bytes : LEAP_FLOAT_ATLAS_MAX_BYTES;
@@ -334,7 +327,9 @@ static void destroy_frame_buffers(leap_renderer *r)
     leap_gpu *gpu = r->gpu;
     leap_gpu_buffer_destroy(gpu, &r->out_aux);
     leap_gpu_buffer_destroy(gpu, &r->out_rgba);
-    leap_gpu_buffer_destroy(gpu, &r->heads);
+    leap_gpu_buffer_destroy(gpu, &r->event_counts);
+    leap_gpu_buffer_destroy(gpu, &r->event_t);
+    leap_gpu_buffer_destroy(gpu, &r->event_key);
     leap_gpu_buffer_destroy(gpu, &r->segments);
     leap_gpu_buffer_destroy(gpu, &r->pixel_lists);
     if (r->framebuffer) vkDestroyFramebuffer(gpu->device, r->framebuffer, NULL);
@@ -353,8 +348,6 @@ void leap_renderer_destroy(leap_renderer *r)
         destroy_frame_buffers(r);
         leap_gpu_buffer_destroy(gpu, &r->tree);
         leap_gpu_buffer_destroy(gpu, &r->boxes);
-        leap_gpu_buffer_destroy(gpu, &r->events_pool);
-        leap_gpu_buffer_destroy(gpu, &r->counters);
         leap_gpu_image_destroy(gpu, &r->tf);
         leap_gpu_buffer_destroy(gpu, &r->pages);
         leap_gpu_image_destroy(gpu, &r->atlas);
@@ -362,8 +355,8 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
         if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
         if (r->events) vkDestroyPipeline(dev, r->events, NULL);
-        if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
+        if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
             for (int i = 0; i < 2; ++i)
                 if (r->composite[m][i]) vkDestroyPipeline(dev, r->composite[m][i], NULL);
@@ -493,12 +486,13 @@ const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r)
 uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_event *out, uint32_t cap)
 {
     if (!r->lists_valid || x < 0 || y < 0 || (uint32_t)x >= r->fb_width || (uint32_t)y >= r->fb_height) return 0;
-    const uint32_t *heads = r->heads.mapped;
-    const leap_event_gpu *ev = r->events_pool.mapped;
-    uint32_t n = 0, guard = r->event_pool;
-    for (uint32_t e = heads[(size_t)y * r->fb_width + x]; e != 0 && e <= r->event_pool && guard--; e = ev[e - 1].next, ++n)
-        if (n < cap) out[n] = (leap_event){ev[e - 1].t, ev[e - 1].key >> 2, ev[e - 1].key & 3u};
-    return n;
+    size_t pixel = (size_t)y * r->fb_width + x;
+    const uint32_t total = ((const uint32_t *)r->event_counts.mapped)[pixel];
+    const float *t = (const float *)r->event_t.mapped + pixel * LEAP_PIXEL_EVENTS;
+    const uint32_t *key = (const uint32_t *)r->event_key.mapped + pixel * LEAP_PIXEL_EVENTS;
+    for (uint32_t n = 0; n < total && n < r->pixel_events && n < cap; ++n)
+        out[n] = (leap_event){t[n], key[n] >> 2, key[n] & 3u};
+    return total;
 }
 
 uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap_segment *out, uint32_t cap,
@@ -584,34 +578,24 @@ static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
     f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
 }
 
-/* Which march loop a mode's pipeline runs (the shader's leap_march_per_cell); the bound on
- * lattice indices per dispatch depends on it too. Naive and bbox march one long interval per
- * ray: the per-cell loop reads the page table and a constant cell's colour once per cell.
- * The skipping modes march many short intervals (tree leaves, segments), where the
- * per-sample loop's lower cost per call wins. */
-static int per_cell_loop(leap_mode mode)
-{
-    return mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX;
-}
-
 /* Lattice indices one composite dispatch may take per ray, so that no invocation group
  * reaches the driver's loop limit (see LEAP_LOOP_ITERATIONS_SAFE). A group runs each loop as
  * long as its longest lane, so its iterations are at most the sum over its LEAP_SIMD_LANES
  * lanes, counting for each lane the once-through of loops it enters with nothing to do. One
  * lane taking n lattice indices of step dt crosses at most X = sqrt(3) n dt / 8 + 4 cells,
  * and so tree leaves. It runs n sample iterations plus:
- * - per-cell loop (naive, bbox): an outer iteration and two inner-loop entries per cell;
- * - octree: per leaf, the visit, a descent of up to depth iterations and the sample loop's entry;
- * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry. */
+ * - naive, bbox: the march loop's outer iteration and two inner-loop entries per cell;
+ * - octree: per leaf, the visit, a descent of up to depth iterations, and the march loop's three;
+ * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry;
+ *   an overflowed pixel walks the tree as octree does. */
 static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
 {
     double per_cell = 0, fixed = 8;
-    if (per_cell_loop(mode))
+    if (mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX)
         per_cell = 3;
-    else if (mode == LEAP_RENDER_OCTREE)
-        per_cell = r->tree_depth + 3.0;
     else
-        fixed += 2 * LEAP_MAX_SEGMENTS;
+        per_cell = r->tree_depth + 6.0; /* octree: also overflowed sparseleap pixels */
+    if (mode == LEAP_RENDER_SPARSELEAP) fixed += 2 * LEAP_MAX_SEGMENTS;
     const double per_lane = (double)LEAP_LOOP_ITERATIONS_SAFE / LEAP_SIMD_LANES;
     double n = floor((per_lane - fixed - 4 * per_cell) / (1 + sqrt(3.0) / LEAP_CELL * step * per_cell));
     return n < 1 ? 1 : n;
@@ -808,13 +792,14 @@ static void fill_frame(const leap_renderer *r, const leap_view *view_in, const l
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
     f->bbox_min = v4(lo, 0);
     f->bbox_max = v4(hi, 0);
-    f->lists = (leap_uvec4){r->event_pool, r->max_segments, box_count, r->tree_depth};
+    f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, r->tree_depth};
 }
 
 static leap_result ensure_frame_buffers(leap_renderer *r, const leap_view *view, leap_error *err)
 {
     size_t pixels = (size_t)view->width * view->height;
-    if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES)
+    if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES ||
+        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > MAX_BUFFER_BYTES)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                          "image of %dx%d pixels exceeds the 128 MiB per-buffer limit (at most %u pixels)",
                          view->width, view->height, (unsigned)(MAX_BUFFER_BYTES / (8 * r->max_segments)));
@@ -825,7 +810,9 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_view *view,
     VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_aux, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 4, usage, &r->heads, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 4, usage, &r->event_counts, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_t, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_key, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
     if (lr) return lr;
@@ -854,7 +841,8 @@ static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *er
     return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
 }
 
-/* Uploads the occupancy tree as it is classified now (octree mode). */
+/* Uploads the occupancy tree as it is classified now (octree mode, and sparseleap pixels whose
+ * lists overflowed). */
 static leap_result upload_tree(leap_renderer *r, leap_error *err)
 {
     size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &r->tree_depth);
@@ -877,8 +865,8 @@ static void write_descriptors(leap_renderer *r)
     const leap_buffer *src[BINDING_COUNT] = {
         [LEAP_BINDING_FRAME] = &r->frame, [LEAP_BINDING_PAGES] = &r->pages,
         [LEAP_BINDING_OUT_RGBA] = &r->out_rgba, [LEAP_BINDING_OUT_AUX] = &r->out_aux,
-        [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_HEADS] = &r->heads,
-        [LEAP_BINDING_EVENTS] = &r->events_pool, [LEAP_BINDING_COUNTERS] = &r->counters,
+        [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_EVENT_COUNTS] = &r->event_counts,
+        [LEAP_BINDING_EVENT_T] = &r->event_t, [LEAP_BINDING_EVENT_KEY] = &r->event_key,
         [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
         [LEAP_BINDING_TREE] = &r->tree,
     };
@@ -918,9 +906,7 @@ static void record_lists(leap_renderer *r, const leap_view *view, uint32_t box_c
 {
     VkCommandBuffer cmd = r->gpu->cmd;
     size_t pixels = (size_t)view->width * view->height;
-    vkCmdFillBuffer(cmd, r->heads.buffer, 0, pixels * 4, 0);
-    vkCmdFillBuffer(cmd, r->pixel_lists.buffer, 0, pixels * 16, 0);
-    vkCmdFillBuffer(cmd, r->counters.buffer, 0, 16, 0);
+    vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, pixels * 4, 0);
     shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     VkRenderPassBeginInfo rpbi = {
@@ -936,7 +922,7 @@ static void record_lists(leap_renderer *r, const leap_view *view, uint32_t box_c
     vkCmdSetScissor(cmd, 0, 1, &sc);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    if (box_count) vkCmdDraw(cmd, 36, box_count, 0, 0);
+    if (box_count) vkCmdDraw(cmd, 6, box_count, 0, 0);
     vkCmdEndRenderPass(cmd);
     if (r->gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
@@ -970,15 +956,18 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     int lists = mode == LEAP_RENDER_SPARSELEAP;
     if (lists && !r->box_set)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: sparseleap needs occupancy boxes");
+    /* Boxes that reduce to at most one NONEMPTY box (the cut found nothing worth skipping inside
+     * it) give every pixel at most one segment: the ray's chord through that box. The
+     * composite pass computes it directly (the bbox pipeline with that box), with no raster or
+     * resolve; keep_lists (dumps) builds the lists anyway. */
+    uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
+    int chord = lists && !r->keep_lists && box_count <= 1;
     size_t pixels = (size_t)view->width * view->height;
     double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
     if (!lr) lr = upload_tf(r, march->step, err);
-    VkPipeline composite = VK_NULL_HANDLE;
-    if (!lr) lr = composite_pipeline(r, mode, r->tf_precorrected, &composite, err);
-    uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
-    if (!lr && mode == LEAP_RENDER_OCTREE) lr = upload_tree(r, err);
+    if (!lr && (mode == LEAP_RENDER_OCTREE || lists)) lr = upload_tree(r, err); /* lists: for overflowed pixels */
     if (lr) return lr;
     if (lists) {
         double eye_or_dir[3];
@@ -986,8 +975,20 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(view->ortho ? view->dir0[i] : view->origin0[i]);
         st.order_ms = leap_boxes_order(r->box_set, eye_or_dir, view->ortho, r->boxes.mapped, NULL);
         st.boxes = box_count;
+        if (chord && box_count == 1 && ((const leap_box_gpu *)r->boxes.mapped)[0].info.z != LEAP_CLASS_NONEMPTY)
+            chord = 0; /* one UNKNOWN box: its segment must be listed as UNKNOWN */
     }
-    fill_frame(r, view, march, mode, box_count, r->frame.mapped);
+    const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
+    VkPipeline composite = VK_NULL_HANDLE;
+    if ((lr = composite_pipeline(r, pass_mode, r->tf_precorrected, &composite, err))) return lr;
+    fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
+    if (chord) {
+        leap_frame_gpu *f = r->frame.mapped;
+        const leap_box_gpu *b = r->boxes.mapped;
+        f->bbox_min = box_count ? b->lo : (leap_vec4){1, 1, 1, 0}; /* no box: an empty one */
+        f->bbox_max = box_count ? b->hi : (leap_vec4){0, 0, 0, 0};
+        st.single_box = 1;
+    }
     chunk_rect *rects = NULL;
     if ((lr = chunk_count(view, march, r->frame.mapped, &st.composite_chunks, &rects, err))) return lr;
     write_descriptors(r);
@@ -1004,7 +1005,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         vkCmdResetQueryPool(cmd, gpu->timestamps, 0, TS_COUNT);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_START);
     }
-    if (lists) {
+    if (lists && !chord) {
         record_lists(r, view, box_count);
     } else if (gpu->timestamps) {
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
@@ -1050,7 +1051,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         if (n > st.samples_max) st.samples_max = n;
         if (depth) depth[i] = aux[4 * i];
         if (samples) samples[i] = aux[4 * i + 1];
-        if (lists) {
+        if (lists && !chord) {
             uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
             events += e;
             segs += s;
@@ -1059,7 +1060,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
             st.overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
         }
     }
-    r->lists_valid = lists;
+    r->lists_valid = lists && !chord;
     st.readback_ms = leap__now_ms() - t2;
     st.samples_mean = (double)st.total_samples / (double)pixels;
     st.events_mean = (double)events / (double)pixels;

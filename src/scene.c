@@ -91,6 +91,22 @@ static leap_result check_transform(const char *path, const leap_grid_info *gi, c
     return LEAP_OK;
 }
 
+/* The boxes for the current classification and step (the cut depends on both). */
+static leap_result build_boxes(leap_scene *s, leap_error *err)
+{
+    double t = leap__now_ms();
+    leap_boxes_destroy(s->boxes);
+    s->boxes = NULL;
+    leap_boxes_desc bd = {
+        .occupancy = s->occupancy,
+        .merge_siblings = s->merge,
+        .step = s->exact_boxes ? 0.0 : s->march.step,
+    };
+    leap_result r = leap_boxes_create(&bd, &s->boxes, err);
+    s->boxes_ms = leap__now_ms() - t;
+    return r;
+}
+
 leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, double hi, leap_error *err)
 {
     if (tf != &s->tf) s->tf = *tf;
@@ -100,12 +116,15 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
     leap_result r = leap_occupancy_classify(s->occupancy, &s->tf, lo, hi, err);
     s->classify_ms = leap__now_ms() - t;
     if (r) return r;
-    t = leap__now_ms();
-    leap_boxes_destroy(s->boxes);
-    s->boxes = NULL;
-    r = leap_boxes_create(s->occupancy, s->merge, &s->boxes, err);
-    s->boxes_ms = leap__now_ms() - t;
-    return r;
+    return build_boxes(s, err);
+}
+
+leap_result leap_scene_set_step(leap_scene *s, double step, leap_error *err)
+{
+    if (!(step > 0) || !isfinite(step)) return leap_fail(err, LEAP_ERR_USAGE, "the step must be a positive number");
+    if (step == s->march.step && s->boxes) return LEAP_OK;
+    s->march.step = step;
+    return s->exact_boxes ? LEAP_OK : build_boxes(s, err);
 }
 
 leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err)
@@ -114,6 +133,7 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     leap_scene *s = calloc(1, sizeof *s);
     if (!s) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
     s->merge = !desc->no_merge;
+    s->exact_boxes = desc->exact_boxes;
     double t = leap__now_ms();
     leap_result r = open_grid(desc->path, desc->grid, &s->grid, err);
     s->load_ms = leap__now_ms() - t;

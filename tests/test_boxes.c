@@ -476,7 +476,7 @@ static void test_scenes(void)
         uint32_t unmerged = 0;
         for (int merge = 0; merge < 2; ++merge) {
             leap_boxes *bx = NULL;
-            CHECK_OK(leap_boxes_create(occ, merge, &bx, &err), &err);
+            CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = merge}, &bx, &err), &err);
             if (!bx) continue;
             leap_boxes_stats bst;
             leap_boxes_get_stats(bx, &bst);
@@ -545,8 +545,8 @@ static void test_scenes(void)
             CHECK_OK(leap_occupancy_classify(fresh, &tf2, 0.0, 100.0, &err), &err);
             for (int merge = 0; merge < 2; ++merge) {
                 leap_boxes *a = NULL, *b = NULL;
-                CHECK_OK(leap_boxes_create(occ, merge, &a, &err), &err);
-                CHECK_OK(leap_boxes_create(fresh, merge, &b, &err), &err);
+                CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = merge}, &a, &err), &err);
+                CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = fresh, .merge_siblings = merge}, &b, &err), &err);
                 if (a && b) {
                     double eye[3] = {37.0, -20.0, 400.0 * rnd01()};
                     view_boxes va, vb;
@@ -600,7 +600,7 @@ static void test_trivial(void)
     tf1.rgba[N - 1][3] = 1.0f;
     CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 1.0, &err), &err);
     leap_boxes *bx = NULL;
-    CHECK_OK(leap_boxes_create(occ, 1, &bx, &err), &err);
+    CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1}, &bx, &err), &err);
     if (bx) {
         CHECK(leap_boxes_count(bx) == 1);
         leap_box_gpu b;
@@ -615,7 +615,8 @@ static void test_trivial(void)
     }
     leap_boxes_destroy(bx);
     leap_boxes_destroy(NULL);
-    CHECK(leap_boxes_create(NULL, 0, &bx, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_boxes_create(NULL, &bx, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_boxes_create(&(leap_boxes_desc){0}, &bx, &err) == LEAP_ERR_USAGE);
     leap_occupancy_destroy(occ);
 }
 
@@ -631,7 +632,7 @@ static void report_counts(void)
     make_tf(&tf1);
     CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 100.0, &err), &err);
     leap_boxes *bx = NULL;
-    CHECK_OK(leap_boxes_create(occ, 1, &bx, &err), &err);
+    CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1}, &bx, &err), &err);
     if (bx) {
         leap_boxes_stats st;
         leap_boxes_get_stats(bx, &st);

@@ -366,15 +366,15 @@ static void print_camera(const cam_rec *c)
 /* Prints the sparseleap events and segments of pixel (x, y) of the last sparseleap frame. */
 static void print_pixel_lists(const leap_renderer *r, int x, int y)
 {
-    leap_event ev[LEAP_MAX_EVENTS];
+    leap_event ev[LEAP_PIXEL_EVENTS];
     leap_segment seg[LEAP_MAX_SEGMENTS];
     int overflow = 0;
-    uint32_t ne = leap_renderer_pixel_events(r, x, y, ev, LEAP_MAX_EVENTS);
+    uint32_t ne = leap_renderer_pixel_events(r, x, y, ev, LEAP_PIXEL_EVENTS);
     uint32_t ns = leap_renderer_pixel_segments(r, x, y, seg, LEAP_MAX_SEGMENTS, &overflow);
     uint32_t nb = 0;
     const leap_box_gpu *boxes = leap_renderer_boxes(r, &nb);
     fprintf(stderr, "  pixel (%d, %d): %u events%s\n", x, y, ne, overflow ? " (overflow: whole ray marched)" : "");
-    for (uint32_t i = 0; i < ne && i < LEAP_MAX_EVENTS; ++i) {
+    for (uint32_t i = 0; i < ne && i < LEAP_PIXEL_EVENTS; ++i) {
         int bi = -1;
         int entry = 0;
         for (uint32_t b = 0; b < nb; ++b) {

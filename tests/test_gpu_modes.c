@@ -1,6 +1,8 @@
 /* Every skipping mode gives the naive image (max abs difference <= 1e-5 per channel), on every
  * shipped volume, five kinds of camera and three transfer functions (one with opacity at the
- * background value); per-pixel list overflow still gives the naive image and is counted. */
+ * background value), with exact boxes and with the cost-model cut (including cuts that leave
+ * a single box, marched as its chord); per-pixel list overflow still gives the naive image
+ * and is counted. */
 #include "gpu_fixture.h"
 
 #define W 64
@@ -76,6 +78,7 @@ int main(void)
     if (!renderer) return check_exit_code();
     leap_error err = {{0}};
     float *naive = malloc(W * H * 4 * sizeof(float)), *img = malloc(W * H * 4 * sizeof(float));
+    int single_box_frames = 0; /* sparseleap frames whose cut left one box (marched as its chord) */
     for (size_t v = 0; v < sizeof volumes / sizeof volumes[0]; ++v) {
         char path[1024];
         snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
@@ -102,8 +105,13 @@ int main(void)
             free(bricks);
             if (!occ) continue;
             CHECK_OK(leap_occupancy_classify(occ, &tf, s.march.range_lo, s.march.range_hi, &err), &err);
-            CHECK_OK(leap_boxes_create(occ, 1, &boxes, &err), &err);
             CHECK_OK(leap_renderer_set_tf(renderer, &tf, &err), &err);
+            /* Exact class-change boxes, then the cost-model cut for the step (the default). */
+            for (int cut = 0; cut < 2; ++cut) {
+            leap_boxes_destroy(boxes);
+            boxes = NULL;
+            CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1, .step = cut ? s.march.step : 0},
+                                       &boxes, &err), &err);
             leap_renderer_set_occupancy(renderer, occ, boxes);
             for (int c = 0; c < 5; ++c) {
                 leap_camera cam;
@@ -120,16 +128,19 @@ int main(void)
                     CHECK_OK(leap_renderer_render(renderer, &view, &s.march, (leap_mode)m, img, NULL, NULL, &st, &err),
                              &err);
                     image_diff d = compare_rgba(img, naive, W * H);
-                    printf("%-12s %-4s %-22s %-10s max %.2e samples %6.1f%% of naive, boxes %u, events/px %.1f, "
+                    printf("%-12s %-4s %-5s %-22s %-10s max %.2e samples %6.1f%% of naive, boxes %u%s, events/px %.1f, "
                            "overflow %u\n",
-                           volumes[v].file, tf.name, camera_names[c], leap_mode_name((leap_mode)m), d.max_abs,
-                           100.0 * st.total_samples / (double)(ns.total_samples ? ns.total_samples : 1), st.boxes,
-                           st.events_mean, st.overflow_pixels);
-                    CHECK_MSG(d.nonfinite == 0 && d.max_abs <= TOL, "%s %s %s %s: max abs %g vs naive",
-                              volumes[v].file, tf.name, camera_names[c], leap_mode_name((leap_mode)m), d.max_abs);
+                           volumes[v].file, tf.name, cut ? "cut" : "exact", camera_names[c], leap_mode_name((leap_mode)m),
+                           d.max_abs, 100.0 * st.total_samples / (double)(ns.total_samples ? ns.total_samples : 1),
+                           st.boxes, st.single_box ? " (chord)" : "", st.events_mean, st.overflow_pixels);
+                    single_box_frames += st.single_box;
+                    CHECK_MSG(d.nonfinite == 0 && d.max_abs <= TOL, "%s %s %s %s %s: max abs %g vs naive",
+                              volumes[v].file, tf.name, cut ? "cut" : "exact", camera_names[c],
+                              leap_mode_name((leap_mode)m), d.max_abs);
                     CHECK(st.total_samples <= ns.total_samples);
                     CHECK(st.naive_samples == ns.total_samples);
                 }
+            }
             }
             leap_renderer_set_occupancy(renderer, NULL, NULL);
             leap_boxes_destroy(boxes);
@@ -138,9 +149,11 @@ int main(void)
         scene_free(&s);
     }
     leap_renderer_destroy(renderer);
+    printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
+    CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");
 
-    /* Overflow: one segment per pixel and a tiny event pool; images still equal naive. */
-    leap_renderer_desc tiny = {.event_pool = 2000, .max_segments = 1};
+    /* Overflow: one segment and four events per pixel; images still equal naive. */
+    leap_renderer_desc tiny = {.pixel_events = 4, .max_segments = 1};
     leap_renderer *r2 = NULL;
     CHECK_OK(leap_renderer_create(&tiny, &r2, &err), &err);
     char path[1024];
@@ -158,7 +171,7 @@ int main(void)
         CHECK_OK(leap_occupancy_create(&od, &occ, &err), &err);
         free(bricks);
         CHECK_OK(leap_occupancy_classify(occ, &s.tf, s.march.range_lo, s.march.range_hi, &err), &err);
-        CHECK_OK(leap_boxes_create(occ, 1, &boxes, &err), &err);
+        CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1}, &boxes, &err), &err);
         CHECK_OK(leap_renderer_set_volume(r2, s.atlas, &err), &err);
         CHECK_OK(leap_renderer_set_tf(r2, &s.tf, &err), &err);
         leap_renderer_set_occupancy(r2, occ, boxes);

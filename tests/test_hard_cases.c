@@ -341,6 +341,19 @@ static leap_scene *load_tmp(const char *name, const char *preset, const leap_tf 
     return load(path, preset, tf, has_range, lo, hi);
 }
 
+/* With exact class-change boxes (no cost-model cut), for cases about the box geometry itself. */
+static leap_scene *load_tmp_exact(const char *name, const leap_tf *tf, double lo, double hi)
+{
+    leap_error err = {{0}};
+    char path[1024];
+    tmp_path(name, path, sizeof path);
+    leap_scene_desc d = {.path = path, .has_range = 1, .range = {lo, hi}, .exact_boxes = 1};
+    leap_scene *s = NULL;
+    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    if (s && tf) CHECK_OK(leap_scene_set_tf(s, tf, lo, hi, &err), &err);
+    return s;
+}
+
 static leap_scene *load_shipped(const char *file, const char *grid, const char *preset)
 {
     leap_error err = {{0}};
@@ -1031,19 +1044,19 @@ static void case_axis_parallel(void)
 /* Prints the centre pixel's events and checks the GPU segments against the CPU resolve. */
 static void check_events(const gpu *g, int x, int y, const char *label)
 {
-    leap_event ev[LEAP_MAX_EVENTS], cpu_ev[LEAP_MAX_EVENTS];
-    leap_segment gseg[LEAP_MAX_SEGMENTS], cseg[4 * LEAP_MAX_EVENTS];
-    uint32_t ne = leap_renderer_pixel_events(g->r, x, y, ev, LEAP_MAX_EVENTS);
+    leap_event ev[LEAP_PIXEL_EVENTS], cpu_ev[LEAP_PIXEL_EVENTS];
+    leap_segment gseg[LEAP_MAX_SEGMENTS], cseg[4 * LEAP_PIXEL_EVENTS];
+    uint32_t ne = leap_renderer_pixel_events(g->r, x, y, ev, LEAP_PIXEL_EVENTS);
     int overflow = 0;
     uint32_t ns = leap_renderer_pixel_segments(g->r, x, y, gseg, LEAP_MAX_SEGMENTS, &overflow);
-    if (ne > LEAP_MAX_EVENTS || overflow) {
+    if (ne > LEAP_PIXEL_EVENTS || overflow) {
         printf("  %s: pixel (%d, %d) overflowed (%u events)\n", label, x, y, ne);
         return;
     }
     memcpy(cpu_ev, ev, ne * sizeof *ev);
     size_t nc = leap_resolve_events(cpu_ev, ne, LEAP_CLASS_EMPTY, cseg, sizeof cseg / sizeof cseg[0]);
     /* marched runs of the CPU twin, with touching runs of marched classes kept apart as the GPU does */
-    leap_segment marched[4 * LEAP_MAX_EVENTS];
+    leap_segment marched[4 * LEAP_PIXEL_EVENTS];
     uint32_t nm = 0;
     for (size_t i = 0; i < nc && i < sizeof cseg / sizeof cseg[0]; ++i)
         if (cseg[i].cls != LEAP_CLASS_EMPTY) marched[nm++] = cseg[i];
@@ -1959,8 +1972,9 @@ static void case_overflow(gpu *g, const char *what)
     if (!begin(what)) return;
     static const double zero[3] = {0, 0, 0};
     if (g == &G) {
-        /* default capacities: the comb overflows the events a pixel can sort and its segments */
-        leap_scene *c = load_tmp("comb", NULL, &RAMP, 1, 0.0, 1.0);
+        /* default capacities: the comb's exact boxes overflow the events a pixel can sort and
+         * its segments (the cost-model cut merges the comb's teeth into fewer boxes) */
+        leap_scene *c = load_tmp_exact("comb", &RAMP, 0.0, 1.0);
         uint64_t ovf = 0;
         if (c) {
             bind(g, c);
@@ -2077,7 +2091,10 @@ int main(void)
     ramp_tf(&RAMP);
     mkdir(LEAP_TEST_TMP, 0755);
     case_fill_int32_end(); /* first: forks, before OpenVDB and TBB start */
-    if (!gpu_init(&G, NULL)) {
+    /* keep_lists: the cases check every sparseleap frame's lists (coverage, CPU resolve), so
+     * frames whose boxes reduce to one are rasterized too; test_gpu_modes covers that shortcut. */
+    leap_renderer_desc with_lists = {.keep_lists = 1};
+    if (!gpu_init(&G, &with_lists)) {
         CHECK(G.r != NULL);
         return check_exit_code();
     }
@@ -2097,15 +2114,15 @@ int main(void)
     case_nonfinite();
     case_tfs();
     case_steps();
-    case_overflow(&G, "per-pixel list overflow: more than 64 events and 12 segments on a ray (default capacities)");
-    leap_renderer_desc one_seg = {.max_segments = 1};
+    case_overflow(&G, "per-pixel list overflow: more than 16 events and 12 segments on a ray (default capacities)");
+    leap_renderer_desc one_seg = {.max_segments = 1, .keep_lists = 1};
     if (gpu_init(&G_small, &one_seg)) {
         case_overflow(&G_small, "per-pixel list overflow: one segment per pixel");
         gpu_free(&G_small);
     }
-    leap_renderer_desc tiny_pool = {.max_segments = 2, .event_pool = 512};
+    leap_renderer_desc tiny_pool = {.max_segments = 2, .pixel_events = 4, .keep_lists = 1};
     if (gpu_init(&G_small, &tiny_pool)) {
-        case_overflow(&G_small, "per-pixel list overflow: an event pool of 512 events");
+        case_overflow(&G_small, "per-pixel list overflow: 4 events per pixel");
         gpu_free(&G_small);
     }
     gpu_free(&G);

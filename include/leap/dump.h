@@ -46,7 +46,7 @@ typedef struct leap_dump_segment {
 } leap_dump_segment;
 
 /* Pixel flags (leap_dump_pixel.flags, and the binary dump's pixel records). */
-#define LEAP_DUMP_OVERFLOW 1u    /* lists overflowed: the pixel marched its whole ray */
+#define LEAP_DUMP_OVERFLOW 1u    /* lists overflowed: the pixel walked the occupancy tree instead */
 #define LEAP_DUMP_EARLY_STOP 2u  /* early ray termination stopped before the last lattice point */
 #define LEAP_DUMP_MISMATCH 4u    /* renderer samples differ from the lattice count, unexplained */
 #define LEAP_DUMP_UNMATCHED 8u   /* an event's order matched no box */
@@ -63,7 +63,8 @@ typedef struct leap_dump_pixel {
     const leap_dump_event *events; /* sorted by (t, order); valid until the next call */
     uint32_t segment_count;
     const leap_dump_segment *segments;
-    uint32_t lattice_samples;   /* sum over segments, or over the whole domain when overflowed */
+    uint32_t lattice_samples;   /* sum over segments, or, overflowed, the domain's lattice points
+                                   in non-EMPTY cells (the tree walk) */
     uint32_t domain_samples;    /* lattice points in the whole domain (what naive marching
                                    takes without early termination), computed in double */
     int32_t samples;            /* renderer's samples for the pixel (-1 if not given) */
@@ -74,6 +75,7 @@ typedef struct leap_dump_pixel {
 typedef struct leap_dump_frame_desc {
     const leap_renderer *renderer; /* right after a sparseleap leap_renderer_render */
     const leap_boxes *boxes;       /* the boxes the renderer was given (scene->boxes) */
+    const leap_occupancy *occupancy; /* the classified tree (overflowed pixels walk it) */
     const leap_view *view;         /* the view of that frame */
     const leap_march *march;       /* its march (step and domain) */
     const float *rgba;             /* that frame's outputs, optional (ERT detection) */

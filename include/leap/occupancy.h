@@ -82,23 +82,46 @@ size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t
 
 /* ---- occupancy geometry -------------------------------------------------------------- */
 
-/* The emitted boxes: the root's box plus every node (stored or implicit) whose class differs
- * from its parent's, each with its class and its parent's class. With merge_siblings, sibling
- * boxes of one class that together form a box are emitted as one (the DFS order stays
- * valid because merged boxes are whole octants of their parent in one slab).
- * The class at any point is the class of the innermost emitted box containing it, which is
- * the class of its leaf cell. Built after leap_occupancy_classify; rebuild after each. */
+/* The emitted boxes. Exact boxes (step 0): the root's box plus every node (stored or implicit)
+ * whose class differs from its parent's, each with its class and its parent's class; the class
+ * at any point is the class of the innermost emitted box containing it, which is the class of
+ * its leaf cell. With a step, a cost-model cut of the same tree: each node takes the class that
+ * minimises the expected frame cost (box events per ray crossing it against the samples that
+ * marching its EMPTY parts costs), so EMPTY space may be marched where skipping it costs more
+ * than it saves; every NONEMPTY (and UNKNOWN) cell still lies in a box of its own class, so
+ * the image is unchanged. The cut drops an EMPTY root and clips boxes to the grid's cells.
+ * With merge_siblings, sibling boxes of one class that together form a box are emitted as one
+ * (the DFS order stays valid because merged boxes are whole octants of their parent in one
+ * slab). Built after leap_occupancy_classify; rebuild after each. */
 typedef struct leap_boxes leap_boxes;
+
+/* The cut's cost model, in nanoseconds; zero fields take the measured defaults. */
+typedef struct leap_boxes_costs {
+    double hit_ns;          /* one box crossed by one ray: its two events, resolve, segment start */
+    double dense_sample_ns; /* one sample of an atlas (non-constant) cell */
+    double const_sample_ns; /* one sample of a constant cell */
+    double box_ns;          /* one box per frame, whatever it covers (raster set-up) */
+} leap_boxes_costs;
+
+typedef struct leap_boxes_desc {
+    const leap_occupancy *occupancy; /* required, classified */
+    int merge_siblings;              /* 1 = merge same-class sibling boxes */
+    double step;                     /* the step the boxes serve (voxels); 0 = exact class-change boxes */
+    double pixels;                   /* rays per frame the cut expects (0 = 512 x 512) */
+    leap_boxes_costs costs;
+} leap_boxes_desc;
 
 typedef struct leap_boxes_stats {
     uint32_t boxes;
     uint32_t boxes_unmerged; /* what the count would be without sibling merging */
     uint32_t max_depth;
     double build_ms;
+    double cost_ns;          /* the cut's cost estimate per unit ray density (0: exact boxes) */
 } leap_boxes_stats;
 
-leap_result leap_boxes_create(const leap_occupancy *occ, int merge_siblings, leap_boxes **out,
-                              leap_error *err);
+/* Errors: LEAP_ERR_USAGE (no occupancy, negative step), LEAP_ERR_OOM. A cut may emit no box
+ * at all (nothing to march): leap_boxes_count is then 0. */
+leap_result leap_boxes_create(const leap_boxes_desc *desc, leap_boxes **out, leap_error *err);
 void leap_boxes_destroy(leap_boxes *boxes); /* accepts NULL */
 uint32_t leap_boxes_count(const leap_boxes *boxes);
 void leap_boxes_get_stats(const leap_boxes *boxes, leap_boxes_stats *out);

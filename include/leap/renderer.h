@@ -27,9 +27,12 @@ int leap_mode_from_name(const char *name);
 
 typedef struct leap_renderer_desc {
     const char *device_name; /* NULL = LEAP_DEVICE env, else first hardware GPU, else lavapipe */
-    uint32_t event_pool;     /* events the pool holds per frame; 0 = as many as fit in 128 MiB */
+    uint32_t pixel_events;   /* ray events a pixel holds, 2..LEAP_PIXEL_EVENTS; 0 = maximum.
+                                A pixel with more walks the occupancy tree (as octree). */
     uint32_t max_segments;   /* stored segments per pixel, 1..LEAP_MAX_SEGMENTS; 0 = maximum.
-                                A pixel with more falls back to marching its whole ray. */
+                                A pixel with more walks the occupancy tree likewise. */
+    int keep_lists;          /* 1 = sparseleap always rasterizes and resolves the per-pixel lists,
+                                even when the boxes reduce to one box (for segment dumps) */
     const char *const *instance_extensions; /* window-system extensions (the viewer) */
     uint32_t instance_extension_count;
     int swapchain;           /* 1 = the device can present (VK_KHR_swapchain) */
@@ -61,6 +64,8 @@ typedef struct leap_frame_stats {
     uint32_t events_max, segments_max;
     uint32_t overflow_pixels;
     uint32_t composite_chunks; /* dispatches of the composite pass (rays too long for one) */
+    int single_box;            /* sparseleap: the boxes reduced to at most one NONEMPTY box, whose
+                                  chord was each ray's segment (no raster, no resolve) */
     int tf_precorrected;       /* 1: opacity corrected in the TF table, 0: per sample */
     uint32_t width, height;
 } leap_frame_stats;
@@ -104,8 +109,8 @@ const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r);
 uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_event *out, uint32_t cap);
 
 /* The segments the resolve pass stored for pixel (x, y) in the last sparseleap frame (marched
- * classes only: NONEMPTY or UNKNOWN). *overflow is set when the pixel marched its whole ray
- * instead. Writes at most cap; returns the count. */
+ * classes only: NONEMPTY or UNKNOWN). *overflow is set when the pixel walked the occupancy
+ * tree instead. Writes at most cap; returns the count. */
 uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap_segment *out, uint32_t cap,
                                       int *overflow);
 

@@ -20,6 +20,7 @@ typedef struct leap_scene_desc {
     double range[2];
     double step;           /* voxels; 0 = 0.5 */
     int no_merge;          /* 1 = do not merge same-class sibling boxes */
+    int exact_boxes;       /* 1 = every class change of the tree is a box (no cost-model cut) */
 } leap_scene_desc;
 
 typedef struct leap_scene {
@@ -30,7 +31,7 @@ typedef struct leap_scene {
     leap_march march;
     leap_occupancy *occupancy;
     leap_boxes *boxes;
-    int merge;
+    int merge, exact_boxes;
     double center[3], radius;  /* world-space bounding sphere */
     double load_ms, atlas_ms, occupancy_ms, classify_ms, boxes_ms;
 } leap_scene;
@@ -45,6 +46,11 @@ void leap_scene_destroy(leap_scene *scene); /* accepts NULL */
  * rebuilds the boxes (no voxel data is read). */
 leap_result leap_scene_set_tf(leap_scene *scene, const leap_tf *tf, double range_lo, double range_hi,
                               leap_error *err);
+
+/* Sets the sample step (voxels) and rebuilds the boxes for it: the cost-model cut depends on
+ * the step (exact boxes do not). Errors: LEAP_ERR_USAGE (not a positive number), LEAP_ERR_OOM.
+ * A renderer holding the scene's boxes must be given them again (leap_renderer_set_occupancy). */
+leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err);
 
 /* Number of distinct integer values in the scene's range (for the label preset). */
 int leap_scene_label_count(double range_lo, double range_hi);
