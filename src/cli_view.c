@@ -652,19 +652,25 @@ static const char *base_name(const char *path)
     return s ? s + 1 : path;
 }
 
-/* Switches transfer function and value window: re-classify and rebuild boxes (no reload). */
+/* Switches transfer function and value window (re-classify and rebuild boxes, no reload), and
+ * the step (the boxes' cost-model cut depends on it). */
 static leap_result apply_tf(app *a, const leap_viewer *st, leap_error *err)
 {
-    if (!strcmp(st->tf, a->applied_tf) && st->range[0] == a->applied_range[0] && st->range[1] == a->applied_range[1])
-        return LEAP_OK;
-    memcpy(a->applied_tf, st->tf, sizeof a->applied_tf);
-    a->applied_range[0] = st->range[0];
-    a->applied_range[1] = st->range[1];
+    const int same_tf = !strcmp(st->tf, a->applied_tf) && st->range[0] == a->applied_range[0] &&
+                        st->range[1] == a->applied_range[1];
+    if (same_tf && st->step == a->scene->march.step) return LEAP_OK;
     double t = cli_now_ms();
-    leap_tf tf;
-    leap_result r = leap_tf_from_arg(st->tf, leap_scene_label_count(st->range[0], st->range[1]), &tf, err);
-    if (!r) r = leap_scene_set_tf(a->scene, &tf, st->range[0], st->range[1], err);
-    if (!r) r = leap_renderer_set_tf(a->renderer, &a->scene->tf, err);
+    leap_result r = LEAP_OK;
+    if (!same_tf) {
+        memcpy(a->applied_tf, st->tf, sizeof a->applied_tf);
+        a->applied_range[0] = st->range[0];
+        a->applied_range[1] = st->range[1];
+        leap_tf tf;
+        r = leap_tf_from_arg(st->tf, leap_scene_label_count(st->range[0], st->range[1]), &tf, err);
+        if (!r) r = leap_scene_set_tf(a->scene, &tf, st->range[0], st->range[1], err);
+        if (!r) r = leap_renderer_set_tf(a->renderer, &a->scene->tf, err);
+    }
+    if (!r) r = leap_scene_set_step(a->scene, st->step, err);
     leap_renderer_set_occupancy(a->renderer, a->scene->occupancy, a->scene->boxes);
     ++a->tf_gen;
     a->tf_apply_ms = cli_now_ms() - t;
