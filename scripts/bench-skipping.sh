@@ -8,14 +8,15 @@
 # OUT_DIR/comparison.md (scripts/compare-bench.py). BASELINE_LEAP, another build's leap
 # binary, is benchmarked first on the scan ramp in the same run (OUT_DIR/baseline) and shown
 # as "before". LEAP_BENCH_ARGS adds options (e.g. "--repeats 3"). Do not run anything else
-# meanwhile: builds and tests compete for the cores.
+# meanwhile: builds and tests compete for the cores. LEAP_BENCH_DATA: where the converted
+# inputs go (default OUT_DIR/data).
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out="${1:?usage: scripts/bench-skipping.sh OUT_DIR [BASELINE_LEAP]}"
 base="${2:-}"
 leap="$root/build/leap"
-data="$out/data"
-mkdir -p "$data"
+data="${LEAP_BENCH_DATA:-$out/data}" # converted scans and the rain box
+mkdir -p "$out" "$data"
 templates=/usr/share/mricron/templates
 for scan in ch2bet ch2 aal; do
   [ -f "$data/$scan.vdb" ] || /usr/bin/python3 "$root/scripts/nifti-to-vdb.py" "$templates/$scan.nii.gz" "$data/$scan.vdb"

@@ -490,9 +490,9 @@ uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_e
     const uint32_t total = ((const uint32_t *)r->event_counts.mapped)[pixel];
     const float *t = (const float *)r->event_t.mapped + pixel * LEAP_PIXEL_EVENTS;
     const uint32_t *key = (const uint32_t *)r->event_key.mapped + pixel * LEAP_PIXEL_EVENTS;
-    for (uint32_t n = 0; n < total && n < r->pixel_events && n < cap; ++n)
-        out[n] = (leap_event){t[n], key[n] >> 2, key[n] & 3u};
-    return total;
+    const uint32_t stored = total < r->pixel_events ? total : r->pixel_events;
+    for (uint32_t n = 0; n < stored && n < cap; ++n) out[n] = (leap_event){t[n], key[n] >> 2, key[n] & 3u};
+    return stored;
 }
 
 uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap_segment *out, uint32_t cap,

@@ -105,7 +105,9 @@ const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r);
 
 /* The ray events the GPU recorded for pixel (x, y) in the last sparseleap frame, in list order
  * (unsorted): cls is the class after the event, order the box's entry or exit number in the
- * box order of that frame (leap_renderer_boxes). Writes at most cap; returns the total. */
+ * box order of that frame (leap_renderer_boxes). Writes at most cap; returns how many the
+ * pixel's slots hold (at most the renderer's pixel_events: a pixel that was cast more is
+ * flagged as overflowed by leap_renderer_pixel_segments, and its extra events are lost). */
 uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_event *out, uint32_t cap);
 
 /* The segments the resolve pass stored for pixel (x, y) in the last sparseleap frame (marched
