@@ -185,6 +185,15 @@ static void merge_slots(vbuilder *b, uint32_t slot[8], uint32_t child_level)
     }
 }
 
+/* A stored internal node (as opposed to a leaf or an implicit single-class subtree). */
+static int stored_node(uint32_t ref) { return ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF); }
+
+/* Origin of octant k of the cube of edge 2^height cells at org. */
+static void child_origin(const uint32_t org[3], uint32_t height, int k, uint32_t corg[3])
+{
+    for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (height - 1));
+}
+
 /* ---- cost-model cut ----------------------------------------------------------------------
  * Every point of a NONEMPTY leaf must lie in a marched region; an EMPTY leaf may be marched too
  * (its samples have zero opacity, so the image is unchanged). The cut picks, per node, the
@@ -244,7 +253,7 @@ static uint32_t leaf_choice(const vbuilder *b, uint32_t ref, uint32_t height, co
 
 static double child_cost(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p)
 {
-    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) return b->table[ref].cost[p];
+    if (stored_node(ref)) return b->table[ref].cost[p];
     double c;
     leaf_choice(b, ref, height, org, p, &c);
     return c;
@@ -262,7 +271,7 @@ static void cut_solve(vbuilder *b)
         double sum[LEAP_CLASS_COUNT] = {0};
         for (int k = 0; k < 8; ++k) {
             uint32_t corg[3];
-            for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (level - 1));
+            child_origin(org, level, k, corg);
             for (uint32_t c = 0; c < LEAP_CLASS_COUNT; ++c) sum[c] += child_cost(b, child[k], level - 1, corg, c);
         }
         cut_entry *t = &b->table[i];
@@ -282,7 +291,7 @@ static void cut_solve(vbuilder *b)
 static uint32_t node_class(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p)
 {
     if (!b->cut) return leap_occ_internal_ref_class(b->occ, ref);
-    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) return b->table[ref].cls[p];
+    if (stored_node(ref)) return b->table[ref].cls[p];
     double c;
     return leaf_choice(b, ref, height, org, p, &c);
 }
@@ -302,12 +311,12 @@ static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const uint32_
     uint32_t slot[8];
     for (int k = 0; k < 8; ++k) slot[k] = NONE;
     int used = 0;
-    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+    if (stored_node(ref)) {
         uint32_t child[8];
         leap_occ_internal_node(b->occ, ref, NULL, NULL, child, NULL);
         for (int k = 0; k < 8; ++k) {
             uint32_t corg[3];
-            for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (height - 1));
+            child_origin(org, height, k, corg);
             slot[k] = vbuild(b, child[k], height - 1, corg, cls, 0);
             if (b->oom) return NONE;
         }
@@ -349,13 +358,13 @@ static double marched_empty_cost(const vbuilder *b, uint32_t ref, uint32_t heigh
         if (!(h > l)) return 0.0;
         volume *= (h - l) * LEAP_CELL;
     }
-    if (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+    if (stored_node(ref)) {
         uint32_t child[8];
         leap_occ_internal_node(b->occ, ref, NULL, NULL, child, NULL);
         double sum = 0.0;
         for (int k = 0; k < 8; ++k) {
             uint32_t corg[3];
-            for (int a = 0; a < 3; ++a) corg[a] = org[a] + ((uint32_t)(k >> a & 1) << (height - 1));
+            child_origin(org, height, k, corg);
             sum += marched_empty_cost(b, child[k], height - 1, corg, lo, hi);
         }
         return sum;
@@ -434,43 +443,33 @@ leap_result leap_boxes_create(const leap_boxes_desc *desc, leap_boxes **out, lea
     const uint32_t root = b.oom || single ? NONE : vbuild(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY, 1);
     free(b.table);
     b.table = NULL;
-    if (single) {
-        leap_boxes *bx = calloc(1, sizeof *bx);
-        bnode *n = calloc(1, sizeof *n);
+    /* The single box, or a cut that emits nothing at all (nothing to march): no tree to lay out. */
+    if (single || (!b.oom && root == NONE && b.cut)) {
         free(b.v);
-        if (!bx || !n) {
+        leap_boxes *bx = calloc(1, sizeof *bx);
+        bnode *n = single ? calloc(1, sizeof *n) : NULL;
+        if (!bx || (single && !n)) {
             free(bx);
             free(n);
             return leap_fail(err, LEAP_ERR_OOM, "boxes: out of memory");
         }
-        for (int a = 0; a < 3; ++a) {
-            n->lo[a] = single_lo[a];
-            while (((uint64_t)1 << n->ext[a]) < (uint64_t)single_hi[a] - single_lo[a]) n->ext[a]++;
-        }
-        n->cls = LEAP_CLASS_NONEMPTY;
-        n->pcls = LEAP_CLASS_EMPTY;
-        n->flags = F_EMITTED;
-        bx->n = n;
-        bx->count = 1;
-        bx->boxes = bx->boxes_unmerged = 1;
-        bx->clip = 1; /* the box ends where the non-EMPTY cells end */
-        memcpy(bx->cells, single_hi, sizeof bx->cells);
-        bx->cost_ns = cost;
-        bx->build_ms = leap__now_ms() - t0;
-        *out = bx;
-        return LEAP_OK;
-    }
-    /* The cut may emit nothing at all (nothing to march): an empty box set. */
-    if (!b.oom && root == NONE && b.cut) {
-        leap_boxes *bx = calloc(1, sizeof *bx);
-        if (!bx) {
-            free(b.v);
-            return leap_fail(err, LEAP_ERR_OOM, "boxes: out of memory");
-        }
         bx->clip = 1;
         memcpy(bx->cells, b.cells, sizeof bx->cells);
+        if (single) {
+            for (int a = 0; a < 3; ++a) {
+                n->lo[a] = single_lo[a];
+                while (((uint64_t)1 << n->ext[a]) < (uint64_t)single_hi[a] - single_lo[a]) n->ext[a]++;
+            }
+            n->cls = LEAP_CLASS_NONEMPTY;
+            n->pcls = LEAP_CLASS_EMPTY;
+            n->flags = F_EMITTED;
+            bx->n = n;
+            bx->count = 1;
+            bx->boxes = bx->boxes_unmerged = 1;
+            memcpy(bx->cells, single_hi, sizeof bx->cells); /* the box ends where the non-EMPTY cells end */
+        }
+        bx->cost_ns = cost;
         bx->build_ms = leap__now_ms() - t0;
-        free(b.v);
         *out = bx;
         return LEAP_OK;
     }

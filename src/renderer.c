@@ -967,7 +967,6 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
     leap_result lr = ensure_frame_buffers(r, view, err);
     if (!lr) lr = upload_tf(r, march->step, err);
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
-    if (!lr && (mode == LEAP_RENDER_OCTREE || lists)) lr = upload_tree(r, err); /* lists: for overflowed pixels */
     if (lr) return lr;
     if (lists) {
         double eye_or_dir[3];
@@ -978,6 +977,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const 
         if (chord && box_count == 1 && ((const leap_box_gpu *)r->boxes.mapped)[0].info.z != LEAP_CLASS_NONEMPTY)
             chord = 0; /* one UNKNOWN box: its segment must be listed as UNKNOWN */
     }
+    /* The tree is walked by octree and by sparseleap pixels whose lists overflow (not in a chord frame). */
+    if ((mode == LEAP_RENDER_OCTREE || (lists && !chord)) && (lr = upload_tree(r, err))) return lr;
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
     VkPipeline composite = VK_NULL_HANDLE;
     if ((lr = composite_pipeline(r, pass_mode, r->tf_precorrected, &composite, err))) return lr;

@@ -324,14 +324,19 @@ static void opaque_tf(leap_tf *tf)
 
 /* ---- scenes ---------------------------------------------------------------------------- */
 
-static leap_scene *load(const char *path, const char *preset, const leap_tf *tf, int has_range, double lo, double hi)
+static leap_scene *load_desc(const leap_scene_desc *d, const leap_tf *tf)
 {
     leap_error err = {{0}};
-    leap_scene_desc d = {.path = path, .tf = preset, .has_range = has_range, .range = {lo, hi}};
     leap_scene *s = NULL;
-    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    CHECK_OK(leap_scene_create(d, &s, &err), &err);
     if (s && tf) CHECK_OK(leap_scene_set_tf(s, tf, s->march.range_lo, s->march.range_hi, &err), &err);
     return s;
+}
+
+static leap_scene *load(const char *path, const char *preset, const leap_tf *tf, int has_range, double lo, double hi)
+{
+    leap_scene_desc d = {.path = path, .tf = preset, .has_range = has_range, .range = {lo, hi}};
+    return load_desc(&d, tf);
 }
 
 static leap_scene *load_tmp(const char *name, const char *preset, const leap_tf *tf, int has_range, double lo, double hi)
@@ -344,14 +349,10 @@ static leap_scene *load_tmp(const char *name, const char *preset, const leap_tf 
 /* With exact class-change boxes (no cost-model cut), for cases about the box geometry itself. */
 static leap_scene *load_tmp_exact(const char *name, const leap_tf *tf, double lo, double hi)
 {
-    leap_error err = {{0}};
     char path[1024];
     tmp_path(name, path, sizeof path);
     leap_scene_desc d = {.path = path, .has_range = 1, .range = {lo, hi}, .exact_boxes = 1};
-    leap_scene *s = NULL;
-    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
-    if (s && tf) CHECK_OK(leap_scene_set_tf(s, tf, lo, hi, &err), &err);
-    return s;
+    return load_desc(&d, tf);
 }
 
 static leap_scene *load_shipped(const char *file, const char *grid, const char *preset)
