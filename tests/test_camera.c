@@ -55,7 +55,7 @@ static int solve3(const double c0[3], const double c1[3], const double c2[3], co
 
 /* Pixel coordinates (px, py) where the view sees index-space point p, from the view's
  * affine ray parameterisation alone; s > 0 when the point is in front. */
-static int project(const leap_view *v, int ortho, const double p[3], double *px, double *py,
+static int project(const leap_rays *v, int ortho, const double p[3], double *px, double *py,
                    double *s)
 {
     double x[3];
@@ -110,8 +110,8 @@ static void test_orbit_framing(void)
                         CHECK_NEAR(cam.ortho_height, 2.0 * radius, 1e-15);
                         CHECK(cam.ortho == o);
                         const int W = sizes[sz][0], H = sizes[sz][1];
-                        leap_view v;
-                        CHECK_OK(leap_view_make(&cam, W, H, identity, zero3, &v, &err), &err);
+                        leap_rays v;
+                        CHECK_OK(leap_rays_make(&cam, W, H, identity, zero3, &v, &err), &err);
                         for (int c = 0; c < 8; ++c) {
                             const double p[3] = {center[0] + ((c & 1) ? half[0] : -half[0]),
                                                  center[1] + ((c & 2) ? half[1] : -half[1]),
@@ -134,8 +134,8 @@ static void test_orbit_framing(void)
     leap_camera cam;
     CHECK_OK(leap_camera_orbit(zero3, 1.0, 0, 0, 0, 60, 0, &cam, &err), &err);
     CHECK_NEAR(cam.eye[2], 2.0, 1e-12); /* 1 / sin(30) */
-    leap_view v;
-    CHECK_OK(leap_view_make(&cam, 100, 100, identity, zero3, &v, &err), &err);
+    leap_rays v;
+    CHECK_OK(leap_rays_make(&cam, 100, 100, identity, zero3, &v, &err), &err);
     /* tangent point from the eye at (0,0,2) to the unit sphere in the y-z plane */
     const double tp[3] = {0, sqrt(3.0) / 2.0, 0.5};
     double px, py, s;
@@ -148,7 +148,7 @@ static void test_orientation(void)
 {
     leap_error err = {{0}};
     leap_camera cam;
-    leap_view v;
+    leap_rays v;
     double o[3], d[3];
 
     /* az = 0, el = 0: eye on +Z, looking along -Z, +Y up, +X to the right */
@@ -156,18 +156,18 @@ static void test_orientation(void)
     CHECK_NEAR(cam.eye[0], 0.0, 1e-15);
     CHECK_NEAR(cam.eye[1], 0.0, 1e-15);
     CHECK_NEAR(cam.eye[2], 5.0, 1e-15);
-    CHECK_OK(leap_view_make(&cam, 32, 32, identity, zero3, &v, &err), &err);
-    leap_view_ray(&v, 16, 16, o, d);
+    CHECK_OK(leap_rays_make(&cam, 32, 32, identity, zero3, &v, &err), &err);
+    leap_rays_at(&v, 16, 16, o, d);
     CHECK_NEAR(d[0], 0.0, 1e-15);
     CHECK_NEAR(d[1], 0.0, 1e-15);
     CHECK_NEAR(d[2], -1.0, 1e-15);
     CHECK_NEAR(o[2], 5.0, 1e-15);
-    leap_view_ray(&v, 16, 0.5, o, d);
+    leap_rays_at(&v, 16, 0.5, o, d);
     CHECK(d[1] > 0.1); /* top row looks up */
-    leap_view_ray(&v, 31.5, 16, o, d);
+    leap_rays_at(&v, 31.5, 16, o, d);
     CHECK(d[0] > 0.1); /* right column looks to +X */
     /* the corner ray makes the half field of view vertically */
-    leap_view_ray(&v, 16, 0, o, d);
+    leap_rays_at(&v, 16, 0, o, d);
     CHECK_NEAR(atan2(d[1], -d[2]) * 180.0 / PI, 20.0, 1e-9);
 
     /* az = 90: eye on +X */
@@ -178,26 +178,26 @@ static void test_orientation(void)
     /* el = 90: eye above, image top towards -Z */
     CHECK_OK(leap_camera_orbit(zero3, 1.0, 0, 90, 5.0, 40, 0, &cam, &err), &err);
     CHECK_NEAR(cam.eye[1], 5.0, 1e-12);
-    CHECK_OK(leap_view_make(&cam, 32, 32, identity, zero3, &v, &err), &err);
-    leap_view_ray(&v, 16, 16, o, d);
+    CHECK_OK(leap_rays_make(&cam, 32, 32, identity, zero3, &v, &err), &err);
+    leap_rays_at(&v, 16, 16, o, d);
     CHECK_NEAR(d[1], -1.0, 1e-12);
-    leap_view_ray(&v, 16, 0.5, o, d);
+    leap_rays_at(&v, 16, 0.5, o, d);
     CHECK(d[2] < -0.1);
     /* approaching the pole the image orientation changes continuously */
-    leap_view v2;
+    leap_rays v2;
     CHECK_OK(leap_camera_orbit(zero3, 1.0, 0, 89.999, 5.0, 40, 0, &cam, &err), &err);
-    CHECK_OK(leap_view_make(&cam, 32, 32, identity, zero3, &v2, &err), &err);
+    CHECK_OK(leap_rays_make(&cam, 32, 32, identity, zero3, &v2, &err), &err);
     double o2[3], d2[3];
-    leap_view_ray(&v2, 16, 0.5, o2, d2);
+    leap_rays_at(&v2, 16, 0.5, o2, d2);
     CHECK(dist3(d, d2) < 1e-3);
     /* el = -90: below, no failure */
     CHECK_OK(leap_camera_orbit(zero3, 1.0, 45, -90, 5.0, 40, 0, &cam, &err), &err);
-    CHECK_OK(leap_view_make(&cam, 32, 32, identity, zero3, &v, &err), &err);
+    CHECK_OK(leap_rays_make(&cam, 32, 32, identity, zero3, &v, &err), &err);
 
     /* a hand-made camera with a non-orthogonal up; the centre ray hits the target */
     leap_camera c2 = {{3, -2, 7}, {0.5, 1, -1}, {0.3, 1, 0.4}, 55, 0, 0};
-    CHECK_OK(leap_view_make(&c2, 40, 30, identity, zero3, &v, &err), &err);
-    leap_view_ray(&v, 20, 15, o, d);
+    CHECK_OK(leap_rays_make(&c2, 40, 30, identity, zero3, &v, &err), &err);
+    leap_rays_at(&v, 20, 15, o, d);
     CHECK_NEAR(dist3(o, c2.eye), 0.0, 1e-14);
     const double to_t[3] = {c2.target[0] - o[0], c2.target[1] - o[1], c2.target[2] - o[2]};
     const double t = dot(to_t, d);
@@ -205,7 +205,7 @@ static void test_orientation(void)
     CHECK_NEAR(dist3(hit, c2.target), 0.0, 1e-12);
     CHECK_NEAR(sqrt(dot(d, d)), 1.0, 1e-15);
     /* top of the image leans towards the given up vector */
-    leap_view_ray(&v, 20, 0.5, o, d2);
+    leap_rays_at(&v, 20, 0.5, o, d2);
     double fwd[3] = {to_t[0], to_t[1], to_t[2]};
     normalize(fwd);
     CHECK(dot(d2, c2.up) > dot(fwd, c2.up));
@@ -215,24 +215,24 @@ static void test_ortho(void)
 {
     leap_error err = {{0}};
     leap_camera cam = {{1, 2, 10}, {1, 2, 0}, {0, 1, 0}, 40, 1, 6.0};
-    leap_view v;
-    CHECK_OK(leap_view_make(&cam, 48, 32, identity, zero3, &v, &err), &err);
+    leap_rays v;
+    CHECK_OK(leap_rays_make(&cam, 48, 32, identity, zero3, &v, &err), &err);
     double o[3], d[3], o2[3], d2[3];
-    leap_view_ray(&v, 0.5, 0.5, o, d);
-    leap_view_ray(&v, 47.5, 31.5, o2, d2);
+    leap_rays_at(&v, 0.5, 0.5, o, d);
+    leap_rays_at(&v, 47.5, 31.5, o2, d2);
     CHECK_NEAR(dist3(d, d2), 0.0, 1e-15);
     CHECK_NEAR(d[2], -1.0, 1e-15);
     /* image edges span ortho_height vertically and ortho_height * aspect horizontally */
-    leap_view_ray(&v, 0, 0, o, d);
-    leap_view_ray(&v, 0, 32, o2, d2);
+    leap_rays_at(&v, 0, 0, o, d);
+    leap_rays_at(&v, 0, 32, o2, d2);
     CHECK_NEAR(dist3(o, o2), 6.0, 1e-12);
     CHECK_NEAR(o[1] - o2[1], 6.0, 1e-12);
-    leap_view_ray(&v, 48, 0, o2, d2);
+    leap_rays_at(&v, 48, 0, o2, d2);
     CHECK_NEAR(o2[0] - o[0], 9.0, 1e-12);
     /* the centre ray starts at the eye and passes through the target */
-    leap_view_ray(&v, 24, 16, o, d);
+    leap_rays_at(&v, 24, 16, o, d);
     CHECK_NEAR(dist3(o, cam.eye), 0.0, 1e-12);
-    CHECK_NEAR(leap_view_world_distance(&v, d, 10.0), 10.0, 1e-12);
+    CHECK_NEAR(leap_rays_world_distance(&v, d, 10.0), 10.0, 1e-12);
 }
 
 /* index_to_world = R * diag(s) with translation tr; R rotates by `ang` about unit axis n. */
@@ -278,8 +278,8 @@ static void test_index_space(void)
     for (int ortho = 0; ortho < 2; ++ortho) {
         leap_camera cam = {{30, 15, -40}, {12, -18, 9}, {0.1, 1, 0.2}, 35, ortho, 25.0};
         const int W = 40, H = 24;
-        leap_view v;
-        CHECK_OK(leap_view_make(&cam, W, H, m, io, &v, &err), &err);
+        leap_rays v;
+        CHECK_OK(leap_rays_make(&cam, W, H, m, io, &v, &err), &err);
         /* world camera basis by hand */
         double f[3] = {cam.target[0] - cam.eye[0], cam.target[1] - cam.eye[1],
                        cam.target[2] - cam.eye[2]};
@@ -305,7 +305,7 @@ static void test_index_space(void)
                 }
             }
             double o[3], d[3];
-            leap_view_ray(&v, px, py, o, d);
+            leap_rays_at(&v, px, py, o, d);
             CHECK_NEAR(sqrt(dot(d, d)), 1.0, 1e-14);
             double io_o[3];
             world_to_index(inv, m, io, wo, io_o);
@@ -320,7 +320,7 @@ static void test_index_space(void)
                 const double on_ray[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
                 CHECK_NEAR(dist3(on_ray, ip), 0.0, 1e-10 * (1 + t));
                 /* t index units along the ray cover the world distance to that point */
-                CHECK_NEAR(leap_view_world_distance(&v, d, t), dist3(wp, wo), 1e-10 * (1 + t));
+                CHECK_NEAR(leap_rays_world_distance(&v, d, t), dist3(wp, wo), 1e-10 * (1 + t));
             }
         }
         for (int a = 0; a < 3; ++a)
@@ -341,10 +341,10 @@ static void test_far_origin(void)
     leap_camera cam;
     const double target_w[3] = {target_idx[0] * vs, target_idx[1] * vs, target_idx[2] * vs};
     CHECK_OK(leap_camera_orbit(target_w, 1.0, 30, 20, 1.0, 40, 0, &cam, &err), &err);
-    leap_view v;
-    CHECK_OK(leap_view_make(&cam, 32, 32, m, io, &v, &err), &err);
+    leap_rays v;
+    CHECK_OK(leap_rays_make(&cam, 32, 32, m, io, &v, &err), &err);
     double o[3], d[3];
-    leap_view_ray(&v, 16, 16, o, d);
+    leap_rays_at(&v, 16, 16, o, d);
     /* relative coordinates are small and precise */
     for (int c = 0; c < 3; ++c) {
         CHECK_NEAR(o[c], cam.eye[c] / vs - io[c], 1e-6);
@@ -356,20 +356,20 @@ static void test_far_origin(void)
     CHECK_NEAR(t, 100.0, 1e-6);
     const double hit[3] = {o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]};
     CHECK_NEAR(dist3(hit, rel_t), 0.0, 1e-6);
-    CHECK_NEAR(leap_view_world_distance(&v, d, t), 1.0, 1e-9);
+    CHECK_NEAR(leap_rays_world_distance(&v, d, t), 1.0, 1e-9);
 }
 
 static void test_errors(void)
 {
     leap_error err = {{0}};
-    leap_view v;
+    leap_rays v;
     const leap_camera good = {{0, 0, 5}, {0, 0, 0}, {0, 1, 0}, 40, 0, 2};
     leap_camera c = good;
-    CHECK_OK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err), &err);
+    CHECK_OK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err), &err);
 
     c = good;
     c.target[2] = 5;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
     CHECK(strstr(err.msg, "eye") != NULL);
 
     c = good;
@@ -377,55 +377,55 @@ static void test_errors(void)
     c.up[1] = 0;
     c.up[2] = -3;
     err.msg[0] = 0;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
     CHECK(strstr(err.msg, "parallel") != NULL);
     c.up[2] = 0;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
 
     const double bad_fov[] = {0, 180, -10, 200, NAN, INFINITY};
     for (size_t i = 0; i < sizeof bad_fov / sizeof bad_fov[0]; ++i) {
         c = good;
         c.fov_deg = bad_fov[i];
         err.msg[0] = 0;
-        CHECK_MSG(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE,
+        CHECK_MSG(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE,
                   "fov %g accepted", bad_fov[i]);
         CHECK(err.msg[0] != 0);
     }
     c = good;
     c.ortho = 1;
-    CHECK_OK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err), &err);
+    CHECK_OK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err), &err);
     c.ortho_height = 0;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
     c.ortho_height = NAN;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
 
     c = good;
-    CHECK(leap_view_make(&c, 0, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
-    CHECK(leap_view_make(&c, 8, -1, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 0, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, -1, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
     c.eye[1] = NAN;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
     c = good;
     c.up[0] = INFINITY;
-    CHECK(leap_view_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, zero3, &v, &err) == LEAP_ERR_USAGE);
     c = good;
     const double nan_origin[3] = {0, NAN, 0};
-    CHECK(leap_view_make(&c, 8, 8, identity, nan_origin, &v, &err) == LEAP_ERR_USAGE);
+    CHECK(leap_rays_make(&c, 8, 8, identity, nan_origin, &v, &err) == LEAP_ERR_USAGE);
 
     double sing[4][4];
     memcpy(sing, identity, sizeof sing);
     sing[2][2] = 0; /* zero-length k axis */
     err.msg[0] = 0;
-    CHECK(leap_view_make(&c, 8, 8, sing, zero3, &v, &err) == LEAP_ERR_FORMAT);
+    CHECK(leap_rays_make(&c, 8, 8, sing, zero3, &v, &err) == LEAP_ERR_FORMAT);
     CHECK(strstr(err.msg, "singular") != NULL);
     memcpy(sing, identity, sizeof sing);
     sing[0][1] = 1; /* j axis parallel to i axis */
     sing[1][1] = 0;
-    CHECK(leap_view_make(&c, 8, 8, sing, zero3, &v, &err) == LEAP_ERR_FORMAT);
+    CHECK(leap_rays_make(&c, 8, 8, sing, zero3, &v, &err) == LEAP_ERR_FORMAT);
     /* tiny but regular voxels are fine */
     double tiny[4][4];
     memcpy(tiny, identity, sizeof tiny);
     tiny[0][0] = tiny[1][1] = tiny[2][2] = 1e-6;
-    CHECK_OK(leap_view_make(&c, 8, 8, tiny, zero3, &v, &err), &err);
+    CHECK_OK(leap_rays_make(&c, 8, 8, tiny, zero3, &v, &err), &err);
 
     leap_camera oc;
     const double nan3[3] = {0, NAN, 0};

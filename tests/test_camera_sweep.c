@@ -178,7 +178,7 @@ typedef struct cam_rec {
     int kind;
     int exact;          /* 1: view built by hand in index space */
     leap_camera cam;
-    leap_view view;
+    leap_rays view;
     double step;
 } cam_rec;
 
@@ -189,7 +189,7 @@ static void exact_view(const geo *g, rng *r, cam_rec *c)
 {
     int axis = pick(r, 3), sgn = pick(r, 2) ? 1 : -1, ortho = pick(r, 2);
     int u = (axis + 1) % 3, v = (axis + 2) % 3;
-    leap_view *vw = &c->view;
+    leap_rays *vw = &c->view;
     memset(vw, 0, sizeof *vw);
     vw->width = SW, vw->height = SH, vw->ortho = ortho;
     for (int i = 0; i < 3; ++i) vw->index_origin[i] = g->org[i];
@@ -345,7 +345,7 @@ static int make_camera(const geo *g, rng *r, cam_rec *c)
 static void print_camera(const cam_rec *c)
 {
     if (c->exact) {
-        const leap_view *v = &c->view;
+        const leap_rays *v = &c->view;
         fprintf(stderr,
                 "  exact %s view: origin0 (%.9g %.9g %.9g) dir0 (%.9g %.9g %.9g) dir_dx (%.9g %.9g %.9g) "
                 "dir_dy (%.9g %.9g %.9g) origin_dx (%.9g %.9g %.9g) origin_dy (%.9g %.9g %.9g), step %.9g\n",
@@ -457,7 +457,7 @@ static void run_case(leap_renderer *rend, const sweep_case *sc, int count, rng *
             continue;
         }
         c.step = steps[pick(r, (int)(sizeof steps / sizeof steps[0]))] * sc->step_scale;
-        if (!c.exact && leap_scene_view(s, &c.cam, SW, SH, &c.view, &err) != LEAP_OK) {
+        if (!c.exact && leap_scene_rays(s, &c.cam, SW, SH, &c.view, &err) != LEAP_OK) {
             tot->skipped++; /* e.g. up parallel to the view direction: not a camera */
             continue;
         }

@@ -116,8 +116,8 @@ int main(void)
             for (int c = 0; c < 5; ++c) {
                 leap_camera cam;
                 CHECK(camera(&s, c, &cam));
-                leap_view view;
-                CHECK_OK(leap_view_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+                leap_rays view;
+                CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
                 leap_frame_stats ns, st;
                 CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err),
                          &err);
@@ -177,8 +177,8 @@ int main(void)
         leap_renderer_set_occupancy(r2, occ, boxes);
         leap_camera cam;
         camera(&s, 0, &cam);
-        leap_view view;
-        CHECK_OK(leap_view_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+        leap_rays view;
+        CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
         leap_frame_stats st;
         CHECK_OK(leap_renderer_render(r2, &view, &s.march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
         CHECK_OK(leap_renderer_render(r2, &view, &s.march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err), &err);

@@ -138,10 +138,10 @@ static void scattered_box(leap_renderer *renderer)
     float *gpu = malloc(SW * SH * 4 * sizeof(float)), *ref = malloc(SW * SH * 4 * sizeof(float));
     leap_camera cam;
     CHECK_OK(leap_camera_orbit(s.center, s.radius, 30, 20, 0, 40, 0, &cam, &err), &err);
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, SW, SH, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, SW, SH, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
     CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
-    leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .view = &view, .march = &s.march};
+    leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .rays = &view, .march = &s.march};
     CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
     image_diff d = compare_rgba(gpu, ref, SW * SH);
     double alpha_sum = 0;
@@ -177,12 +177,12 @@ int main(void)
         for (size_t c = 0; c < sizeof cameras / sizeof cameras[0]; ++c) {
             leap_camera cam;
             CHECK(make_camera(&s, &cameras[c], &cam));
-            leap_view view;
-            CHECK_OK(leap_view_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+            leap_rays view;
+            CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
             leap_frame_stats st;
             CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, gpu_samples, &st, &err),
                      &err);
-            leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .view = &view, .march = &s.march};
+            leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .rays = &view, .march = &s.march};
             CHECK_OK(leap_reference_render(&rd, ref, NULL, ref_samples, &err), &err);
             image_diff d = compare_rgba(gpu, ref, W * H);
             double alpha_sum = 0;
@@ -209,8 +209,8 @@ int main(void)
             CHECK(dense->slot_count > s.atlas->slot_count);
             leap_camera cam;
             make_camera(&s, &cameras[0], &cam);
-            leap_view view;
-            CHECK_OK(leap_view_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+            leap_rays view;
+            CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
             CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, ref, NULL, NULL, NULL, &err), &err);
             CHECK_OK(leap_renderer_set_volume(renderer, dense, &err), &err);
             CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);

@@ -390,7 +390,7 @@ static void dir_to_world(const leap_scene *s, const double d[3], double w[3])
 
 /* ---- views ----------------------------------------------------------------------------- */
 
-static void view_base(const leap_scene *s, int w, int h, int ortho, leap_view *v)
+static void view_base(const leap_scene *s, int w, int h, int ortho, leap_rays *v)
 {
     memset(v, 0, sizeof *v);
     v->width = w, v->height = h, v->ortho = ortho;
@@ -401,10 +401,10 @@ static void view_base(const leap_scene *s, int w, int h, int ortho, leap_view *v
 }
 
 /* Orthographic view in relative index space: pixel (x, y) starts at p00 + x du + y dv. */
-static leap_view ortho_view(const leap_scene *s, int w, int h, const double p00[3], const double du[3],
+static leap_rays ortho_view(const leap_scene *s, int w, int h, const double p00[3], const double du[3],
                             const double dv[3], const double dir[3])
 {
-    leap_view v;
+    leap_rays v;
     view_base(s, w, h, 1, &v);
     for (int i = 0; i < 3; ++i) {
         v.origin0[i] = p00[i] - 0.5 * du[i] - 0.5 * dv[i];
@@ -415,10 +415,10 @@ static leap_view ortho_view(const leap_scene *s, int w, int h, const double p00[
 
 /* Perspective view in relative index space: pixel (x, y) looks along
  * centre + (x - cx) du + (y - cy) dv from eye. Dyadic inputs make every ray exact in float. */
-static leap_view persp_view(const leap_scene *s, int w, int h, const double eye[3], const double centre[3],
+static leap_rays persp_view(const leap_scene *s, int w, int h, const double eye[3], const double centre[3],
                             const double du[3], const double dv[3], int cx, int cy)
 {
-    leap_view v;
+    leap_rays v;
     view_base(s, w, h, 0, &v);
     for (int i = 0; i < 3; ++i) {
         v.origin0[i] = eye[i];
@@ -428,10 +428,10 @@ static leap_view persp_view(const leap_scene *s, int w, int h, const double eye[
     return v;
 }
 
-static int cam_view(const leap_scene *s, const leap_camera *cam, int w, int h, leap_view *v)
+static int cam_view(const leap_scene *s, const leap_camera *cam, int w, int h, leap_rays *v)
 {
     leap_error err = {{0}};
-    leap_result r = leap_scene_view(s, cam, w, h, v, &err);
+    leap_result r = leap_scene_rays(s, cam, w, h, v, &err);
     CHECK_OK(r, &err);
     return r == LEAP_OK;
 }
@@ -513,7 +513,7 @@ static void unbind(gpu *g)
 
 /* Sparseleap coverage: every lattice sample strictly inside a NONEMPTY (or UNKNOWN) cell lies
  * in one of its pixel's segments. Returns the number of uncovered samples (first printed). */
-static long coverage(const gpu *g, const leap_scene *s, const leap_view *v, double step, const char *label,
+static long coverage(const gpu *g, const leap_scene *s, const leap_rays *v, double step, const char *label,
                      long *tested)
 {
     long missed = 0;
@@ -521,7 +521,7 @@ static long coverage(const gpu *g, const leap_scene *s, const leap_view *v, doub
     for (int y = 0; y < v->height; ++y)
         for (int x = 0; x < v->width; ++x) {
             double o[3], d[3];
-            leap_view_ray(v, x + 0.5, y + 0.5, o, d);
+            leap_rays_at(v, x + 0.5, y + 0.5, o, d);
             double t0 = 0, t1 = INFINITY;
             int hit = 1;
             for (int a = 0; a < 3 && hit; ++a) {
@@ -578,7 +578,7 @@ typedef struct frame_result {
 static int quiet_frames = 0; /* 1: print one line per frame only on failure */
 
 /* Renders view in every mode with step; all per-frame checks. */
-static frame_result frame(gpu *g, const leap_scene *s, const leap_view *v, double step, const char *label)
+static frame_result frame(gpu *g, const leap_scene *s, const leap_rays *v, double step, const char *label)
 {
     frame_result fr;
     memset(&fr, 0, sizeof fr);
@@ -751,7 +751,7 @@ typedef struct analytic_stats {
 } analytic_stats;
 
 /* Per-pixel analytic check of the images in g (all modes) for a flat-TF shape. */
-static void analytic(const gpu *g, const leap_view *v, double step, double a_tf,
+static void analytic(const gpu *g, const leap_rays *v, double step, double a_tf,
                      const double colour[3], const shape *sh, const char *label)
 {
     const double alpha = 1 - pow(1 - a_tf, step / LEAP_TF_STEP_REF);
@@ -767,7 +767,7 @@ static void analytic(const gpu *g, const leap_view *v, double step, double a_tf,
     for (int y = 0; y < v->height; ++y)
         for (int x = 0; x < v->width; ++x) {
             double o[3], d[3], t0, t1;
-            leap_view_ray(v, x + 0.5, y + 0.5, o, d);
+            leap_rays_at(v, x + 0.5, y + 0.5, o, d);
             double omax = fmax(fabs(o[0]), fmax(fabs(o[1]), fabs(o[2])));
             long n_in = 0, n_out = 0, n_exact = 0;
             double L = 0, L_in = 0, L_out = 0, tfar = 0;
@@ -934,7 +934,7 @@ static const char *fmt(const char *f, ...)
 /* Exact orthographic view along index axis `a` (sign sgn): pixel centres on the grid
  * start + (x, y) * spacing of the two other axes (absolute index coordinates), ray origins at
  * `along` on axis a. */
-static leap_view axis_ortho(const leap_scene *s, int a, int sgn, double start_u, double start_v, double spacing,
+static leap_rays axis_ortho(const leap_scene *s, int a, int sgn, double start_u, double start_v, double spacing,
                             double along, int w, int h)
 {
     int u = (a + 1) % 3, v = (a + 2) % 3;
@@ -947,7 +947,7 @@ static leap_view axis_ortho(const leap_scene *s, int a, int sgn, double start_u,
 
 /* Exact perspective view from absolute eye along index axis `a` (sign sgn), pixel angle step
  * 2^-6: the centre pixel (w/2, h/2) looks exactly along the axis. */
-static leap_view axis_persp(const leap_scene *s, int a, int sgn, const double eye_abs[3], int w, int h)
+static leap_rays axis_persp(const leap_scene *s, int a, int sgn, const double eye_abs[3], int w, int h)
 {
     int u = (a + 1) % 3, v = (a + 2) % 3;
     double e[3], du[3] = {0, 0, 0}, dv[3] = {0, 0, 0}, c[3] = {0, 0, 0};
@@ -966,7 +966,7 @@ static leap_camera orbit(const leap_scene *s, double az, double el, double dist,
 
 static void frame_cam(gpu *g, const leap_scene *s, const leap_camera *c, int w, int h, double step, const char *label)
 {
-    leap_view v;
+    leap_rays v;
     if (cam_view(s, c, w, h, &v)) frame(g, s, &v, step, label);
 }
 
@@ -991,11 +991,11 @@ static void case_axis_parallel(void)
             const double starts[3] = {sgn > 0 ? -40.0 : 130.0, sgn > 0 ? -20.5 : 90.5, 32.0};
             static const char *start_names[3] = {"outside", "on the domain face", "on a cell plane inside"};
             for (int k = 0; k < 3; ++k) {
-                leap_view v = axis_ortho(s, a, sgn, -22, -22, 2, starts[k], 56, 56);
+                leap_rays v = axis_ortho(s, a, sgn, -22, -22, 2, starts[k], 56, 56);
                 frame(&G, s, &v, 0.5, fmt("ortho %c%c spacing 2, origins %s", sgn > 0 ? '+' : '-', axn[a], start_names[k]));
             }
             /* spacing 0.5 near the domain corner: rays on the domain faces (x.5) and cell planes */
-            leap_view v = axis_ortho(s, a, sgn, -21, -21, 0.5, starts[0], 48, 48);
+            leap_rays v = axis_ortho(s, a, sgn, -21, -21, 0.5, starts[0], 48, 48);
             frame(&G, s, &v, 0.5, fmt("ortho %c%c spacing 0.5 over the domain corner", sgn > 0 ? '+' : '-', axn[a]));
         }
     /* nearly parallel: tiny, denormal and negative-zero-like components next to box planes */
@@ -1003,7 +1003,7 @@ static void case_axis_parallel(void)
     for (size_t i = 0; i < sizeof tiny / sizeof tiny[0]; ++i) {
         double p[3], du[3] = {2, 0, 0}, dv[3] = {0, 2, 0}, dir[3] = {tiny[i], 0, 1};
         rel3(s, -22, -22, -40, p);
-        leap_view v = ortho_view(s, 56, 56, p, du, dv, dir);
+        leap_rays v = ortho_view(s, 56, 56, p, du, dv, dir);
         frame(&G, s, &v, 0.5, fmt("ortho +z with dir.x = %g", tiny[i]));
         double dir2[3] = {-tiny[i], tiny[i], -1};
         rel3(s, -22, -22, 130, p);
@@ -1026,7 +1026,7 @@ static void case_axis_parallel(void)
         {{64, 64, 64}, 0, 1, "eye inside on a cell corner"},
     };
     for (size_t i = 0; i < sizeof pc / sizeof pc[0]; ++i) {
-        leap_view v = axis_persp(s, pc[i].axis, pc[i].sgn, pc[i].eye, 48, 48);
+        leap_rays v = axis_persp(s, pc[i].axis, pc[i].sgn, pc[i].eye, 48, 48);
         frame(&G, s, &v, 0.5, fmt("perspective %c%c, %s", pc[i].sgn > 0 ? '+' : '-', axn[pc[i].axis], pc[i].name));
     }
     /* user cameras along world (= index) axes */
@@ -1104,13 +1104,13 @@ static void case_grazing(void)
             for (int i = 0; i < 3; ++i) c[i] = diag_eye[k][i] < 0 ? 1 : -1;
             set3(du, a * c[1], -a * c[0], 0);
             set3(dv, a * c[0] * c[2], a * c[1] * c[2], -2 * a);
-            leap_view v = persp_view(s, 48, 48, e, c, du, dv, 24, 24);
+            leap_rays v = persp_view(s, 48, 48, e, c, du, dv, 24, 24);
             frame(&G, s, &v, 0.5, fmt("%s: perspective along a main diagonal (corners), eye %d", mn, k));
             check_events(&G, 24, 24, fmt("%s: diagonal %d centre ray", mn, k));
         }
         /* rays along every cell edge line, in each axis direction */
         for (int a = 0; a < 3; ++a) {
-            leap_view v = axis_ortho(s, a, a == 1 ? -1 : 1, -24, -24, 8, a == 1 ? 130 : -40, 16, 16);
+            leap_rays v = axis_ortho(s, a, a == 1 ? -1 : 1, -24, -24, 8, a == 1 ? 130 : -40, 16, 16);
             frame(&G, s, &v, 0.5, fmt("%s: ortho along cell edges, axis %d", mn, a));
             check_events(&G, 7, 7, fmt("%s: edge line (32, 32) axis %d", mn, a));
         }
@@ -1118,18 +1118,18 @@ static void case_grazing(void)
         {
             double p[3], du[3] = {4, -4, 0}, dv[3] = {0, 0, 8}, dir[3] = {1, 1, 0};
             rel3(s, -40, 16, -16, p);
-            leap_view v = ortho_view(s, 16, 16, p, du, dv, dir);
+            leap_rays v = ortho_view(s, 16, 16, p, du, dv, dir);
             frame(&G, s, &v, 0.5, fmt("%s: ortho along face diagonals through edges", mn));
         }
         /* the plate on z = 64 seen edge-on, rays in its plane and next to it */
         {
-            leap_view v = axis_ortho(s, 0, 1, 56, 60, 0.5, -40, 32, 32);
+            leap_rays v = axis_ortho(s, 0, 1, 56, 60, 0.5, -40, 32, 32);
             frame(&G, s, &v, 0.5, fmt("%s: ortho +x, rays in the plane of the plate at z = 64", mn));
         }
         /* perspective eye on the plate's plane: the centre row lies in the plane */
         {
             double eye[3] = {-30, 20, 64};
-            leap_view v = axis_persp(s, 0, 1, eye, 48, 48);
+            leap_rays v = axis_persp(s, 0, 1, eye, 48, 48);
             frame(&G, s, &v, 0.5, fmt("%s: perspective +x, eye in the plate's plane", mn));
         }
         unbind(&G);
@@ -1190,7 +1190,7 @@ static void case_camera_positions(void)
         /* exact axis view from the same point */
         double eye_abs[3];
         for (int i = 0; i < 3; ++i) eye_abs[i] = places[k].p[i] + s->march.index_origin[i];
-        leap_view v = axis_persp(s, 2, 1, eye_abs, 48, 48);
+        leap_rays v = axis_persp(s, 2, 1, eye_abs, 48, 48);
         frame(&G, s, &v, 0.5, fmt("%s: exact perspective +z", places[k].name));
     }
     /* near plane: eye a hair in front of block C's face, the face filling the wide view */
@@ -1257,7 +1257,7 @@ static const char *shared_view_names[N_SHARED_VIEWS] = {"exact ortho +z", "exact
 
 /* View k of a blocks scene whose content is shifted by off (absolute index), for any linear
  * transform: cameras are built from index positions, so the same rays result. */
-static int shared_view(const leap_scene *s, int k, const double off[3], leap_view *v)
+static int shared_view(const leap_scene *s, int k, const double off[3], leap_rays *v)
 {
     double e[3];
     switch (k) {
@@ -1297,7 +1297,7 @@ static void case_far(void)
     }
     bind(&G, s);
     for (int k = 0; k < N_SHARED_VIEWS; ++k) {
-        leap_view v;
+        leap_rays v;
         if (!shared_view(s, k, zero, &v)) continue;
         frame(&G, s, &v, 0.5, fmt("at the origin: %s", shared_view_names[k]));
         memcpy(base[k], G.rgba[0], (size_t)v.width * v.height * 4 * sizeof(float));
@@ -1320,7 +1320,7 @@ static void case_far(void)
         bind(&G, s);
         double off[3] = {offsets[i][0], offsets[i][1], offsets[i][2]};
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
-            leap_view v;
+            leap_rays v;
             if (!shared_view(s, k, off, &v)) continue;
             char label[160];
             snprintf(label, sizeof label, "offset (%d, %d, %d): %s", offsets[i][0], offsets[i][1], offsets[i][2],
@@ -1345,7 +1345,7 @@ static void case_far(void)
                 if (!s) break;
                 bind(&G, s);
                 for (int k = 2; k < N_SHARED_VIEWS; ++k) {
-                    leap_view v;
+                    leap_rays v;
                     if (!shared_view(s, k, zero, &v)) continue;
                     char label[160];
                     snprintf(label, sizeof label, "world translation %s: %s", which ? "(3.1e6, -7.3e5, 1.5e7)" : "0",
@@ -1400,7 +1400,7 @@ static void case_transforms(void)
         if (!s) continue;
         bind(&G, s);
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
-            leap_view v;
+            leap_rays v;
             if (shared_view(s, k, zero, &v)) frame(&G, s, &v, 0.5, fmt("%s: %s", xs[i].name, shared_view_names[k]));
         }
         leap_camera c = orbit(s, 35, 25, 0, 40, 0);
@@ -1432,7 +1432,7 @@ static void case_transforms(void)
                 leap_camera c = cam == 0 ? orbit(a, 35, 25, 0, 40, 0) : cam == 1 ? orbit(a, 200, -40, 0, 40, 1)
                                                                                   : orbit(a, 80, 10, 0.35, 90, 0);
                 bind(&G, a);
-                leap_view va, vb;
+                leap_rays va, vb;
                 if (!cam_view(a, &c, 48, 48, &va) || !cam_view(b, &c, 48, 48, &vb)) continue;
                 frame(&G, a, &va, 0.5, fmt("%s, stored as is: camera %d", pair_names[p], cam));
                 memcpy(ref, G.rgba[0], 48 * 48 * 4 * sizeof(float));
@@ -1533,7 +1533,7 @@ static void box_views(const leap_scene *s, const shape *sh, double a_tf, const c
     double sp = ext / 32, start = lo_abs[0] - 4 * sp;
     const double steps[] = {0.5, 0.7, 1.3, 50};
     for (size_t i = 0; i < (big ? 4u : 2u); ++i) {
-        leap_view v = axis_ortho(s, 2, 1, start, lo_abs[1] - 4 * sp, sp, lo_abs[2] - 10, 40, 40);
+        leap_rays v = axis_ortho(s, 2, 1, start, lo_abs[1] - 4 * sp, sp, lo_abs[2] - 10, 40, 40);
         frame(&G, s, &v, steps[i], fmt("%s: ortho +z, rays on the faces, step %g", name, steps[i]));
         analytic(&G, &v, steps[i], a_tf, analytic_colour, sh, label_buf);
     }
@@ -1561,7 +1561,7 @@ static void box_views(const leap_scene *s, const shape *sh, double a_tf, const c
             d[k] = cams[i].dir[k] * ek;
         }
         leap_camera c = cam_at(s, e, d, cams[i].fov, cams[i].ortho, 2.5 * ext);
-        leap_view v;
+        leap_rays v;
         if (!cam_view(s, &c, 40, 40, &v)) continue;
         double step = i == 3 ? 0.37 : 0.5;
         frame(&G, s, &v, step, fmt("%s: %s, step %g", name, cams[i].name, step));
@@ -1586,19 +1586,19 @@ static void case_degenerate(void)
         /* ortho +z, spacing 1/8: pixel centres on the voxel faces x, y = 4.5, 5.5 and -3.5, -2.5 */
         const double steps[] = {0.5, 0.01, 0.7};
         for (size_t i = 0; i < 3; ++i) {
-            leap_view v = axis_ortho(s, 2, 1, 3.5, -4.5, 0.125, -10, 24, 24);
+            leap_rays v = axis_ortho(s, 2, 1, 3.5, -4.5, 0.125, -10, 24, 24);
             frame(&G, s, &v, steps[i], fmt("single voxel: ortho +z through it, step %g", steps[i]));
             analytic(&G, &v, steps[i], a_tf, analytic_colour, &sh, label_buf);
         }
         double eye[3] = {5, -3, 7};
         for (int a = 0; a < 3; ++a) {
-            leap_view v = axis_persp(s, a, 1, eye, 32, 32);
+            leap_rays v = axis_persp(s, a, 1, eye, 32, 32);
             frame(&G, s, &v, 0.5, fmt("single voxel: eye at the voxel centre, axis %d", a));
             analytic(&G, &v, 0.5, a_tf, analytic_colour, &sh, label_buf);
         }
         for (int ortho = 0; ortho <= 1; ++ortho) {
             leap_camera c = orbit(s, 20, 30, 0, 30, ortho);
-            leap_view v;
+            leap_rays v;
             if (cam_view(s, &c, 32, 32, &v)) {
                 frame(&G, s, &v, 0.5, fmt("single voxel: orbit %s", ortho ? "ortho" : "perspective"));
                 analytic(&G, &v, 0.5, a_tf, analytic_colour, &sh, label_buf);
@@ -1616,7 +1616,7 @@ static void case_degenerate(void)
         bind(&G, s);
         for (int k = 0; k < 4; ++k) {
             leap_camera c = orbit(s, 30 * k, 20, k == 3 ? 0.5 : 0, 40 + 40 * k, k == 1);
-            leap_view v;
+            leap_rays v;
             if (!cam_view(s, &c, 32, 32, &v)) continue;
             frame(&G, s, &v, 0.5, fmt("empty grid%s: camera %d", fog ? " (tf opaque at background)" : "", k));
             double sum = 0;
@@ -1670,7 +1670,7 @@ static void case_analytic_box(void)
         double lo_abs[3], ext = sh.hi[0] - sh.lo[0];
         for (int i = 0; i < 3; ++i) lo_abs[i] = sh.lo[i] + s->march.index_origin[i];
         const double sp = ext / 32, step = 1.0 / 1024;
-        leap_view v = axis_ortho(s, 2, 1, lo_abs[0] - 4 * sp, lo_abs[1] - 4 * sp, sp, lo_abs[2] - 10, 12, 12);
+        leap_rays v = axis_ortho(s, 2, 1, lo_abs[0] - 4 * sp, lo_abs[1] - 4 * sp, sp, lo_abs[2] - 10, 12, 12);
         frame(&G, s, &v, step, fmt("box 128, a 0.004: ortho +z, step 1/1024 (131k samples per ray)"));
         analytic(&G, &v, step, a_tf, analytic_colour, &sh, label_buf);
     }
@@ -1699,7 +1699,7 @@ static void case_analytic_sphere(void)
                (unsigned long long)os.cells[LEAP_CLASS_NONEMPTY], sh.r_in, sh.r_out);
         const double steps[] = {0.5, 0.7, 0.25};
         for (size_t i = 0; i < 3; ++i) {
-            leap_view v = axis_ortho(s, 2, 1, -24, -24, 1, -40, 48, 48);
+            leap_rays v = axis_ortho(s, 2, 1, -24, -24, 1, -40, 48, 48);
             frame(&G, s, &v, steps[i], fmt("sphere %s: exact ortho +z, step %g", xnames[x], steps[i]));
             analytic(&G, &v, steps[i], a_tf, analytic_colour, &sh, label_buf);
         }
@@ -1724,7 +1724,7 @@ static void case_analytic_sphere(void)
                 dir_to_world(s, ones, w);
                 c.ortho_height = 3 * BALL_R * sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
             }
-            leap_view v;
+            leap_rays v;
             if (!cam_view(s, &c, 48, 48, &v)) continue;
             frame(&G, s, &v, 0.5, fmt("sphere %s: %s", xnames[x], cams[i].name));
             analytic(&G, &v, 0.5, a_tf, analytic_colour, &sh, label_buf);
@@ -1769,7 +1769,7 @@ static void case_far_camera(void)
         const double sp = 48.0 / n;
         double p00[3], du[3] = {sp, 0, 0}, dv[3] = {0, sp, 0}, dir[3] = {0, 0, 1};
         set3(p00, sh.centre[0] - 24 + 0.5 * sp, sh.centre[1] - 24 + 0.5 * sp, sh.centre[2] - fc[i].dist - 0.3);
-        leap_view v = ortho_view(s, n, n, p00, du, dv, dir);
+        leap_rays v = ortho_view(s, n, n, p00, du, dv, dir);
         frame(&G, s, &v, fc[i].step, fmt("ortho from %g voxels, step %g (first index %.3g)", fc[i].dist, fc[i].step,
                                          index));
         analytic(&G, &v, fc[i].step, BALL_A, analytic_colour, &sh, label_buf);
@@ -1847,7 +1847,7 @@ static void case_nonfinite(void)
             CHECK(a->info->value_min == b->info->value_min && a->info->value_max == b->info->value_max);
             for (int cam = 0; cam < 4; ++cam) {
                 leap_camera c = orbit(a, 30 + 70 * cam, cam == 2 ? 90 : 20, cam == 3 ? 0.4 : 0, 40, cam == 1);
-                leap_view va, vb;
+                leap_rays va, vb;
                 if (!cam_view(a, &c, 40, 40, &va) || !cam_view(b, &c, 40, 40, &vb)) continue;
                 bind(&G, b);
                 frame(&G, b, &vb, 0.5, fmt("%s twin (finite values), %s: camera %d", pairs[p].what, tfs[t], cam));
@@ -1886,7 +1886,7 @@ static void case_tfs(void)
         bind(&G, s);
         printf("  blocks with tf %s: %u boxes\n", tfs[t].name, leap_boxes_count(s->boxes));
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
-            leap_view v;
+            leap_rays v;
             if (shared_view(s, k, zero, &v)) frame(&G, s, &v, 0.5, fmt("tf %s: %s", tfs[t].name, shared_view_names[k]));
             if (t == 2 && k == 1) {
                 /* early termination right at the first opaque sample: few samples per pixel */
@@ -1909,7 +1909,7 @@ static void case_tfs(void)
         frame_cam(&G, h, &c, 48, 48, 0.5, "hollow tile: orbit");
         c = orbit(h, 10, 80, 0.2, 120, 0);
         frame_cam(&G, h, &c, 48, 48, 0.5, "hollow tile: camera inside the empty box");
-        leap_view v = axis_ortho(h, 0, 1, -8, -8, 4, -20, 40, 40);
+        leap_rays v = axis_ortho(h, 0, 1, -8, -8, 4, -20, 40, 40);
         frame(&G, h, &v, 0.5, "hollow tile: ortho +x on cell planes");
         double eye[3] = {64, 64, 64};
         v = axis_persp(h, 1, -1, eye, 48, 48);
@@ -1947,7 +1947,7 @@ static void case_steps(void)
         bind(&G, s);
         for (size_t i = 0; i < sizeof steps / sizeof steps[0]; ++i)
             for (int k = 0; k < N_SHARED_VIEWS; k += 1) {
-                leap_view v;
+                leap_rays v;
                 if (steps[i] < 0.05 && k != 1 && k != 3) continue; /* keep the 0.01 frames few */
                 if (shared_view(s, k, zero, &v))
                     frame(&G, s, &v, steps[i], fmt("blocks, step %g: %s", steps[i], shared_view_names[k]));
@@ -1980,7 +1980,7 @@ static void case_overflow(gpu *g, const char *what)
         if (c) {
             bind(g, c);
             printf("  comb: %u boxes\n", leap_boxes_count(c->boxes));
-            leap_view v = axis_ortho(c, 0, 1, 2, 2, 0.25, -40, 16, 16);
+            leap_rays v = axis_ortho(c, 0, 1, 2, 2, 0.25, -40, 16, 16);
             frame(g, c, &v, 0.5, "comb: ortho along the line of voxels");
             ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
             printf("  comb: events per pixel max %u, segments per pixel max %u\n",
@@ -2006,7 +2006,7 @@ static void case_overflow(gpu *g, const char *what)
     if (s) {
         bind(g, s);
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
-            leap_view v;
+            leap_rays v;
             if (!shared_view(s, k, zero, &v)) continue;
             frame(g, s, &v, 0.5, fmt("blocks: %s", shared_view_names[k]));
             overflow += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;

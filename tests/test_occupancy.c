@@ -10,7 +10,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "../src/occupancy_internal.h"
+#include "../src/occupancy/occupancy_internal.h"
 
 #define N LEAP_TF_TABLE_SIZE
 

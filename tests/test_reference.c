@@ -86,12 +86,12 @@ static void build_linear(leap_vdb_writer *w, int g)
 
 /* Brute-force evaluation of the contract for one pixel with an analytic value function
  * (valid where the grid is linear, so trilinear interpolation reproduces it exactly). */
-static void brute_pixel(const leap_view *v, const leap_march *m, const leap_tf *tf,
+static void brute_pixel(const leap_rays *v, const leap_march *m, const leap_tf *tf,
                         double (*value)(const double[3]), double px, double py, double out[4],
                         double *out_depth, int *out_n)
 {
     double o[3], d[3];
-    leap_view_ray(v, px, py, o, d);
+    leap_rays_at(v, px, py, o, d);
     double C[3] = {0, 0, 0}, T = 1.0, dep = INFINITY;
     int n = 0;
     /* every lattice point up to well past the box */
@@ -118,7 +118,7 @@ static void brute_pixel(const leap_view *v, const leap_march *m, const leap_tf *
         leap_tf_eval(tf, u, s);
         ++n;
         if (s[3] > LEAP_DEPTH_OPACITY && dep == INFINITY)
-            dep = leap_view_world_distance(v, d, t);
+            dep = leap_rays_world_distance(v, d, t);
         const double a = 1.0 - pow(1.0 - s[3], m->step);
         for (int c = 0; c < 3; ++c)
             C[c] += T * a * s[c];
@@ -135,10 +135,10 @@ static void brute_pixel(const leap_view *v, const leap_march *m, const leap_tf *
 }
 
 /* Number of lattice samples of a ray in the domain, counted point by point. */
-static int count_samples(const leap_view *v, const leap_march *m, double px, double py)
+static int count_samples(const leap_rays *v, const leap_march *m, double px, double py)
 {
     double o[3], d[3];
-    leap_view_ray(v, px, py, o, d);
+    leap_rays_at(v, px, py, o, d);
     double reach = 0;
     for (int c = 0; c < 3; ++c)
         reach += fabs(o[c]) + fabs(m->domain_max[c]) + fabs(m->domain_min[c]);
@@ -157,7 +157,7 @@ static int count_samples(const leap_view *v, const leap_march *m, double px, dou
     return n;
 }
 
-static int render(const leap_grid *grid, const leap_tf *tf, const leap_view *view,
+static int render(const leap_grid *grid, const leap_tf *tf, const leap_rays *view,
                   const leap_march *m, int threads, float *c, float *dp, float *s)
 {
     leap_error err = {{0}};
@@ -181,8 +181,8 @@ static void test_constant_box(const leap_grid *box)
     leap_error err = {{0}};
     const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.7, 0.0, 2.0};
     leap_camera cam = {{115.3, 115.7, 200.25}, {115.3, 115.7, 0}, {0, 1, 0}, 40, 1, 40.0};
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
 
     const double cols[][4] = {{0.2, 0.6, 0.9, 0.06}, {1.0, 0.5, 0.25, 0.5}};
     for (int ci = 0; ci < 2; ++ci) {
@@ -210,7 +210,7 @@ static void test_constant_box(const leap_grid *box)
                 if (n > 0) {
                     ++interior;
                     double o[3], d[3];
-                    leap_view_ray(&view, x + 0.5, y + 0.5, o, d);
+                    leap_rays_at(&view, x + 0.5, y + 0.5, o, d);
                     const double t0 = ceil((o[2] - 29.0) / m.step) * m.step;
                     CHECK_NEAR(depth[i], t0, 1e-5);
                 } else {
@@ -247,8 +247,8 @@ static void test_empty(const leap_grid *box, const leap_grid *empty)
     leap_camera cam;
     const double center[3] = {115.5, 115.5, 115.5};
     CHECK_OK(leap_camera_orbit(center, 24.0, 30, 20, 0, 40, 0, &cam, &err), &err);
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
 
     fill_tf(&tf_zero, 1, 1, 1, 0);
     for (int pass = 0; pass < 2; ++pass) {
@@ -281,8 +281,8 @@ static void test_inside(const leap_grid *box)
     leap_error err = {{0}};
     const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.7, 0.0, 2.0};
     leap_camera cam = {{115, 115, 115}, {115, 115, 0}, {0, 1, 0}, 60, 0, 0};
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
     fill_tf(&tf_const, 0.5, 0.5, 0.5, 0.06);
     if (!render(box, &tf_const, &view, &m, 2, rgba, depth, samples))
         return;
@@ -312,10 +312,10 @@ static void test_planes(const leap_grid *box)
     /* pixel column i has relative x = i, row j relative y = 31 - j; the eye plane lies on
      * the domain's max z plane */
     leap_camera cam = {{115.5, 115.5, 129}, {115.5, 115.5, 0}, {0, 1, 0}, 40, 1, 32.0};
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
     double o[3], d[3];
-    leap_view_ray(&view, 2.5, 29.5, o, d);
+    leap_rays_at(&view, 2.5, 29.5, o, d);
     CHECK(o[0] == 2.0 && o[1] == 2.0 && o[2] == 29.0);
     CHECK(d[0] == 0.0 && d[1] == 0.0 && d[2] == -1.0);
     fill_tf(&tf_const, 0.3, 0.6, 0.9, 0.02);
@@ -335,7 +335,7 @@ static void test_planes(const leap_grid *box)
         }
     /* rays along x through the y/z planes, starting outside the box on x */
     leap_camera side = {{140, 115.5, 115.5}, {0, 115.5, 115.5}, {0, 1, 0}, 40, 1, 32.0};
-    CHECK_OK(leap_view_make(&side, W, H, identity, m.index_origin, &view, &err), &err);
+    CHECK_OK(leap_rays_make(&side, W, H, identity, m.index_origin, &view, &err), &err);
     if (!render(box, &tf_const, &view, &m, 2, rgba, depth, samples))
         return;
     CHECK(all_finite(rgba, 4 * NPIX));
@@ -363,8 +363,8 @@ static void test_linear(const leap_grid *lin)
     one.step = 100.0;
     leap_camera cam = {{X0 + 5.3, Y0 + 6.7, Z0 + 8.25}, {X0 + 5.3, Y0 + 6.7, Z0 - 50},
                        {0, 1, 0}, 40, 1, 12.0};
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, W, H, identity, one.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, one.index_origin, &view, &err), &err);
     if (!render(lin, &tf_ramp, &view, &one, 2, rgba, depth, samples))
         return;
     int checked = 0;
@@ -372,7 +372,7 @@ static void test_linear(const leap_grid *lin)
         for (int x = 0; x < W; ++x) {
             const int i = y * W + x;
             double o[3], d[3];
-            leap_view_ray(&view, x + 0.5, y + 0.5, o, d);
+            leap_rays_at(&view, x + 0.5, y + 0.5, o, d);
             const int in = o[0] >= 1 && o[0] <= 15 && o[1] >= 1 && o[1] <= 15;
             CHECK(samples[i] == (in ? 1.0f : 0.0f));
             if (!in)
@@ -395,7 +395,7 @@ static void test_linear(const leap_grid *lin)
         CHECK_OK(leap_camera_orbit(center, 10.0, pass ? -130 : 25, pass ? -35 : 40,
                                    pass ? 0.5 : 0, 45, 0, &cam, &err),
                  &err);
-        CHECK_OK(leap_view_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+        CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
         if (!render(lin, &tf_ramp, &view, &m, 2, rgba, depth, samples))
             return;
         int hits = 0;
@@ -426,8 +426,8 @@ static void test_errors(const leap_grid *box)
     leap_error err = {{0}};
     const leap_march good = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 1.0};
     leap_camera cam = {{115, 115, 200}, {115, 115, 0}, {0, 1, 0}, 40, 0, 0};
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, 4, 4, identity, good.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, 4, 4, identity, good.index_origin, &view, &err), &err);
     fill_tf(&tf_const, 1, 1, 1, 0.5);
     float out[64];
     CHECK(leap_reference_render(NULL, out, NULL, NULL, &err) == LEAP_ERR_USAGE);
@@ -439,9 +439,9 @@ static void test_errors(const leap_grid *box)
     d.tf = NULL;
     CHECK(leap_reference_render(&d, out, NULL, NULL, &err) == LEAP_ERR_USAGE);
     d.tf = &tf_const;
-    d.view = NULL;
+    d.rays = NULL;
     CHECK(leap_reference_render(&d, out, NULL, NULL, &err) == LEAP_ERR_USAGE);
-    d.view = &view;
+    d.rays = &view;
     d.march = NULL;
     CHECK(leap_reference_render(&d, out, NULL, NULL, &err) == LEAP_ERR_USAGE);
     leap_march m = good;
@@ -479,8 +479,8 @@ static void timing(const leap_grid *lin)
     const double center[3] = {X0 + 8, Y0 + 8, Z0 + 8};
     leap_camera cam;
     CHECK_OK(leap_camera_orbit(center, 10.0, 20, 30, 0, 40, 0, &cam, &err), &err);
-    leap_view view;
-    CHECK_OK(leap_view_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
     struct timespec t0, t1;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     render(lin, &tf_const, &view, &m, 2, rgba, NULL, samples);

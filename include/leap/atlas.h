@@ -38,6 +38,8 @@ typedef struct leap_atlas {
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
     double domain_min[3], domain_max[3]; /* marching box, relative index space */
     double build_ms;
+    uint64_t serial;           /* unique per atlas created in this process (renderers tell
+                                  a bound atlas from a new one at the same address) */
 } leap_atlas;
 
 /* Builds the atlas of a loaded grid. Errors: LEAP_ERR_OOM, LEAP_ERR_UNSUPPORTED (active

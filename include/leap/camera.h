@@ -38,27 +38,27 @@ void leap_camera_bounds(const double index_to_world[4][4], const int32_t bbox_mi
  *   origin = origin0 + px * origin_dx + py * origin_dy
  *   dir    = normalize(dir0 + px * dir_dx + py * dir_dy)
  * t along a ray is measured in index units (voxels) from `origin`. */
-typedef struct leap_view {
+typedef struct leap_rays {
     int width, height;
     int ortho;              /* 1: orthographic (origins vary, one direction) */
     double index_origin[3]; /* the index origin the rays are relative to */
     double origin0[3], origin_dx[3], origin_dy[3];
     double dir0[3], dir_dx[3], dir_dy[3];
     double index_to_world_linear[3][3]; /* to convert t into world distance */
-} leap_view;
+} leap_rays;
 
 /* Builds the view. index_to_world: the grid's row-major affine. Errors: LEAP_ERR_USAGE for
  * size <= 0, eye == target, up parallel to the view direction, fov outside (0, 180),
  * ortho_height <= 0, non-finite values; LEAP_ERR_FORMAT for a singular transform. */
-leap_result leap_view_make(const leap_camera *cam, int width, int height,
+leap_result leap_rays_make(const leap_camera *cam, int width, int height,
                            const double index_to_world[4][4], const double index_origin[3],
-                           leap_view *out, leap_error *err);
+                           leap_rays *out, leap_error *err);
 
 /* The ray through pixel centre (px, py): origin and unit direction in index space. */
-void leap_view_ray(const leap_view *view, double px, double py, double origin[3], double dir[3]);
+void leap_rays_at(const leap_rays *rays, double px, double py, double origin[3], double dir[3]);
 
 /* World distance covered by t index units along the index-space unit direction `dir`. */
-double leap_view_world_distance(const leap_view *view, const double dir[3], double t);
+double leap_rays_world_distance(const leap_rays *rays, const double dir[3], double t);
 
 #ifdef __cplusplus
 }

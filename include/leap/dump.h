@@ -55,7 +55,7 @@ typedef struct leap_dump_segment {
 
 typedef struct leap_dump_pixel {
     int x, y;
-    double origin[3], dir[3];   /* the ray in double (leap_view_ray), relative index space */
+    double origin[3], dir[3];   /* the ray in double (leap_rays_at), relative index space */
     int in_domain;              /* ray meets the marching domain box */
     double t_enter, t_exit;     /* domain interval (t >= 0) when in_domain */
     uint32_t flags;             /* LEAP_DUMP_* */
@@ -76,7 +76,7 @@ typedef struct leap_dump_frame_desc {
     const leap_renderer *renderer; /* right after a sparseleap leap_renderer_render */
     const leap_boxes *boxes;       /* the boxes the renderer was given (scene->boxes) */
     const leap_occupancy *occupancy; /* the classified tree (overflowed pixels walk it) */
-    const leap_view *view;         /* the view of that frame */
+    const leap_rays *rays;         /* the rays of that frame */
     const leap_march *march;       /* its march (step and domain) */
     const float *rgba;             /* that frame's outputs, optional (ERT detection) */
     const float *samples;          /* optional */
@@ -96,8 +96,8 @@ uint32_t leap_dump_frame_box_count(const leap_dump_frame *f);
 const leap_dump_box *leap_dump_frame_boxes(const leap_dump_frame *f); /* view order */
 
 /* The eye (perspective) or view direction (orthographic) as the renderer orders boxes with:
- * view->origin0 or view->dir0 rounded to float. */
-void leap_dump_view_eye(const leap_view *view, double eye_or_dir[3]);
+ * rays->origin0 or rays->dir0 rounded to float. */
+void leap_dump_rays_eye(const leap_rays *rays, double eye_or_dir[3]);
 
 /* Explains pixel (x, y) (row 0 at the top). The arrays in *out stay valid until the next
  * call on f. Errors: LEAP_ERR_USAGE (outside the image), LEAP_ERR_OOM. */

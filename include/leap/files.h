@@ -33,6 +33,19 @@ void leap_temp_untrack(int slot);
  * beyond the file-size limit fails as a write error instead of killing the process. */
 void leap_signals_install(void);
 
+/* Atomic publishing: leap_publish_begin names a tracked temporary file beside path (same
+ * directory and extension, so format choice and rename() work), the caller writes p->tmp,
+ * then leap_publish_commit renames it into place or leap_publish_abort removes it. Any
+ * failure removes the temporary; messages name path, never the temporary. */
+typedef struct leap_publish {
+    char path[4096];
+    char tmp[4096];
+    int slot;
+} leap_publish;
+leap_result leap_publish_begin(leap_publish *p, const char *path, leap_error *err);
+leap_result leap_publish_commit(leap_publish *p, leap_error *err);
+void leap_publish_abort(leap_publish *p);
+
 /* Writes `text` to path through a tracked temporary file in the same directory and a
  * rename, so a failed or interrupted write leaves any previous file intact. */
 leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err);

@@ -18,7 +18,7 @@ extern "C" {
 typedef struct leap_reference_desc {
     const leap_grid *grid;
     const leap_tf *tf;
-    const leap_view *view;   /* rays; its index_origin must equal march->index_origin */
+    const leap_rays *rays;   /* the image's rays; its index_origin must equal march->index_origin */
     const leap_march *march;
     int threads;             /* 0 = one per online core */
 } leap_reference_desc;

@@ -11,6 +11,7 @@
 #include "leap/error.h"
 #include "leap/march.h"
 #include "leap/occupancy.h"
+#include "leap/scene.h"
 #include "leap/tf.h"
 
 typedef enum leap_mode {
@@ -80,6 +81,13 @@ struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
 const char *leap_renderer_device_name(const leap_renderer *r);
 const char *leap_renderer_driver_name(const leap_renderer *r);
 
+/* Binds a loaded scene: uploads its atlas unless that atlas is bound already, its transfer
+ * function and its occupancy (not owned: the scene must outlive its use). Call it again after
+ * leap_scene_set_tf or leap_scene_set_step; only the classes and boxes are taken again. */
+leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, leap_error *err);
+
+/* The parts of a binding, for tests and tools that vary one of them. */
+
 /* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after). */
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
 
@@ -119,11 +127,11 @@ uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap
 /* The boxes of the last sparseleap frame in the view order used (count in *count). */
 const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count);
 
-/* Renders one frame. march: step and value range (index origin and domain must come from
- * the uploaded atlas). Outputs are caller-owned, view->width * view->height pixels, any
+/* Renders one frame. march: step and value range (the index origin and marching box are the
+ * uploaded atlas's; rays made for another index origin are refused with LEAP_ERR_USAGE). Outputs are caller-owned, view->width * view->height pixels, any
  * may be NULL: rgba 4 floats per pixel (premultiplied), depth and samples 1 float each.
  * Errors: LEAP_ERR_USAGE (no volume / tf, bad sizes), LEAP_ERR_OOM, LEAP_ERR_VULKAN. */
-leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const leap_march *march,
+leap_result leap_renderer_render(leap_renderer *r, const leap_rays *rays, const leap_march *march,
                                  leap_mode mode, float *rgba, float *depth, float *samples,
                                  leap_frame_stats *stats, leap_error *err);
 

@@ -56,7 +56,7 @@ leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err)
 int leap_scene_label_count(double range_lo, double range_hi);
 
 /* A view of the scene for a camera (index origin from the atlas). */
-leap_result leap_scene_view(const leap_scene *scene, const leap_camera *cam, int width, int height,
-                            leap_view *out, leap_error *err);
+leap_result leap_scene_rays(const leap_scene *scene, const leap_camera *cam, int width, int height,
+                            leap_rays *out, leap_error *err);
 
 #endif

@@ -35,7 +35,7 @@ static int is_json_name(const char *s)
 }
 
 /* The accepted options obey the ranges the help text promises. */
-static void check_ranges(const cli_view_options *o)
+static void check_ranges(const cli_camera_options *o)
 {
     if (!o->input) fail("accepted without an input", NULL);
     if (o->width < 1 || o->width > 16384 || o->height < 1 || o->height > 16384) fail("size out of range", NULL);
@@ -51,7 +51,7 @@ static void check_ranges(const cli_view_options *o)
 }
 
 /* The camera of accepted options, around a stand-in for a loaded volume. */
-static void check_camera(const cli_view_options *o)
+static void check_camera(const cli_camera_options *o)
 {
     static leap_scene scene; /* cli_camera reads only the bounding sphere */
     scene.center[0] = 3.0;
@@ -61,10 +61,10 @@ static void check_camera(const cli_view_options *o)
     static const double identity[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
     const double origin[3] = {0, 0, 0};
     leap_camera cam;
-    leap_view view;
+    leap_rays view;
     leap_error err = {{0}};
     leap_result r = cli_camera(o, &scene, &cam, &err);
-    if (r == LEAP_OK) r = leap_view_make(&cam, o->width, o->height, identity, origin, &view, &err);
+    if (r == LEAP_OK) r = leap_rays_make(&cam, o->width, o->height, identity, origin, &view, &err);
     if (r != LEAP_OK) {
         if (o->has_eye) fail("checked camera rejected at render time", err.msg);
         if (r != LEAP_ERR_USAGE || !err.msg[0] || strchr(err.msg, '\n')) fail("bad camera error", err.msg);
@@ -73,7 +73,7 @@ static void check_camera(const cli_view_options *o)
     const double px[4][2] = {{0.5, 0.5}, {o->width - 0.5, 0.5}, {0.5, o->height - 0.5}, {o->width - 0.5, o->height - 0.5}};
     for (int k = 0; k < 4; ++k) {
         double ro[3], rd[3];
-        leap_view_ray(&view, px[k][0], px[k][1], ro, rd);
+        leap_rays_at(&view, px[k][0], px[k][1], ro, rd);
         for (int a = 0; a < 3; ++a)
             if (!isfinite(ro[a]) || !isfinite(rd[a])) fail("non-finite ray", NULL);
         double len = sqrt(rd[0] * rd[0] + rd[1] * rd[1] + rd[2] * rd[2]);
@@ -114,7 +114,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     }
     FILE *saved = stderr;
     stderr = mem;
-    cli_view_options o;
+    cli_camera_options o;
     cli_view_options_init(&o);
     int rc = 0;
     for (int i = 2; i < argc && rc == 0; ++i) {

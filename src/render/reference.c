@@ -128,7 +128,7 @@ static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *read
 {
     const leap_march *m = desc->march;
     double o[3], d[3];
-    leap_view_ray(desc->view, px, py, o, d);
+    leap_rays_at(desc->rays, px, py, o, d);
 
     double C[3] = {0.0, 0.0, 0.0}, T = 1.0, depth = INFINITY, n = 0.0;
     double k0, k1;
@@ -149,7 +149,7 @@ static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *read
             leap_tf_eval(desc->tf, u, tf);
             n += 1.0;
             if (tf[3] > LEAP_DEPTH_OPACITY && depth == INFINITY)
-                depth = leap_view_world_distance(desc->view, d, t);
+                depth = leap_rays_world_distance(desc->rays, d, t);
             const double alpha = leap_tf_alpha_for_step(tf[3], m->step);
             if (alpha > 0.0) {
                 const double w = T * alpha;
@@ -174,7 +174,7 @@ static void *render_rows(void *arg)
 {
     ref_job *job = arg;
     const leap_reference_desc *desc = job->desc;
-    const int w = desc->view->width, h = desc->view->height;
+    const int w = desc->rays->width, h = desc->rays->height;
     cell_cache cache;
     cache.valid = 0;
     for (int y = job->first_row; y < h; y += job->row_stride) {
@@ -198,11 +198,11 @@ static leap_result validate(const leap_reference_desc *desc, leap_error *err)
 {
     if (!desc)
         return leap_fail(err, LEAP_ERR_USAGE, "reference: no render description");
-    if (!desc->grid || !desc->tf || !desc->view || !desc->march)
+    if (!desc->grid || !desc->tf || !desc->rays || !desc->march)
         return leap_fail(err, LEAP_ERR_USAGE,
                          "reference: the description needs a grid, a transfer function, a view "
                          "and march parameters");
-    const leap_view *v = desc->view;
+    const leap_rays *v = desc->rays;
     const leap_march *m = desc->march;
     for (int c = 0; c < 3; ++c)
         if (v->index_origin[c] != m->index_origin[c])
@@ -254,7 +254,7 @@ leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, 
     if (!(m->domain_min[0] <= m->domain_max[0] && m->domain_min[1] <= m->domain_max[1] &&
           m->domain_min[2] <= m->domain_max[2])) {
         /* An empty domain (an empty grid) has no samples: a transparent image. */
-        size_t n = (size_t)desc->view->width * (size_t)desc->view->height;
+        size_t n = (size_t)desc->rays->width * (size_t)desc->rays->height;
         for (size_t i = 0; i < n; ++i) {
             if (rgba) rgba[4 * i] = rgba[4 * i + 1] = rgba[4 * i + 2] = rgba[4 * i + 3] = 0.0f;
             if (depth) depth[i] = INFINITY;
@@ -268,8 +268,8 @@ leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, 
         long n = sysconf(_SC_NPROCESSORS_ONLN);
         nthreads = n > 0 ? (int)(n < 256 ? n : 256) : 1;
     }
-    if (nthreads > desc->view->height)
-        nthreads = desc->view->height;
+    if (nthreads > desc->rays->height)
+        nthreads = desc->rays->height;
     if (nthreads < 1)
         nthreads = 1;
 

@@ -65,7 +65,7 @@ static const char *view_help_tail =
 #define RESIZE_TIMEOUT_MS 30000.0
 
 typedef struct view_options {
-    cli_view_options view;
+    cli_camera_options view;
     const char *script, *screenshot;
     long frames;
     int keep_open, adaptive, quiet;
@@ -589,7 +589,7 @@ static void draw_edge(const projector *p, uint8_t *rgb, const double a[3], const
     draw_line(rgb, p->width, p->height, qa[0] / qa[2], qa[1] / qa[2], qb[0] / qb[2], qb[1] / qb[2], c);
 }
 
-static void draw_boxes(app *a, const leap_view *view, uint8_t *rgb)
+static void draw_boxes(app *a, const leap_rays *view, uint8_t *rgb)
 {
     leap_scene *s = a->scene;
     uint32_t n = leap_boxes_count(s->boxes);
@@ -659,7 +659,7 @@ static leap_result apply_tf(app *a, const leap_viewer *st, leap_error *err)
     const int same_tf = !strcmp(st->tf, a->applied_tf) && st->range[0] == a->applied_range[0] &&
                         st->range[1] == a->applied_range[1];
     if (same_tf && st->step == a->scene->march.step) return LEAP_OK;
-    double t = cli_now_ms();
+    double t = leap__now_ms();
     leap_result r = LEAP_OK;
     if (!same_tf) {
         memcpy(a->applied_tf, st->tf, sizeof a->applied_tf);
@@ -668,12 +668,11 @@ static leap_result apply_tf(app *a, const leap_viewer *st, leap_error *err)
         leap_tf tf;
         r = leap_tf_from_arg(st->tf, leap_scene_label_count(st->range[0], st->range[1]), &tf, err);
         if (!r) r = leap_scene_set_tf(a->scene, &tf, st->range[0], st->range[1], err);
-        if (!r) r = leap_renderer_set_tf(a->renderer, &a->scene->tf, err);
     }
     if (!r) r = leap_scene_set_step(a->scene, st->step, err);
-    leap_renderer_set_occupancy(a->renderer, a->scene->occupancy, a->scene->boxes);
+    if (!r) r = leap_renderer_bind_scene(a->renderer, a->scene, err);
     ++a->tf_gen;
-    a->tf_apply_ms = cli_now_ms() - t;
+    a->tf_apply_ms = leap__now_ms() - t;
     return r;
 }
 
@@ -738,9 +737,9 @@ static leap_result render_rows(app *a, const leap_viewer *st, int scale, int y0,
     int W = (int)a->extent.width, H = (int)a->extent.height;
     int w = (W + scale - 1) / scale, h = (H + scale - 1) / scale;
     leap_camera cam;
-    leap_view view;
+    leap_rays view;
     leap_result r = leap_viewer_camera(st, &cam, err);
-    if (!r) r = leap_scene_view(a->scene, &cam, w, h, &view, err);
+    if (!r) r = leap_scene_rays(a->scene, &cam, w, h, &view, err);
     if (r) return r;
     if (y0 != 0 || rows != h) {
         for (int i = 0; i < 3; ++i) {
@@ -760,10 +759,10 @@ static leap_result render_rows(app *a, const leap_viewer *st, int scale, int y0,
     march.step = st->step;
     int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
     leap_frame_stats fs;
-    double t0 = cli_now_ms();
+    double t0 = leap__now_ms();
     r = leap_renderer_render(a->renderer, &view, &march, st->mode, a->rgba, NULL, want_samples ? a->samples : NULL, &fs, err);
     if (r) return r;
-    double t1 = cli_now_ms();
+    double t1 = leap__now_ms();
     ff->render_ms = t1 - t0;
     ff->raster_ms = fs.gpu_raster_ms;
     ff->resolve_ms = fs.gpu_resolve_ms;
@@ -795,14 +794,14 @@ static leap_result render_rows(app *a, const leap_viewer *st, int scale, int y0,
             }
         }
     }
-    ff->compose_ms = cli_now_ms() - t1;
+    ff->compose_ms = leap__now_ms() - t1;
     return LEAP_OK;
 }
 
 /* The presented bytes: the base image, the overlays, in the swapchain's byte order. */
 static leap_result compose_output(app *a, const leap_viewer *st, frame_figures *ff, leap_error *err)
 {
-    double t0 = cli_now_ms();
+    double t0 = leap__now_ms();
     int W = (int)a->extent.width, H = (int)a->extent.height;
     uint8_t *rgb = a->base8;
     ff->heat[0] = '\0';
@@ -812,9 +811,9 @@ static leap_result compose_output(app *a, const leap_viewer *st, frame_figures *
         if (st->show_heat && a->heat) draw_heat(a, st->mode, rgb, W, H, ff->heat, sizeof ff->heat);
         if (st->show_boxes) {
             leap_camera cam;
-            leap_view full;
+            leap_rays full;
             leap_result r = leap_viewer_camera(st, &cam, err);
-            if (!r) r = leap_scene_view(a->scene, &cam, W, H, &full, err);
+            if (!r) r = leap_scene_rays(a->scene, &cam, W, H, &full, err);
             if (r) return r;
             draw_boxes(a, &full, rgb);
         }
@@ -826,7 +825,7 @@ static leap_result compose_output(app *a, const leap_viewer *st, frame_figures *
         out[4 * i + 2] = rgb[3 * i + (a->bgr ? 0 : 2)];
         out[4 * i + 3] = 255;
     }
-    ff->compose_ms += cli_now_ms() - t0;
+    ff->compose_ms += leap__now_ms() - t0;
     return LEAP_OK;
 }
 
@@ -901,11 +900,11 @@ static void *render_thread(void *arg)
     for (;;) {
         pthread_mutex_lock(&a->mu);
         double wake_at = 0;
-        while (!a->stop && !frame_needed(a, cli_now_ms(), &wake_at)) {
+        while (!a->stop && !frame_needed(a, leap__now_ms(), &wake_at)) {
             if (wake_at > 0) {
                 struct timespec ts;
                 clock_gettime(CLOCK_MONOTONIC, &ts);
-                double ms = wake_at - cli_now_ms();
+                double ms = wake_at - leap__now_ms();
                 if (ms < 0) ms = 0;
                 ts.tv_sec += (time_t)(ms / 1000);
                 ts.tv_nsec += (long)(fmod(ms, 1000.0) * 1e6);
@@ -927,14 +926,14 @@ static void *render_thread(void *arg)
         uint64_t seq = a->seq, fb_seq = a->fb_seq, shot_id = a->shot_req != a->pub.shot_done ? a->shot_req : 0;
         int fb_w = a->fb_w, fb_h = a->fb_h;
         /* moving: recent camera input, or a camera change this frame is the first to show */
-        int moving = cli_now_ms() < a->moving_until || a->camera_seq > a->pub.rendered_seq;
+        int moving = leap__now_ms() < a->moving_until || a->camera_seq > a->pub.rendered_seq;
         int forced = a->force_frames > 0;
         char shot_path[1024];
         snprintf(shot_path, sizeof shot_path, "%s", a->shot_path);
         int script_mode = a->script_mode;
         pthread_mutex_unlock(&a->mu);
 
-        double t0 = cli_now_ms();
+        double t0 = leap__now_ms();
         int is_new = seq != rendered_seq;
         if (fb_seq != a->applied_fb_seq || a->swapchain_dirty) {
             VkSwapchainKHR before = a->swapchain;
@@ -991,13 +990,13 @@ static void *render_thread(void *arg)
             set_fatal(a, err.msg);
             break;
         }
-        double t1 = cli_now_ms();
+        double t1 = leap__now_ms();
         int shown = 0;
         if (present_staging(a, &shown, &err)) {
             set_fatal(a, err.msg);
             break;
         }
-        double t2 = cli_now_ms();
+        double t2 = leap__now_ms();
         ff.present_ms = t2 - t1;
         ff.total_ms = t2 - t0;
         if (!shown) continue; /* recreate the swapchain and render again */
@@ -1044,7 +1043,7 @@ static void *render_thread(void *arg)
         p->rendered_seq = seq;
         /* After a reduced frame of a moving camera, give the user IDLE_MS to see it and move on
          * before refining starts (a slow reduced frame must not let a refine slip in between). */
-        if (scale > 1 && moving) a->moving_until = fmax(a->moving_until, cli_now_ms() + IDLE_MS);
+        if (scale > 1 && moving) a->moving_until = fmax(a->moving_until, leap__now_ms() + IDLE_MS);
         p->frames++;
         p->frames_full += full_image;
         p->frame_ms_sum += frame_total_ms;
@@ -1083,7 +1082,7 @@ static void post_state(app *a)
     a->posted = a->v;
     a->seq++;
     if (bits & LEAP_VIEWER_CAMERA) {
-        a->moving_until = cli_now_ms() + IDLE_MS;
+        a->moving_until = leap__now_ms() + IDLE_MS;
         a->camera_seq = a->seq;
     }
     pthread_cond_signal(&a->cv);
@@ -1217,7 +1216,7 @@ static void print_mark(app *a, script_run *s, const char *label)
     pthread_mutex_lock(&a->mu);
     published p = a->pub;
     pthread_mutex_unlock(&a->mu);
-    double now = cli_now_ms();
+    double now = leap__now_ms();
     uint64_t frames = p.frames - s->mark_frames, full = p.frames_full - s->mark_full;
     double ms = now - s->mark_ms;
     if (label) {
@@ -1253,10 +1252,10 @@ static int script_step(app *a, script_run *s)
                 done = p.shot_done >= s->wait_value;
                 if (done && p.shot_failed) return -1;
                 break;
-            case 4: done = cli_now_ms() >= s->wait_until; break;
+            case 4: done = leap__now_ms() >= s->wait_until; break;
             case 5:
                 done = p.width == s->wait_w && p.height == s->wait_h && p.rendered_seq >= s->wait_value;
-                if (!done && cli_now_ms() > s->wait_until) {
+                if (!done && leap__now_ms() > s->wait_until) {
                     fprintf(stderr, "leap view: %s:%d: window did not reach %dx%d (it is %dx%d)\n", a->o.script ? a->o.script : "",
                             s->wait_cmd ? s->wait_cmd->line : 0, s->wait_w, s->wait_h, p.width, p.height);
                     done = 1;
@@ -1290,7 +1289,7 @@ static int script_step(app *a, script_run *s)
             break;
         case LEAP_VIEWER_OP_WAIT:
             s->waiting = 4;
-            s->wait_until = cli_now_ms() + c->num[0];
+            s->wait_until = leap__now_ms() + c->num[0];
             break;
         case LEAP_VIEWER_OP_RESIZE:
             glfwSetWindowSize(a->window, (int)c->num[0], (int)c->num[1]);
@@ -1298,7 +1297,7 @@ static int script_step(app *a, script_run *s)
             s->wait_cmd = c;
             s->wait_w = (int)c->num[0];
             s->wait_h = (int)c->num[1];
-            s->wait_until = cli_now_ms() + RESIZE_TIMEOUT_MS;
+            s->wait_until = leap__now_ms() + RESIZE_TIMEOUT_MS;
             pthread_mutex_lock(&a->mu);
             s->wait_value = a->seq;
             pthread_mutex_unlock(&a->mu);
@@ -1423,7 +1422,7 @@ static leap_result frames_script(const view_options *o, leap_viewer_script *s, l
 
 static leap_result viewer_from_options(app *a, leap_error *err)
 {
-    const cli_view_options *o = &a->o.view;
+    const cli_camera_options *o = &a->o.view;
     leap_scene *s = a->scene;
     leap_viewer_desc d;
     memset(&d, 0, sizeof d);
@@ -1521,12 +1520,10 @@ int cli_view(int argc, char **argv)
         goto done;
     }
     a->gpu = leap_renderer_gpu(a->renderer);
-    if ((r = leap_renderer_set_volume(a->renderer, a->scene->atlas, &err)) ||
-        (r = leap_renderer_set_tf(a->renderer, &a->scene->tf, &err))) {
+    if ((r = leap_renderer_bind_scene(a->renderer, a->scene, &err))) {
         fprintf(stderr, "leap: %s: %s\n", a->o.view.input, err.msg);
         goto done;
     }
-    leap_renderer_set_occupancy(a->renderer, a->scene->occupancy, a->scene->boxes);
     memcpy(a->applied_tf, a->v.tf, sizeof a->applied_tf);
     a->applied_range[0] = a->v.range[0];
     a->applied_range[1] = a->v.range[1];

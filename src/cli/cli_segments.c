@@ -37,7 +37,7 @@ static const char *segments_help_tail =
     "Only --mode sparseleap applies (the lists exist only there).\n";
 
 typedef struct seg_options {
-    cli_view_options view;
+    cli_camera_options view;
     int has_pixel, px, py, json, quiet;
     const char *outdir;
 } seg_options;
@@ -388,7 +388,7 @@ typedef struct dump_ctx {
     const seg_options *o;
     const leap_scene *scene;
     const leap_camera *cam;
-    const leap_view *view;
+    const leap_rays *view;
     leap_dump_frame *frame;
     const leap_renderer *renderer;
     const leap_frame_stats *fs;
@@ -635,9 +635,9 @@ int cli_segments(int argc, char **argv)
         goto done;
     }
     leap_camera cam;
-    leap_view view;
+    leap_rays view;
     if ((r = cli_camera(&o.view, scene, &cam, &err)) ||
-        (r = leap_scene_view(scene, &cam, o.view.width, o.view.height, &view, &err))) {
+        (r = leap_scene_rays(scene, &cam, o.view.width, o.view.height, &view, &err))) {
         rc = cli_exit_code(r);
         cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
@@ -655,11 +655,10 @@ int cli_segments(int argc, char **argv)
         cli_runtime_error("%s", err.msg);
         goto done;
     }
-    if ((r = leap_renderer_set_volume(renderer, scene->atlas, &err)) || (r = leap_renderer_set_tf(renderer, &scene->tf, &err))) {
+    if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
         cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
-    leap_renderer_set_occupancy(renderer, scene->occupancy, scene->boxes);
     leap_frame_stats fs;
     char msg[256];
     if (o.outdir) {
@@ -679,7 +678,7 @@ int cli_segments(int argc, char **argv)
         cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
-    leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .occupancy = scene->occupancy, .view = &view, .march = &scene->march,
+    leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .occupancy = scene->occupancy, .rays = &view, .march = &scene->march,
                                .rgba = rgba, .samples = samples, .naive_samples = naive};
     if (leap_dump_frame_create(&fd, &frame, &err)) {
         cli_runtime_error("%s", err.msg);

@@ -114,13 +114,6 @@ static int parse_size(const char *s, int *w, int *h)
     return 1;
 }
 
-double cli_now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 const char *cli_option_value(int argc, char **argv, int *i, const char *name, int *missing)
 {
     const char *a = argv[*i];
@@ -188,13 +181,13 @@ const char *cli_view_options_help =
     "  --fov DEG           vertical field of view (default 40)\n"
     "  --ortho             orthographic projection (framing the bounding sphere)\n";
 
-void cli_view_options_init(cli_view_options *o)
+void cli_view_options_init(cli_camera_options *o)
 {
-    *o = (cli_view_options){.width = 512, .height = 512, .fov = 40.0, .mode_name = "sparseleap", .up = {0, 1, 0}};
+    *o = (cli_camera_options){.width = 512, .height = 512, .fov = 40.0, .mode_name = "sparseleap", .up = {0, 1, 0}};
     o->scene.step = 0.5;
 }
 
-int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_view_options *o)
+int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o)
 {
     const char *a = argv[*i], *v;
     int missing = 0;
@@ -281,7 +274,7 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_view_op
 #undef FAIL
 }
 
-int cli_view_options_check(const char *verb, const cli_view_options *o, int allow_reference)
+int cli_view_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
 {
     if (!o->input) return cli_usage_error(verb, "no input volume given");
     if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
@@ -296,9 +289,9 @@ int cli_view_options_check(const char *verb, const cli_view_options *o, int allo
         memcpy(cam.eye, o->eye, sizeof cam.eye);
         memcpy(cam.target, o->target, sizeof cam.target);
         memcpy(cam.up, o->up, sizeof cam.up);
-        leap_view view;
+        leap_rays view;
         leap_error err = {{0}};
-        if (leap_view_make(&cam, 1, 1, identity, origin, &view, &err) != LEAP_OK)
+        if (leap_rays_make(&cam, 1, 1, identity, origin, &view, &err) != LEAP_OK)
             return cli_usage_error(verb, "--eye %g,%g,%g --target %g,%g,%g --up %g,%g,%g: %s", o->eye[0], o->eye[1],
                                    o->eye[2], o->target[0], o->target[1], o->target[2], o->up[0], o->up[1], o->up[2],
                                    err.msg);
@@ -310,7 +303,7 @@ int cli_view_options_check(const char *verb, const cli_view_options *o, int allo
     return 0;
 }
 
-leap_result cli_camera(const cli_view_options *o, const leap_scene *s, leap_camera *cam, leap_error *err)
+leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_camera *cam, leap_error *err)
 {
     if (o->has_eye) {
         *cam = (leap_camera){.fov_deg = o->fov, .ortho = o->ortho, .ortho_height = 2 * s->radius};

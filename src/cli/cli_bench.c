@@ -275,7 +275,7 @@ static void errors(const float *img, const float *ref, size_t pixels, run_result
 
 /* Times one mode/step/view/size: warm-up frames, then repeats; the last frame's image is
  * compared with the reference. */
-static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_view *view, int mode,
+static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_rays *view, int mode,
                             const bench_options *o, float *img, const float *ref, run_result *out, leap_error *err)
 {
     double frames[1000];
@@ -316,17 +316,16 @@ static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const b
     const int w = o->sizes[si][0], h = o->sizes[si][1];
     const double pixels = (double)w * h;
     leap_camera cam;
-    leap_view view;
+    leap_rays view;
     leap_result lr;
     if ((lr = leap_camera_orbit(s->center, s->radius, 0.0, o->elevation, 0, 40, 0, &cam, err)) ||
-        (lr = leap_scene_view(s, &cam, w, h, &view, err)) || (lr = leap_scene_set_step(s, o->steps[0], err)))
+        (lr = leap_scene_rays(s, &cam, w, h, &view, err)) || (lr = leap_scene_set_step(s, o->steps[0], err)))
         return lr;
     leap_tf keep = s->tf, blank = s->tf;
     for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) blank.rgba[i][3] = 0.0f;
     const double lo = s->march.range_lo, hi = s->march.range_hi;
-    if ((lr = leap_scene_set_tf(s, &blank, lo, hi, err)) || (lr = leap_renderer_set_tf(renderer, &s->tf, err)))
+    if ((lr = leap_scene_set_tf(s, &blank, lo, hi, err)) || (lr = leap_renderer_bind_scene(renderer, s, err)))
         return lr;
-    leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
     for (int m = 0; m < o->nmodes && !lr; ++m) {
         run_result r;
         if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, &r, err))) break;
@@ -335,8 +334,7 @@ static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const b
                                    : r.composite_ms * 1e6 / pixels;
     }
     leap_result restore = leap_scene_set_tf(s, &keep, lo, hi, err);
-    if (!restore) restore = leap_renderer_set_tf(renderer, &s->tf, err);
-    leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
+    if (!restore) restore = leap_renderer_bind_scene(renderer, s, err);
     return lr ? lr : restore;
 }
 
@@ -431,7 +429,7 @@ static int vdb_spawn(const vdb_runner *r, char *const argv[], double *wall_ms, c
     posix_spawn_file_actions_addopen(&fa, 1, out_path, O_WRONLY | O_CREAT | O_TRUNC, 0600);
     posix_spawn_file_actions_addopen(&fa, 2, err_path, O_WRONLY | O_CREAT | O_TRUNC, 0600);
     pid_t pid;
-    double t0 = cli_now_ms();
+    double t0 = leap__now_ms();
     int e = posix_spawn(&pid, r->exe, &fa, NULL, argv, environ);
     posix_spawn_file_actions_destroy(&fa);
     if (e) {
@@ -445,7 +443,7 @@ static int vdb_spawn(const vdb_runner *r, char *const argv[], double *wall_ms, c
             return 1;
         }
     }
-    *wall_ms = cli_now_ms() - t0;
+    *wall_ms = leap__now_ms() - t0;
     read_text(out_path, out_text, out_n);
     if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return 0;
     char text[4096], line[512];
@@ -1032,23 +1030,21 @@ int cli_bench(int argc, char **argv)
         leap_scene_desc sd = {.path = o.volumes[vi], .tf = o.tf, .step = o.steps[0], .exact_boxes = o.exact_boxes};
         leap_scene *s = NULL;
         leap_result lr;
-        if ((lr = leap_scene_create(&sd, &s, &err)) || (lr = leap_renderer_set_volume(renderer, s->atlas, &err)) ||
-            (lr = leap_renderer_set_tf(renderer, &s->tf, &err))) {
+        if ((lr = leap_scene_create(&sd, &s, &err)) || (lr = leap_renderer_bind_scene(renderer, s, &err))) {
             rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
             leap_scene_destroy(s);
             break;
         }
-        leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
         for (int si = 0; si < o.nsizes && !rc; ++si) {
             int w = o.sizes[si][0], h = o.sizes[si][1];
             size_t pixels = (size_t)w * h;
             float *img = malloc(pixels * 4 * sizeof(float)), *ref = malloc(pixels * 4 * sizeof(float));
             for (int view_i = 0; view_i < o.views && !rc && img && ref; ++view_i) {
                 leap_camera cam;
-                leap_view view;
+                leap_rays view;
                 double az = 360.0 * view_i / o.views;
                 if ((lr = leap_camera_orbit(s->center, s->radius, az, o.elevation, 0, 40, 0, &cam, &err)) ||
-                    (lr = leap_scene_view(s, &cam, w, h, &view, &err))) {
+                    (lr = leap_scene_rays(s, &cam, w, h, &view, &err))) {
                     rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
                     break;
                 }
@@ -1059,7 +1055,7 @@ int cli_bench(int argc, char **argv)
                     progress(done, total, what);
                     leap_march fine = s->march;
                     fine.step = min_step / o.ref_factor;
-                    leap_reference_desc refd = {.grid = s->grid, .tf = &s->tf, .view = &view, .march = &fine};
+                    leap_reference_desc refd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &fine};
                     if (leap_reference_render(&refd, ref, NULL, NULL, &err)) {
                         rc = cli_runtime_error("reference: %s", err.msg);
                         break;
@@ -1068,11 +1064,11 @@ int cli_bench(int argc, char **argv)
                     ++done;
                 }
                 for (int st = 0; st < o.nsteps && !rc; ++st) {
-                    if ((lr = leap_scene_set_step(s, o.steps[st], &err))) {
+                    if ((lr = leap_scene_set_step(s, o.steps[st], &err)) ||
+                        (lr = leap_renderer_bind_scene(renderer, s, &err))) {
                         rc = cli_input_error(o.volumes[vi], o.tf, lr, err.msg);
                         break;
                     }
-                    leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
                     double naive_ms = NAN;
                     for (int mi = 0; mi < o.nmodes && !rc; ++mi) {
                         snprintf(what, sizeof what, "%s view %d step %g %s", base_name(o.volumes[vi]), view_i,

@@ -183,8 +183,8 @@ void leap_scene_destroy(leap_scene *s)
     free(s);
 }
 
-leap_result leap_scene_view(const leap_scene *s, const leap_camera *cam, int width, int height, leap_view *out,
+leap_result leap_scene_rays(const leap_scene *s, const leap_camera *cam, int width, int height, leap_rays *out,
                             leap_error *err)
 {
-    return leap_view_make(cam, width, height, s->info->index_to_world, s->march.index_origin, out, err);
+    return leap_rays_make(cam, width, height, s->info->index_to_world, s->march.index_origin, out, err);
 }

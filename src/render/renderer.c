@@ -69,6 +69,8 @@ struct leap_renderer {
     size_t pixels_allocated;
     /* From the uploaded atlas. */
     int has_volume;
+    uint64_t atlas_serial;  /* the uploaded atlas (0: none or not from a scene binding) */
+    leap_march domain;      /* its index origin and marching box */
     double value_min, value_max;
     uint32_t top_dims[3], top_count, slot_dims[3], block_shift;
     uint64_t float_atlas_max_bytes;
@@ -391,6 +393,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     leap_gpu_image_destroy(r->gpu, &r->atlas);
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     r->has_volume = 0;
+    r->atlas_serial = 0;
     size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
     leap_result lr = LEAP_ERR_OOM;
     VkFormatProperties fp;
@@ -427,7 +430,19 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     }
     r->block_shift = atlas->block_shift;
     r->top_count = atlas->top_count;
+    leap_atlas_march_domain(atlas, &r->domain);
+    r->atlas_serial = atlas->serial;
     r->has_volume = 1;
+    return LEAP_OK;
+}
+
+leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, leap_error *err)
+{
+    leap_result lr = LEAP_OK;
+    if (!r->has_volume || r->atlas_serial != scene->atlas->serial) lr = leap_renderer_set_volume(r, scene->atlas, err);
+    if (!lr) lr = leap_renderer_set_tf(r, &scene->tf, err);
+    if (lr) return lr;
+    leap_renderer_set_occupancy(r, scene->occupancy, scene->boxes);
     return LEAP_OK;
 }
 
@@ -521,35 +536,16 @@ static leap_vec4 v4(const double v[3], double w)
     return (leap_vec4){(float)v[0], (float)v[1], (float)v[2], (float)w};
 }
 
-static double det3(const double m[3][3])
-{
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
-
-/* Inverse of the 3x3 matrix whose columns are a, b, c. Returns 0 if singular. */
-static int invert_columns(const double a[3], const double b[3], const double c[3], double inv[3][3])
-{
-    double m[3][3] = {{a[0], b[0], c[0]}, {a[1], b[1], c[1]}, {a[2], b[2], c[2]}};
-    double d = det3(m);
-    if (!(fabs(d) > 0) || !isfinite(d)) return 0;
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) {
-            int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
-            inv[i][j] = (m[i1][j1] * m[i2][j2] - m[i1][j2] * m[i2][j1]) / d;
-        }
-    return 1;
-}
-
 /* Rows of the matrix taking relative index space to clip space such that the pixel centre
  * (px, py) of the view's ray through a point lands on framebuffer position (px, py).
  * Perspective: (a, b, c) = [dir_dx dir_dy dir0]^-1 (X - origin0), pixel = (a/c, b/c).
  * Orthographic: (px, py, t) = [origin_dx origin_dy dir0]^-1 (X - origin0). */
-static void clip_matrix(const leap_view *v, leap_frame_gpu *f)
+static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
 {
     double inv[3][3] = {{0}};
     const double *a = v->ortho ? v->origin_dx : v->dir_dx, *b = v->ortho ? v->origin_dy : v->dir_dy;
-    invert_columns(a, b, v->dir0, inv);
+    const double cols[3][3] = {{a[0], b[0], v->dir0[0]}, {a[1], b[1], v->dir0[1]}, {a[2], b[2], v->dir0[2]}};
+    leap__invert3(cols, inv);
     double rows[4][4];
     for (int i = 0; i < 3; ++i) {
         double off = -(inv[i][0] * v->origin0[0] + inv[i][1] * v->origin0[1] + inv[i][2] * v->origin0[2]);
@@ -616,7 +612,7 @@ typedef struct chunk_rect {
     uint32_t x0, y0, x1, y1; /* pixels [x0, x1) x [y0, y1); empty if x0 >= x1 */
 } chunk_rect;
 
-static leap_result chunk_count(const leap_view *view, const leap_march *m, const leap_frame_gpu *f,
+static leap_result chunk_count(const leap_rays *view, const leap_march *m, const leap_frame_gpu *f,
                                uint32_t *count, chunk_rect **rects_out, leap_error *err)
 {
     *count = 1;
@@ -638,7 +634,7 @@ static leap_result chunk_count(const leap_view *view, const leap_march *m, const
     for (int a = 0; a < 3; ++a) {
         double o_abs = 0, o[3], d[3];
         for (int corner = 0; corner < 4; ++corner) {
-            leap_view_ray(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
+            leap_rays_at(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
             o_abs = fmax(o_abs, fabs(o[a]));
         }
         far_bound += o_abs + fabs(centre[a]) + o_abs + fabs(centre[a]);
@@ -654,7 +650,7 @@ static leap_result chunk_count(const leap_view *view, const leap_march *m, const
     for (int py = 0; py < view->height; ++py)
         for (int px = 0; px < view->width; ++px) {
             double o[3], d[3];
-            leap_view_ray(view, px + 0.5, py + 0.5, o, d);
+            leap_rays_at(view, px + 0.5, py + 0.5, o, d);
             /* Grown by more than the float error of the GPU's ray over any t up to the far
              * side of the box (relative 1e-5 of the coordinates involved, plus a voxel). */
             double far = diag, lo[3], hi[3];
@@ -734,13 +730,13 @@ static int pow2_exponent(const double v[3])
  * footprint (the clip matrix scales inversely, w with it); the depth is scaled back. */
 #define FRAME_SCALE_FREE 16
 
-static int frame_dir_exponent(const leap_view *v)
+static int frame_dir_exponent(const leap_rays *v)
 {
     int k = pow2_exponent(v->dir0);
     return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
 }
 
-static int frame_world_exponent(const leap_view *v)
+static int frame_world_exponent(const leap_rays *v)
 {
     int k = 0;
     for (int i = 0; i < 3; ++i) {
@@ -750,12 +746,12 @@ static int frame_world_exponent(const leap_view *v)
     return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
 }
 
-static void fill_frame(const leap_renderer *r, const leap_view *view_in, const leap_march *m, leap_mode mode,
+static void fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode,
                        uint32_t box_count, leap_frame_gpu *f)
 {
     memset(f, 0, sizeof *f);
-    leap_view scaled = *view_in;
-    const leap_view *view = &scaled;
+    leap_rays scaled = *view_in;
+    const leap_rays *view = &scaled;
     const int kd = frame_dir_exponent(view_in), kw = frame_world_exponent(view_in);
     for (int c = 0; c < 3; ++c) {
         scaled.dir0[c] = ldexp(scaled.dir0[c], -kd);
@@ -795,7 +791,7 @@ static void fill_frame(const leap_renderer *r, const leap_view *view_in, const l
     f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, r->tree_depth};
 }
 
-static leap_result ensure_frame_buffers(leap_renderer *r, const leap_view *view, leap_error *err)
+static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view, leap_error *err)
 {
     size_t pixels = (size_t)view->width * view->height;
     if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES ||
@@ -902,7 +898,7 @@ static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipe
     vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
 }
 
-static void record_lists(leap_renderer *r, const leap_view *view, uint32_t box_count)
+static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count)
 {
     VkCommandBuffer cmd = r->gpu->cmd;
     size_t pixels = (size_t)view->width * view->height;
@@ -938,17 +934,29 @@ static void record_lists(leap_renderer *r, const leap_view *view, uint32_t box_c
                    VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT);
 }
 
-leap_result leap_renderer_render(leap_renderer *r, const leap_view *view, const leap_march *march,
+leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const leap_march *march_in,
                                  leap_mode mode, float *rgba, float *depth, float *samples,
                                  leap_frame_stats *stats, leap_error *err)
 {
     leap_frame_stats st = {0};
     if (!r->has_volume || !r->has_tf)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: no volume or transfer function uploaded");
-    if (!view || !march || view->width <= 0 || view->height <= 0)
+    if (!view || !march_in || view->width <= 0 || view->height <= 0)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: invalid view");
-    if (!(march->step > 0) || !isfinite(march->step))
+    if (!(march_in->step > 0) || !isfinite(march_in->step))
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: step must be a positive number");
+    for (int i = 0; i < 3; ++i)
+        if (view->index_origin[i] != r->domain.index_origin[i])
+            return leap_fail(err, LEAP_ERR_USAGE, "renderer: the rays were made for another volume (index origin "
+                             "%g,%g,%g, uploaded volume's %g,%g,%g)", view->index_origin[0], view->index_origin[1],
+                             view->index_origin[2], r->domain.index_origin[0], r->domain.index_origin[1],
+                             r->domain.index_origin[2]);
+    /* Step and range are the caller's; the marching box is the uploaded atlas's. */
+    leap_march domain_march = r->domain;
+    domain_march.step = march_in->step;
+    domain_march.range_lo = march_in->range_lo;
+    domain_march.range_hi = march_in->range_hi;
+    const leap_march *march = &domain_march;
     if ((int)mode < 0 || mode >= LEAP_RENDER_MODE_COUNT)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: unknown mode %d", (int)mode);
     if (mode != LEAP_RENDER_NAIVE && !r->occupancy)

@@ -84,7 +84,7 @@ static int info_tfs(const char *path, const char *grid_name, const char *const *
     leap_error err = {{0}};
     leap_scene_desc sd = {.path = path, .grid = grid_name, .tf = tfs[0], .has_range = range != NULL};
     if (range) sd.range[0] = range[0], sd.range[1] = range[1];
-    double t = cli_now_ms();
+    double t = leap__now_ms();
     leap_scene *s = NULL;
     if (leap_scene_create(&sd, &s, &err)) return cli_runtime_error("%s", err.msg);
     double first_ms = s->occupancy_ms + s->classify_ms + s->boxes_ms;
@@ -99,12 +99,12 @@ static int info_tfs(const char *path, const char *grid_name, const char *const *
                 rc = cli_runtime_error("%s", err.msg);
                 break;
             }
-            t = cli_now_ms();
+            t = leap__now_ms();
             if (leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err)) {
                 rc = cli_runtime_error("%s", err.msg);
                 break;
             }
-            ms = cli_now_ms() - t;
+            ms = leap__now_ms() - t;
         }
         leap_occupancy_stats os;
         leap_boxes_stats bs;

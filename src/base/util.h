@@ -11,4 +11,11 @@ double leap__now_ms(void);
  * doubling; returns 0 on overflow or out of memory (then *p is unchanged). */
 int leap__grow(void **p, size_t *cap, size_t need, size_t elem);
 
+/* The part of path after its last '/'. */
+const char *leap__base_name(const char *path);
+
+/* Inverse of a 3x3 matrix (row-major); returns 0 when it is singular relative to its scale
+ * (|det| not above 1e-12 times the product of the column lengths) or not finite. */
+int leap__invert3(const double m[3][3], double inv[3][3]);
+
 #endif

@@ -10,7 +10,7 @@
 
 struct leap_dump_frame {
     const leap_renderer *renderer;
-    leap_view view;
+    leap_rays view;
     leap_march march;
     const float *rgba, *samples, *naive;
     const leap_occupancy *occupancy;
@@ -36,7 +36,7 @@ const char *leap_dump_class_name(uint32_t cls)
     }
 }
 
-void leap_dump_view_eye(const leap_view *view, double eye_or_dir[3])
+void leap_dump_rays_eye(const leap_rays *view, double eye_or_dir[3])
 {
     for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(view->ortho ? view->dir0[i] : view->origin0[i]);
 }
@@ -83,8 +83,8 @@ uint32_t leap_dump_lattice_count(double ta, double tb, double step, double *k_ne
 leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_frame **out, leap_error *err)
 {
     *out = NULL;
-    if (!desc || !desc->renderer || !desc->boxes || !desc->occupancy || !desc->view || !desc->march)
-        return leap_fail(err, LEAP_ERR_USAGE, "dump: renderer, boxes, occupancy, view and march are required");
+    if (!desc || !desc->renderer || !desc->boxes || !desc->occupancy || !desc->rays || !desc->march)
+        return leap_fail(err, LEAP_ERR_USAGE, "dump: renderer, boxes, occupancy, rays and march are required");
     if (!leap_renderer_pixel_lists(desc->renderer))
         return leap_fail(err, LEAP_ERR_USAGE, "dump: the renderer's last frame was not a sparseleap frame");
     uint32_t count = 0;
@@ -108,7 +108,7 @@ leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_f
         goto fail;
     }
     f->renderer = desc->renderer;
-    f->view = *desc->view;
+    f->view = *desc->rays;
     f->march = *desc->march;
     f->rgba = desc->rgba;
     f->samples = desc->samples;
@@ -117,8 +117,8 @@ leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_f
     f->box_count = count;
 
     double eye[3];
-    leap_dump_view_eye(desc->view, eye);
-    leap_boxes_order(desc->boxes, eye, desc->view->ortho, mine, meta);
+    leap_dump_rays_eye(desc->rays, eye);
+    leap_boxes_order(desc->boxes, eye, desc->rays->ortho, mine, meta);
     for (size_t i = 0; i < 2 * (size_t)count; ++i) f->order_map[i] = LEAP_DUMP_NO_BOX;
     for (uint32_t i = 0; i < count; ++i) {
         const leap_box_gpu *g = &gpu_boxes[i], *m = &mine[i];
@@ -283,7 +283,7 @@ leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pi
     if (ns > LEAP_MAX_SEGMENTS) ns = LEAP_MAX_SEGMENTS;
     if (overflow) p->flags |= LEAP_DUMP_OVERFLOW;
 
-    leap_view_ray(&f->view, x + 0.5, y + 0.5, p->origin, p->dir);
+    leap_rays_at(&f->view, x + 0.5, y + 0.5, p->origin, p->dir);
     p->in_domain = leap_dump_clip_box(p->origin, p->dir, f->march.domain_min, f->march.domain_max, &p->t_enter,
                                       &p->t_exit);
     double step = f->march.step, k_next = 0.0;

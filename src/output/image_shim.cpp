@@ -35,16 +35,6 @@ bool supported_extension(const std::string &ext)
     return ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff";
 }
 
-// Temporary name in the same directory that keeps the extension, so OpenImageIO still
-// picks the right format, and rename() stays on one file system.
-std::string temp_path_for(const std::string &path)
-{
-    size_t slash = path.find_last_of('/');
-    std::string dir = slash == std::string::npos ? "" : path.substr(0, slash + 1);
-    std::string base = slash == std::string::npos ? path : path.substr(slash + 1);
-    return dir + ".leap-tmp-" + std::to_string(getpid()) + "-" + base;
-}
-
 // OpenImageIO's message names the temporary file and may be empty on a short write
 // (disk full, file-size limit): errno says more then.
 std::string io_reason(const std::string &oiio_message)
@@ -97,12 +87,13 @@ extern "C" leap_result leap_image_write(const char *path, int width, int height,
             if (spec.channelnames[c] == "A") spec.alpha_channel = c;
         if (spec.alpha_channel >= 0 && format != TypeDesc::FLOAT)
             spec.attribute("oiio:UnassociatedAlpha", 1); // we pass straight colour for 8/16-bit files
-        std::string tmp = temp_path_for(target);
-        int slot = leap_temp_track(tmp.c_str());
+        // The temporary keeps the extension, so OpenImageIO still picks the right format.
+        leap_publish pub;
+        if (leap_result lr = leap_publish_begin(&pub, path, err)) return lr;
+        const std::string tmp(pub.tmp);
         // Messages name the user's path; the temporary name would mean nothing to them.
         auto fail = [&](const char *what, const std::string &why) {
-            std::remove(tmp.c_str());
-            leap_temp_untrack(slot);
+            leap_publish_abort(&pub);
             return leap_fail(err, LEAP_ERR_IO, "%s: %s: %s", path, what, why.c_str());
         };
         errno = 0;
@@ -120,9 +111,7 @@ extern "C" leap_result leap_image_write(const char *path, int width, int height,
             return fail("write failed", std::string("the written file does not read back") +
                                             (errno ? std::string(": ") + std::strerror(errno) : std::string("")));
         check->close();
-        if (std::rename(tmp.c_str(), path) != 0) return fail("cannot rename the finished file into place", std::strerror(errno));
-        leap_temp_untrack(slot);
-        return LEAP_OK;
+        return leap_publish_commit(&pub, err);
     } catch (const std::exception &e) {
         return leap_fail(err, LEAP_ERR_IO, "%s: %s", path, e.what());
     } catch (...) {

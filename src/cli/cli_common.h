@@ -3,6 +3,8 @@
 #ifndef LEAP_CLI_COMMON_H
 #define LEAP_CLI_COMMON_H
 
+#include "util.h"
+
 #include "leap/renderer.h"
 #include "leap/scene.h"
 
@@ -26,7 +28,6 @@ int cli_exit_code(leap_result r);
 
 /* Between min_n and n comma-separated finite numbers; returns the count or -1. */
 int cli_parse_numbers(const char *s, double *out, int min_n, int n);
-double cli_now_ms(void);
 /* "--name value" or "--name=value": the value, or NULL (with *missing set when the value is
  * absent); advances *i past what it consumed. */
 const char *cli_option_value(int argc, char **argv, int *i, const char *name, int *missing);
@@ -38,29 +39,29 @@ int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs,
 int cli_dir_writable(const char *path);
 
 /* Options shared by render, segments, bench and view. */
-typedef struct cli_view_options {
+typedef struct cli_camera_options {
     leap_scene_desc scene;
     const char *input, *device, *mode_name;
     int width, height, ortho, max_segments;
     double fov;
     int has_orbit, has_eye, has_target, has_up, orbit_n;
     double orbit[3], eye[3], target[3], up[3];
-} cli_view_options;
+} cli_camera_options;
 
 /* Help text for the shared options. */
 extern const char *cli_view_options_help;
 
-void cli_view_options_init(cli_view_options *o);
+void cli_view_options_init(cli_camera_options *o);
 
 /* Tries to consume argv[*i] as a shared option or the input path. Returns 1 if consumed,
  * 0 if not a shared option, or EXIT_USAGE + 1000 after printing a usage error. */
-int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_view_options *o);
+int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o);
 #define CLI_OPTION_ERROR 1000
 
 /* Checks combinations once all options are read; returns 0 or EXIT_USAGE. */
-int cli_view_options_check(const char *verb, const cli_view_options *o, int allow_reference);
+int cli_view_options_check(const char *verb, const cli_camera_options *o, int allow_reference);
 
 /* Camera for the options (orbit framing by default). Returns a leap_result. */
-leap_result cli_camera(const cli_view_options *o, const leap_scene *scene, leap_camera *cam, leap_error *err);
+leap_result cli_camera(const cli_camera_options *o, const leap_scene *scene, leap_camera *cam, leap_error *err);
 
 #endif

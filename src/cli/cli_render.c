@@ -57,7 +57,7 @@ static leap_result write_output(const char *path, int w, int h, const float *rgb
     return r;
 }
 
-static char *stats_json(const cli_view_options *o, const leap_scene *s, const leap_renderer *renderer,
+static char *stats_json(const cli_camera_options *o, const leap_scene *s, const leap_renderer *renderer,
                         const stage_times *t, const leap_frame_stats *fs, int mode)
 {
     cJSON *root = cJSON_CreateObject();
@@ -135,7 +135,7 @@ static char *stats_json(const cli_view_options *o, const leap_scene *s, const le
 
 int cli_render(int argc, char **argv)
 {
-    cli_view_options o;
+    cli_camera_options o;
     cli_view_options_init(&o);
     const char *output = NULL, *stats = NULL;
     int quiet = 0;
@@ -198,9 +198,9 @@ int cli_render(int argc, char **argv)
     times.boxes = scene->boxes_ms;
 
     leap_camera cam;
-    leap_view view;
+    leap_rays view;
     rc = EXIT_RUNTIME;
-    if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_view(scene, &cam, o.width, o.height, &view, &err))) {
+    if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_rays(scene, &cam, o.width, o.height, &view, &err))) {
         rc = cli_exit_code(r);
         cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
@@ -215,13 +215,13 @@ int cli_render(int argc, char **argv)
     }
     int mode = leap_mode_from_name(o.mode_name);
     if (mode < 0) { /* reference */
-        double t = cli_now_ms();
-        leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .view = &view, .march = &scene->march};
+        double t = leap__now_ms();
+        leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &view, .march = &scene->march};
         if (leap_reference_render(&rd, rgba, depth, samples, &err)) {
             cli_runtime_error("%s: reference renderer: %s", o.input, err.msg);
             goto done;
         }
-        times.render = cli_now_ms() - t;
+        times.render = leap__now_ms() - t;
         for (size_t i = 0; i < n; ++i) {
             uint32_t s = (uint32_t)samples[i];
             fs.total_samples += s;
@@ -229,20 +229,19 @@ int cli_render(int argc, char **argv)
         }
         fs.samples_mean = (double)fs.total_samples / n;
     } else {
-        double t = cli_now_ms();
+        double t = leap__now_ms();
         leap_renderer_desc rd = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments};
         if (leap_renderer_create(&rd, &renderer, &err)) {
             cli_runtime_error("%s", err.msg);
             goto done;
         }
-        times.setup = cli_now_ms() - t;
-        t = cli_now_ms();
-        if ((r = leap_renderer_set_volume(renderer, scene->atlas, &err)) || (r = leap_renderer_set_tf(renderer, &scene->tf, &err))) {
+        times.setup = leap__now_ms() - t;
+        t = leap__now_ms();
+        if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
             cli_input_error(o.input, o.scene.tf, r, err.msg);
             goto done;
         }
-        times.upload = cli_now_ms() - t;
-        leap_renderer_set_occupancy(renderer, scene->occupancy, scene->boxes);
+        times.upload = leap__now_ms() - t;
         if ((r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err))) {
             rc = cli_exit_code(r);
             cli_input_error(o.input, o.scene.tf, r, err.msg);
@@ -254,12 +253,12 @@ int cli_render(int argc, char **argv)
         times.readback = fs.readback_ms;
     }
 
-    double t = cli_now_ms();
+    double t = leap__now_ms();
     if (write_output(output, o.width, o.height, rgba, depth, samples, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;
     }
-    times.write = cli_now_ms() - t;
+    times.write = leap__now_ms() - t;
     if (stats) {
         char *text = stats_json(&o, scene, renderer, &times, &fs, mode);
         r = text ? leap_file_publish_text(stats, text, &err)

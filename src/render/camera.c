@@ -1,5 +1,6 @@
 /* Orbit cameras and the per-pixel ray parameterisation in a grid's index space. */
 #include "leap/camera.h"
+#include "util.h"
 
 #include <math.h>
 #include <string.h>
@@ -77,39 +78,15 @@ leap_result leap_camera_orbit(const double center[3], double radius, double az_d
     return LEAP_OK;
 }
 
-/* Inverse of a 3x3 matrix; returns 0 when it is singular relative to its scale. */
-static int invert3(const double m[3][3], double inv[3][3])
-{
-    double cof[3][3];
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) {
-            const int r1 = (r + 1) % 3, r2 = (r + 2) % 3;
-            const int c1 = (c + 1) % 3, c2 = (c + 2) % 3;
-            cof[r][c] = m[r1][c1] * m[r2][c2] - m[r1][c2] * m[r2][c1];
-        }
-    const double det = m[0][0] * cof[0][0] + m[0][1] * cof[0][1] + m[0][2] * cof[0][2];
-    /* Scale: the product of the column lengths bounds |det| (Hadamard); a tiny ratio means
-     * the columns are (nearly) linearly dependent. */
-    double scale = 1.0;
-    for (int c = 0; c < 3; ++c)
-        scale *= sqrt(m[0][c] * m[0][c] + m[1][c] * m[1][c] + m[2][c] * m[2][c]);
-    if (!(scale > 0.0) || !isfinite(det) || !(fabs(det) > 1e-12 * scale))
-        return 0;
-    for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c)
-            inv[r][c] = cof[c][r] / det;
-    return 1;
-}
-
 static void mat_vec(const double m[3][3], const double v[3], double out[3])
 {
     for (int r = 0; r < 3; ++r)
         out[r] = m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2];
 }
 
-leap_result leap_view_make(const leap_camera *cam, int width, int height,
+leap_result leap_rays_make(const leap_camera *cam, int width, int height,
                            const double index_to_world[4][4], const double index_origin[3],
-                           leap_view *out, leap_error *err)
+                           leap_rays *out, leap_error *err)
 {
     if (!cam || !index_to_world || !index_origin || !out)
         return leap_fail(err, LEAP_ERR_USAGE, "camera: missing camera, transform or output");
@@ -212,7 +189,7 @@ leap_result leap_view_make(const leap_camera *cam, int width, int height,
     for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c)
             lin[r][c] = index_to_world[r][c];
-    if (!invert3(lin, inv))
+    if (!leap__invert3(lin, inv))
         return leap_fail(err, LEAP_ERR_FORMAT,
                          "grid transform is singular (an index axis has zero length or two "
                          "axes are parallel)");
@@ -244,7 +221,7 @@ leap_result leap_view_make(const leap_camera *cam, int width, int height,
     return LEAP_OK;
 }
 
-void leap_view_ray(const leap_view *view, double px, double py, double origin[3], double dir[3])
+void leap_rays_at(const leap_rays *view, double px, double py, double origin[3], double dir[3])
 {
     double d[3];
     for (int c = 0; c < 3; ++c) {
@@ -257,7 +234,7 @@ void leap_view_ray(const leap_view *view, double px, double py, double origin[3]
         dir[c] = d[c] * s;
 }
 
-double leap_view_world_distance(const leap_view *view, const double dir[3], double t)
+double leap_rays_world_distance(const leap_rays *view, const double dir[3], double t)
 {
     double w[3];
     mat_vec(view->index_to_world_linear, dir, w);

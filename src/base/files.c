@@ -140,19 +140,48 @@ void leap_signals_install(void)
     signal(SIGXFSZ, SIG_IGN);
 }
 
-leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err)
+leap_result leap_publish_begin(leap_publish *p, const char *path, leap_error *err)
 {
-    char tmp[PATH_MAX];
     const char *slash = strrchr(path, '/');
     int dir_len = slash ? (int)(slash - path) + 1 : 0;
-    if (snprintf(tmp, sizeof tmp, "%.*s.leap-tmp-%d-%s", dir_len, path, (int)getpid(), path + dir_len) >=
-        (int)sizeof tmp)
+    p->slot = -1;
+    if (snprintf(p->path, sizeof p->path, "%s", path) >= (int)sizeof p->path ||
+        snprintf(p->tmp, sizeof p->tmp, "%.*s.leap-tmp-%d-%s", dir_len, path, (int)getpid(), path + dir_len) >=
+            (int)sizeof p->tmp)
         return leap_fail(err, LEAP_ERR_IO, "%s: path too long", path);
-    int slot = leap_temp_track(tmp);
-    FILE *f = fopen(tmp, "w");
+    p->slot = leap_temp_track(p->tmp);
+    return LEAP_OK;
+}
+
+leap_result leap_publish_commit(leap_publish *p, leap_error *err)
+{
+    if (rename(p->tmp, p->path) != 0) {
+        int e = errno;
+        leap_publish_abort(p);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot rename the finished file into place: %s", p->path, strerror(e));
+    }
+    leap_temp_untrack(p->slot);
+    p->slot = -1;
+    return LEAP_OK;
+}
+
+void leap_publish_abort(leap_publish *p)
+{
+    remove(p->tmp);
+    leap_temp_untrack(p->slot);
+    p->slot = -1;
+}
+
+leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err)
+{
+    leap_publish pub;
+    leap_result lr = leap_publish_begin(&pub, path, err);
+    if (lr) return lr;
+    FILE *f = fopen(pub.tmp, "w");
     if (!f) {
-        leap_temp_untrack(slot);
-        return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
+        int e = errno;
+        leap_publish_abort(&pub);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(e));
     }
     size_t n = strlen(text);
     int ok = fwrite(text, 1, n, f) == n;
@@ -161,11 +190,9 @@ leap_result leap_file_publish_text(const char *path, const char *text, leap_erro
         ok = 0;
         e = errno;
     }
-    if (ok && rename(tmp, path) != 0) {
-        ok = 0;
-        e = errno;
+    if (!ok) {
+        leap_publish_abort(&pub);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(e));
     }
-    if (!ok) remove(tmp);
-    leap_temp_untrack(slot);
-    return ok ? LEAP_OK : leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(e));
+    return leap_publish_commit(&pub, err);
 }

@@ -1,6 +1,7 @@
 /* Transfer functions: built-in presets and ParaView colour-map JSON files, both turned
  * into a LEAP_TF_TABLE_SIZE table sampled at u_i = i / (N - 1). */
 #include "leap/tf.h"
+#include "util.h"
 #include "leap/files.h"
 
 #include <cjson/cJSON.h>
@@ -266,12 +267,6 @@ static leap_result check_points(const char *path, const char *key, const double 
     return LEAP_OK;
 }
 
-static const char *base_name(const char *path)
-{
-    const char *s = strrchr(path, '/');
-    return s ? s + 1 : path;
-}
-
 /* Converts a byte offset to a 1-based line number for syntax error messages. */
 static int line_of(const char *text, size_t offset)
 {
@@ -416,7 +411,7 @@ leap_result leap_tf_load_json(const char *path, leap_tf *out, leap_error *err)
     if (cJSON_IsString(jn) && jn->valuestring && jn->valuestring[0])
         set_name(out, jn->valuestring);
     else
-        set_name(out, base_name(path));
+        set_name(out, leap__base_name(path));
     r = LEAP_OK;
 
 done:

@@ -433,6 +433,8 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     double t0 = leap__now_ms();
     builder *b = calloc(1, sizeof *b);
     leap_atlas *a = calloc(1, sizeof *a);
+    static _Atomic uint64_t next_serial = 1;
+    if (a) a->serial = next_serial++;
     if (!b || !a) {
         free(b);
         free(a);
