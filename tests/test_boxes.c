@@ -3,7 +3,9 @@
  * and on node planes, axis-parallel rays), the order is a near-to-far DFS, and boxes after a
  * TF switch equal boxes from a fresh build. Each with and without sibling merging. */
 #include "check.h"
+#include "leap/boxes.h"
 #include "leap/occupancy.h"
+#include "leap/segments.h"
 
 #include <math.h>
 #include <stdint.h>

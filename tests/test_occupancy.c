@@ -2,6 +2,7 @@
  * majorities, re-classification, non-empty bounds, and the CPU resolve of ray events. */
 #include "check.h"
 #include "leap/occupancy.h"
+#include "leap/segments.h"
 
 #include <math.h>
 #include <stdint.h>

@@ -13,6 +13,7 @@
 #include "leap/camera.h"
 #include "leap/error.h"
 #include "leap/march.h"
+#include "leap/boxes.h"
 #include "leap/occupancy.h"
 #include "leap/renderer.h"
 

@@ -10,7 +10,9 @@
 #include "leap/camera.h"
 #include "leap/error.h"
 #include "leap/march.h"
+#include "leap/boxes.h"
 #include "leap/occupancy.h"
+#include "leap/segments.h"
 #include "leap/scene.h"
 #include "leap/tf.h"
 

@@ -8,6 +8,7 @@
 #include "leap/camera.h"
 #include "leap/error.h"
 #include "leap/march.h"
+#include "leap/boxes.h"
 #include "leap/occupancy.h"
 #include "leap/tf.h"
 #include "leap/vdb.h"

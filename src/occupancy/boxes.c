@@ -1,5 +1,5 @@
 /* Occupancy geometry: the class-change boxes of the occupancy tree and their view order
- * (see include/leap/occupancy.h).
+ * (see include/leap/boxes.h).
  *
  * Emitted boxes: the root's box (its parent class is EMPTY by convention: the class
  * outside every box) and every node, stored or implicit, whose class differs from its
@@ -43,7 +43,7 @@
  *
  * Final layout: nodes breadth-first, the children of a node stored together in octant
  * order; ids number the emitted boxes in that (view-independent) order. */
-#include "leap/occupancy.h"
+#include "leap/boxes.h"
 #include "util.h"
 
 #include <math.h>

@@ -492,8 +492,6 @@ typedef struct classifier {
     uint32_t prefix[N_TABLE + 1]; /* prefix[i] = number of entries < i with opacity > 0 */
 } classifier;
 
-static int compute_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);
-
 static uint32_t classify_range(const classifier *c, float vmin, float vmax)
 {
     if (vmin != vmin || vmax != vmax) return LEAP_CLASS_NONEMPTY;
@@ -548,7 +546,7 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
         occ->range_cls[i] = (uint8_t)classify_range(cl, occ->ranges[i].lo, occ->ranges[i].hi);
     occ->bg_cls = classify_range(cl, occ->background, occ->background);
     update_counts(occ);
-    occ->bounds_found = compute_bounds(occ, occ->bounds_lo, occ->bounds_hi);
+    occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
     occ->classify_ms = leap__now_ms() - t0;
     return LEAP_OK;
 }
@@ -578,54 +576,6 @@ uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell
         ref = n->child[k];
     }
     return ref_class(occ, ref);
-}
-
-static void bounds_unite(double lo[3], double hi[3], const uint32_t org[3], uint32_t level)
-{
-    for (int a = 0; a < 3; ++a) {
-        double l = (double)org[a] * LEAP_CELL;
-        double h = ((double)org[a] + (double)((uint64_t)1 << level)) * LEAP_CELL;
-        if (l < lo[a]) lo[a] = l;
-        if (h > hi[a]) hi[a] = h;
-    }
-}
-
-static void bounds_walk(const leap_occupancy *occ, uint32_t ref, uint32_t level,
-                        const uint32_t org[3], double lo[3], double hi[3], int *found)
-{
-    if (ref == OCC_REF_IMPLICIT) return; /* background: EMPTY when this walk runs */
-    if (ref & OCC_REF_LEAF) {
-        if (occ->range_cls[ref & ~OCC_REF_LEAF] != LEAP_CLASS_EMPTY) {
-            bounds_unite(lo, hi, org, level);
-            *found = 1;
-        }
-        return;
-    }
-    const occ_node *n = &occ->nodes[ref];
-    if (n->count[LEAP_CLASS_NONEMPTY] == 0 && n->count[LEAP_CLASS_UNKNOWN] == 0) return;
-    for (int k = 0; k < 8; ++k) {
-        uint32_t corg[3];
-        for (int a = 0; a < 3; ++a) corg[a] = org[a] + (((uint32_t)k >> a & 1u) << (level - 1));
-        bounds_walk(occ, n->child[k], level - 1, corg, lo, hi, found);
-    }
-}
-
-/* Bounds of the non-empty cells under the current classification (walks the tree). */
-static int compute_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
-{
-    if (occ->cells[0] == 0 || occ->cells[1] == 0 || occ->cells[2] == 0) return 0;
-    if (occ->bg_cls != LEAP_CLASS_EMPTY) {
-        /* every stored leaf lies inside the grid */
-        for (int a = 0; a < 3; ++a) lo[a] = 0.0, hi[a] = (double)occ->cells[a] * LEAP_CELL;
-        return 1;
-    }
-    double l[3] = {DBL_MAX, DBL_MAX, DBL_MAX}, h[3] = {-DBL_MAX, -DBL_MAX, -DBL_MAX};
-    int found = 0;
-    const uint32_t org[3] = {0, 0, 0};
-    bounds_walk(occ, occ->root, occ->depth, org, l, h, &found);
-    if (!found) return 0;
-    for (int a = 0; a < 3; ++a) lo[a] = l[a], hi[a] = h[a];
-    return 1;
 }
 
 int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
@@ -673,112 +623,4 @@ int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref)
 void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3])
 {
     memcpy(cells, occ->cells, sizeof occ->cells);
-}
-
-/* ---- events and segments ------------------------------------------------------------- */
-
-static int event_before(const leap_event *a, const leap_event *b)
-{
-    if (a->t != b->t) return a->t < b->t;
-    if (a->order != b->order) return a->order < b->order;
-    return a->cls < b->cls;
-}
-
-static int event_cmp(const void *pa, const void *pb)
-{
-    const leap_event *a = pa, *b = pb;
-    return event_before(a, b) ? -1 : (event_before(b, a) ? 1 : 0);
-}
-
-size_t leap_resolve_events(leap_event *events, size_t count, uint32_t outside, leap_segment *out,
-                           size_t cap)
-{
-    /* events with a NaN t carry no position: moved to the end and ignored */
-    size_t n = 0;
-    for (size_t i = 0; i < count; ++i)
-        if (events[i].t == events[i].t) {
-            leap_event e = events[i];
-            events[i] = events[n];
-            events[n++] = e;
-        }
-    if (n <= 32) {
-        for (size_t i = 1; i < n; ++i) {
-            leap_event e = events[i];
-            size_t j = i;
-            while (j > 0 && event_before(&e, &events[j - 1])) {
-                events[j] = events[j - 1];
-                --j;
-            }
-            events[j] = e;
-        }
-    } else {
-        qsort(events, n, sizeof *events, event_cmp);
-    }
-
-    size_t segs = 0;
-    uint32_t cls = outside;
-    float start = 0.0f;
-    size_t i = 0;
-    int first = 1;
-    while (i < n) {
-        const float t = events[i].t;
-        uint32_t next = cls;
-        for (; i < n && events[i].t == t; ++i) next = events[i].cls;
-        if (first) {
-            first = 0;
-        } else if (next != cls || i == n) {
-            /* the run [start, t) of class cls ends here (t > start: groups have distinct t) */
-            if (segs < cap) {
-                out[segs].t0 = start;
-                out[segs].t1 = t;
-                out[segs].cls = cls;
-            }
-            ++segs;
-        } else {
-            continue; /* no class change: the run goes on */
-        }
-        cls = next;
-        start = t;
-    }
-    return segs;
-}
-
-/* A stored node whose subtree holds one class only (its counts say so) is one leaf for the
- * GPU walk: the walk then skips it in one step instead of visiting every stored leaf. */
-static int single_class(const leap_occupancy *occ, uint32_t ref)
-{
-    if ((ref & OCC_REF_LEAF) || ref == OCC_REF_IMPLICIT) return 1;
-    const uint64_t *c = occ->nodes[ref].count;
-    return (c[0] != 0) + (c[1] != 0) + (c[2] != 0) <= 1;
-}
-
-size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth)
-{
-    uint32_t root = leap_occ_internal_root(occ, depth);
-    if (single_class(occ, root)) {
-        for (size_t k = 0; k < 8 && k < cap; ++k) words[k] = LEAP_TREE_LEAF | ref_class(occ, root);
-        return 8;
-    }
-    /* Breadth first, so every parent precedes its children; order[] maps output nodes to
-     * stored nodes. */
-    uint32_t *order = malloc((occ->node_count + 1) * sizeof *order);
-    if (!order) return 0;
-    size_t nodes = 1;
-    order[0] = root;
-    for (size_t next = 0; next < nodes; ++next) {
-        uint32_t child[8];
-        leap_occ_internal_node(occ, order[next], NULL, NULL, child, NULL);
-        for (int k = 0; k < 8; ++k) {
-            uint32_t w;
-            if (single_class(occ, child[k])) {
-                w = LEAP_TREE_LEAF | ref_class(occ, child[k]);
-            } else {
-                w = (uint32_t)nodes;
-                order[nodes++] = child[k];
-            }
-            if (8 * next + k < cap) words[8 * next + k] = w;
-        }
-    }
-    free(order);
-    return 8 * nodes;
 }

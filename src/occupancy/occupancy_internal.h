@@ -1,9 +1,10 @@
-/* Tree access that occupancy.c gives boxes.c and the tests; not part of the public API.
+/* Tree access that occupancy.c gives walk.c, boxes.c and the tests; not part of the public API.
  * Child references: OCC_REF_IMPLICIT (background subtree), OCC_REF_LEAF | range index, or a
  * stored node index. */
 #ifndef LEAP_OCCUPANCY_INTERNAL_H
 #define LEAP_OCCUPANCY_INTERNAL_H
 
+#include "leap/boxes.h"
 #include "leap/occupancy.h"
 
 #define OCC_REF_IMPLICIT 0xFFFFFFFFu
@@ -20,5 +21,8 @@ size_t leap_occ_internal_node_count(const leap_occupancy *occ);
 int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref);
 /* Cells per axis of the grid (the tree's root cube may reach beyond them). */
 void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3]);
+/* Bounds of the NONEMPTY and UNKNOWN cells under the current classification, by a walk of
+ * the tree (walk.c); returns 0 when there are none. */
+int leap_occ_internal_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);
 
 #endif
