@@ -1,0 +1,267 @@
+/* Per-frame parameters: the clip matrix of the box raster, the uniform block, and the number
+ * of composite dispatches the frame's longest rays need. */
+#include "renderer_internal.h"
+#include "util.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static leap_vec4 v4(const double v[3], double w)
+{
+    return (leap_vec4){(float)v[0], (float)v[1], (float)v[2], (float)w};
+}
+
+/* Rows of the matrix taking relative index space to clip space such that the pixel centre
+ * (px, py) of the view's ray through a point lands on framebuffer position (px, py).
+ * Perspective: (a, b, c) = [dir_dx dir_dy dir0]^-1 (X - origin0), pixel = (a/c, b/c).
+ * Orthographic: (px, py, t) = [origin_dx origin_dy dir0]^-1 (X - origin0). */
+static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
+{
+    double inv[3][3] = {{0}};
+    const double *a = v->ortho ? v->origin_dx : v->dir_dx, *b = v->ortho ? v->origin_dy : v->dir_dy;
+    const double cols[3][3] = {{a[0], b[0], v->dir0[0]}, {a[1], b[1], v->dir0[1]}, {a[2], b[2], v->dir0[2]}};
+    leap__invert3(cols, inv);
+    double rows[4][4];
+    for (int i = 0; i < 3; ++i) {
+        double off = -(inv[i][0] * v->origin0[0] + inv[i][1] * v->origin0[1] + inv[i][2] * v->origin0[2]);
+        rows[i][0] = inv[i][0], rows[i][1] = inv[i][1], rows[i][2] = inv[i][2], rows[i][3] = off;
+    }
+    /* rows[0], rows[1] give pixel coordinates times w (perspective: w = rows[2]). */
+    double w[4], sx = 2.0 / v->width, sy = 2.0 / v->height;
+    for (int k = 0; k < 4; ++k) w[k] = v->ortho ? (k == 3 ? 1.0 : 0.0) : rows[2][k];
+    double cx[4], cy[4];
+    for (int k = 0; k < 4; ++k) {
+        cx[k] = sx * rows[0][k] - w[k];
+        cy[k] = sy * rows[1][k] - w[k];
+    }
+    f->clip_x = (leap_vec4){(float)cx[0], (float)cx[1], (float)cx[2], (float)cx[3]};
+    f->clip_y = (leap_vec4){(float)cy[0], (float)cy[1], (float)cy[2], (float)cy[3]};
+    f->clip_z = (leap_vec4){0, 0, 0, 0};
+    f->clip_w = (leap_vec4){(float)w[0], (float)w[1], (float)w[2], (float)w[3]};
+    /* Size of one pixel: per unit distance (perspective) or absolute (ortho). */
+    double len0 = sqrt(v->dir0[0] * v->dir0[0] + v->dir0[1] * v->dir0[1] + v->dir0[2] * v->dir0[2]);
+    double px_len = 0;
+    for (int i = 0; i < 3; ++i) {
+        double d = v->ortho ? fmax(fabs(v->origin_dx[i]), fabs(v->origin_dy[i])) : fmax(fabs(v->dir_dx[i]), fabs(v->dir_dy[i]));
+        px_len += d * d;
+    }
+    px_len = sqrt(px_len);
+    f->raster = (leap_vec4){(float)(v->ortho ? px_len : px_len / len0), RASTER_GROW_PIXELS, 0, 0};
+}
+
+/* Lattice indices one composite dispatch may take per ray, so that no invocation group
+ * reaches the driver's loop limit (see LEAP_LOOP_ITERATIONS_SAFE). A group runs each loop as
+ * long as its longest lane, so its iterations are at most the sum over its LEAP_SIMD_LANES
+ * lanes, counting for each lane the once-through of loops it enters with nothing to do. One
+ * lane taking n lattice indices of step dt crosses at most X = sqrt(3) n dt / 8 + 4 cells,
+ * and so tree leaves. It runs n sample iterations plus:
+ * - naive, bbox: the march loop's outer iteration and two inner-loop entries per cell;
+ * - octree: per leaf, the visit, a descent of up to depth iterations, and the march loop's three;
+ * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry;
+ *   an overflowed pixel walks the tree as octree does. */
+static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
+{
+    double per_cell = 0, fixed = 8;
+    if (mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX)
+        per_cell = 3;
+    else
+        per_cell = r->tree_depth + 6.0; /* octree: also overflowed sparseleap pixels */
+    if (mode == LEAP_RENDER_SPARSELEAP) fixed += 2 * LEAP_MAX_SEGMENTS;
+    const double per_lane = (double)LEAP_LOOP_ITERATIONS_SAFE / LEAP_SIMD_LANES;
+    double n = floor((per_lane - fixed - 4 * per_cell) / (1 + sqrt(3.0) / LEAP_CELL * step * per_cell));
+    return n < 1 ? 1 : n;
+}
+
+/* Lattice indices a ray can hold before float stops representing them exactly: the shader
+ * computes t_j = t0 + j * dt with j a float, so j must stay below 2^24. */
+#define LATTICE_INDEX_LIMIT 16777216.0
+
+/* Dispatches needed: the most lattice indices any pixel's ray holds inside the domain box,
+ * over the lattice indices per dispatch the frame holds (limits.z, from chunk_indices).
+ * Computed per pixel on the host in double, with the box grown by a voxel plus a relative
+ * margin so that float rounding on the GPU can only shorten a ray, never lengthen it past
+ * the bound: a chunk beyond every ray's last index would do nothing. This is what the frame
+ * really marches (a sparse grid whose box is long but thin costs what its rays cross), not
+ * the box diagonal. Fails when a ray holds more indices than float can count. */
+
+leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, const leap_frame_gpu *f,
+                               uint32_t *count, chunk_rect **rects_out, leap_error *err)
+{
+    *count = 1;
+    *rects_out = NULL;
+    double box_lo[3], box_hi[3], centre[3], diag = 0;
+    for (int i = 0; i < 3; ++i) {
+        if (!(m->domain_min[i] <= m->domain_max[i])) return LEAP_OK;
+        box_lo[i] = m->domain_min[i];
+        box_hi[i] = m->domain_max[i];
+        centre[i] = 0.5 * (box_lo[i] + box_hi[i]);
+        diag += (box_hi[i] - box_lo[i]) * (box_hi[i] - box_lo[i]);
+    }
+    diag = sqrt(diag);
+    /* The grown box's diagonal bounds every pixel's chord (rays are unit length in index
+     * space; origins are linear in the pixel, so the image corners bound their size). When
+     * that bound fits one dispatch, every ray does and the per-pixel pass below is skipped:
+     * the usual frame pays nothing for it. */
+    double far_bound = diag;
+    for (int a = 0; a < 3; ++a) {
+        double o_abs = 0, o[3], d[3];
+        for (int corner = 0; corner < 4; ++corner) {
+            leap_rays_at(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
+            o_abs = fmax(o_abs, fabs(o[a]));
+        }
+        far_bound += o_abs + fabs(centre[a]) + o_abs + fabs(centre[a]);
+    }
+    double chord_bound = diag + 2 * sqrt(3.0) * (1.0 + 1e-5 * far_bound);
+    double n_bound = ((chord_bound + m->step) / m->step + 2) * (1 + 1e-5) + 2;
+    if (n_bound <= f->limits.z) return LEAP_OK;
+    const size_t pixels = (size_t)view->width * view->height;
+    uint32_t *need = malloc(pixels * sizeof *need); /* dispatches each pixel's ray needs */
+    if (!need) return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %zu pixels", pixels);
+    double most = 0; /* lattice indices of the longest ray */
+    uint32_t chunks = 1;
+    for (int py = 0; py < view->height; ++py)
+        for (int px = 0; px < view->width; ++px) {
+            double o[3], d[3];
+            leap_rays_at(view, px + 0.5, py + 0.5, o, d);
+            /* Grown by more than the float error of the GPU's ray over any t up to the far
+             * side of the box (relative 1e-5 of the coordinates involved, plus a voxel). */
+            double far = diag, lo[3], hi[3];
+            for (int a = 0; a < 3; ++a) far += fabs(o[a] - centre[a]) + fabs(o[a]) + fabs(centre[a]);
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = box_lo[a] - (1.0 + 1e-5 * far);
+                hi[a] = box_hi[a] + (1.0 + 1e-5 * far);
+            }
+            double t0 = 0, t1 = INFINITY;
+            int hit = 1;
+            for (int a = 0; a < 3 && hit; ++a) {
+                if (d[a] == 0) {
+                    hit = o[a] >= lo[a] && o[a] <= hi[a];
+                } else {
+                    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+                    t0 = fmax(t0, fmin(ta, tb));
+                    t1 = fmin(t1, fmax(ta, tb));
+                }
+            }
+            double n = 0;
+            if (hit && t0 <= t1) n = ((t1 - floor(t0 / m->step) * m->step) / m->step + 2) * (1 + 1e-5) + 2;
+            if (n > most) most = n;
+            double k = n > LATTICE_INDEX_LIMIT ? 0 : ceil(n / f->limits.z);
+            need[(size_t)py * view->width + px] = k < 1 ? 1 : (uint32_t)k;
+            if (k > chunks) chunks = (uint32_t)k;
+        }
+    if (most > LATTICE_INDEX_LIMIT) {
+        free(need);
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "a ray crosses %.4g samples of step %g inside the volume box; the GPU counts "
+                         "lattice samples in float, exactly only up to 2^24 = 16777216 per ray (use a "
+                         "larger --step or a view that crosses less of the box)",
+                         most, m->step);
+    }
+    /* rects[c]: the pixels whose rays need more than c dispatches (chunk c marches them). */
+    chunk_rect *rects = malloc(chunks * sizeof *rects);
+    if (!rects) {
+        free(need);
+        return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %u composite chunks", chunks);
+    }
+    for (uint32_t c = 0; c < chunks; ++c) rects[c] = (chunk_rect){UINT32_MAX, UINT32_MAX, 0, 0};
+    for (uint32_t py = 0; py < (uint32_t)view->height; ++py)
+        for (uint32_t px = 0; px < (uint32_t)view->width; ++px) {
+            chunk_rect *q = &rects[need[(size_t)py * view->width + px] - 1];
+            if (px < q->x0) q->x0 = px;
+            if (py < q->y0) q->y0 = py;
+            if (px + 1 > q->x1) q->x1 = px + 1;
+            if (py + 1 > q->y1) q->y1 = py + 1;
+        }
+    free(need);
+    for (uint32_t c = chunks - 1; c-- > 0;) { /* union with every later chunk's rectangle */
+        chunk_rect *q = &rects[c], *n = &rects[c + 1];
+        if (n->x0 < q->x0) q->x0 = n->x0;
+        if (n->y0 < q->y0) q->y0 = n->y0;
+        if (n->x1 > q->x1) q->x1 = n->x1;
+        if (n->y1 > q->y1) q->y1 = n->y1;
+    }
+    rects[0] = (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height}; /* every pixel is written */
+    *count = chunks;
+    *rects_out = rects;
+    return LEAP_OK;
+}
+
+/* 2^k nearest to the length of v (k = 0 for a zero or non-finite length). */
+static int pow2_exponent(const double v[3])
+{
+    double l = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    if (!(l > 0) || !isfinite(l)) return 0;
+    return (int)lrint(log2(l));
+}
+
+/* Power-of-two exponents that bring the frame's ray directions and index-to-world rows near
+ * unit length, where float squares them without overflow or underflow (voxel sizes from
+ * about 1e-19 and 1e19 on, GPU rays had length 0 or inf). Zero while the lengths are
+ * within 2^-16..2^16, so ordinary grids send the very same floats. Scaling a ray's
+ * direction by a power of two changes neither its normalised direction nor any pixel's
+ * footprint (the clip matrix scales inversely, w with it); the depth is scaled back. */
+#define FRAME_SCALE_FREE 16
+
+static int frame_dir_exponent(const leap_rays *v)
+{
+    int k = pow2_exponent(v->dir0);
+    return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
+}
+
+static int frame_world_exponent(const leap_rays *v)
+{
+    int k = 0;
+    for (int i = 0; i < 3; ++i) {
+        int e = pow2_exponent(v->index_to_world_linear[i]);
+        if (abs(e) > abs(k)) k = e;
+    }
+    return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
+}
+
+void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode,
+                       uint32_t box_count, leap_frame_gpu *f)
+{
+    memset(f, 0, sizeof *f);
+    leap_rays scaled = *view_in;
+    const leap_rays *view = &scaled;
+    const int kd = frame_dir_exponent(view_in), kw = frame_world_exponent(view_in);
+    for (int c = 0; c < 3; ++c) {
+        scaled.dir0[c] = ldexp(scaled.dir0[c], -kd);
+        scaled.dir_dx[c] = ldexp(scaled.dir_dx[c], -kd);
+        scaled.dir_dy[c] = ldexp(scaled.dir_dy[c], -kd);
+        for (int i = 0; i < 3; ++i) scaled.index_to_world_linear[i][c] = ldexp(scaled.index_to_world_linear[i][c], -kw);
+    }
+    f->origin0 = v4(view->origin0, 0);
+    f->origin_dx = v4(view->origin_dx, 0);
+    f->origin_dy = v4(view->origin_dy, 0);
+    f->dir0 = v4(view->dir0, 0);
+    f->dir_dx = v4(view->dir_dx, 0);
+    f->dir_dy = v4(view->dir_dy, 0);
+    f->world_row0 = v4(view->index_to_world_linear[0], 0);
+    f->world_row1 = v4(view->index_to_world_linear[1], 0);
+    f->world_row2 = v4(view->index_to_world_linear[2], 0);
+    f->domain_min = v4(m->domain_min, 0);
+    f->domain_max = v4(m->domain_max, 0);
+    f->atlas_inv_size = (leap_vec4){1.0f / r->atlas.extent[0], 1.0f / r->atlas.extent[1],
+                                    1.0f / r->atlas.extent[2], 0};
+    double range = m->range_hi - m->range_lo;
+    double scale = range != 0 ? (r->value_max - r->value_min) / range : 0.0;
+    double offset = range != 0 ? (r->value_min - m->range_lo) / range : 0.0;
+    f->march = (leap_vec4){(float)m->step, (float)(m->step / LEAP_TF_STEP_REF), (float)scale, (float)offset};
+    /* A precorrected table's opacities are compared with a threshold corrected alike. */
+    double depth_opacity = r->tf_precorrected ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
+    f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
+                            (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
+    f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
+    f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
+    f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, 0, (uint32_t)view->ortho};
+    clip_matrix(view, f);
+    double lo[3] = {1, 1, 1}, hi[3] = {0, 0, 0}; /* empty unless the occupancy says otherwise */
+    if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
+    f->bbox_min = v4(lo, 0);
+    f->bbox_max = v4(hi, 0);
+    f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, r->tree_depth};
+}

@@ -1,0 +1,315 @@
+/* Frame buffers, descriptors and the recorded passes of one frame: ray events (raster),
+ * segment lists (resolve), compositing. */
+#include "renderer_internal.h"
+#include "util.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void renderer_destroy_frame_buffers(leap_renderer *r)
+{
+    leap_gpu *gpu = r->gpu;
+    leap_gpu_buffer_destroy(gpu, &r->out_aux);
+    leap_gpu_buffer_destroy(gpu, &r->out_rgba);
+    leap_gpu_buffer_destroy(gpu, &r->event_counts);
+    leap_gpu_buffer_destroy(gpu, &r->event_t);
+    leap_gpu_buffer_destroy(gpu, &r->event_key);
+    leap_gpu_buffer_destroy(gpu, &r->segments);
+    leap_gpu_buffer_destroy(gpu, &r->pixel_lists);
+    if (r->framebuffer) vkDestroyFramebuffer(gpu->device, r->framebuffer, NULL);
+    r->framebuffer = VK_NULL_HANDLE;
+    r->pixels_allocated = 0;
+    r->lists_valid = 0;
+}
+
+static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view, leap_error *err)
+{
+    size_t pixels = (size_t)view->width * view->height;
+    if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES ||
+        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > MAX_BUFFER_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "image of %dx%d pixels exceeds the 128 MiB per-buffer limit (at most %u pixels)",
+                         view->width, view->height, (unsigned)(MAX_BUFFER_BYTES / (8 * r->max_segments)));
+    if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width && r->fb_height == (uint32_t)view->height)
+        return LEAP_OK;
+    vkDeviceWaitIdle(r->gpu->device);
+    renderer_destroy_frame_buffers(r);
+    VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
+    leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_aux, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 4, usage, &r->event_counts, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_t, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_key, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
+    if (lr) return lr;
+    VkFramebufferCreateInfo fci = {
+        .sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO,
+        .renderPass = r->render_pass,
+        .width = (uint32_t)view->width,
+        .height = (uint32_t)view->height,
+        .layers = 1,
+    };
+    LEAP_VK_CHECK(vkCreateFramebuffer(r->gpu->device, &fci, NULL, &r->framebuffer));
+    r->fb_width = (uint32_t)view->width;
+    r->fb_height = (uint32_t)view->height;
+    r->pixels_allocated = pixels;
+    return LEAP_OK;
+}
+
+static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *err)
+{
+    VkDeviceSize need = (VkDeviceSize)(count ? count : 1) * sizeof(leap_box_gpu);
+    if (need > MAX_BUFFER_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the 128 MiB buffer limit", count);
+    if (r->boxes.size >= need) return LEAP_OK;
+    vkDeviceWaitIdle(r->gpu->device);
+    leap_gpu_buffer_destroy(r->gpu, &r->boxes);
+    return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+}
+
+/* Uploads the occupancy tree as it is classified now (octree mode, and sparseleap pixels whose
+ * lists overflowed). */
+static leap_result upload_tree(leap_renderer *r, leap_error *err)
+{
+    size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &r->tree_depth);
+    if (words == 0) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the occupancy tree");
+    if (words * 4 > MAX_BUFFER_BYTES)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the 128 MiB buffer limit", words / 8);
+    if (r->tree.size < words * 4) {
+        vkDeviceWaitIdle(r->gpu->device);
+        leap_gpu_buffer_destroy(r->gpu, &r->tree);
+        leap_result lr = leap_gpu_buffer_create(r->gpu, words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
+        if (lr) return lr;
+    }
+    leap_occupancy_flatten(r->occupancy, r->tree.mapped, words, &r->tree_depth);
+    return LEAP_OK;
+}
+
+static void write_descriptors(leap_renderer *r)
+{
+    VkDescriptorBufferInfo buf[BINDING_COUNT];
+    const leap_buffer *src[BINDING_COUNT] = {
+        [LEAP_BINDING_FRAME] = &r->frame, [LEAP_BINDING_PAGES] = &r->pages,
+        [LEAP_BINDING_OUT_RGBA] = &r->out_rgba, [LEAP_BINDING_OUT_AUX] = &r->out_aux,
+        [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_EVENT_COUNTS] = &r->event_counts,
+        [LEAP_BINDING_EVENT_T] = &r->event_t, [LEAP_BINDING_EVENT_KEY] = &r->event_key,
+        [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
+        [LEAP_BINDING_TREE] = &r->tree,
+    };
+    VkDescriptorImageInfo img[2] = {
+        {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        {r->linear_sampler, r->tf.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+    };
+    VkWriteDescriptorSet w[BINDING_COUNT];
+    for (uint32_t i = 0; i < BINDING_COUNT; ++i) {
+        w[i] = (VkWriteDescriptorSet){
+            .sType = VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET,
+            .dstSet = r->set,
+            .dstBinding = i,
+            .descriptorCount = 1,
+            .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
+        };
+        if (i == LEAP_BINDING_ATLAS || i == LEAP_BINDING_TF) {
+            w[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+            w[i].pImageInfo = &img[i == LEAP_BINDING_TF];
+            continue;
+        }
+        if (i == LEAP_BINDING_FRAME) w[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+        buf[i] = (VkDescriptorBufferInfo){src[i]->buffer, 0, VK_WHOLE_SIZE};
+        w[i].pBufferInfo = &buf[i];
+    }
+    vkUpdateDescriptorSets(r->gpu->device, BINDING_COUNT, w, 0, NULL);
+}
+
+static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipelineStageFlags dst, VkAccessFlags from,
+                           VkAccessFlags to)
+{
+    VkMemoryBarrier mb = {.sType = VK_STRUCTURE_TYPE_MEMORY_BARRIER, .srcAccessMask = from, .dstAccessMask = to};
+    vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
+}
+
+static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count)
+{
+    VkCommandBuffer cmd = r->gpu->cmd;
+    size_t pixels = (size_t)view->width * view->height;
+    vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, pixels * 4, 0);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    VkRenderPassBeginInfo rpbi = {
+        .sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO,
+        .renderPass = r->render_pass,
+        .framebuffer = r->framebuffer,
+        .renderArea = {{0, 0}, {(uint32_t)view->width, (uint32_t)view->height}},
+    };
+    vkCmdBeginRenderPass(cmd, &rpbi, VK_SUBPASS_CONTENTS_INLINE);
+    VkViewport vp = {0, 0, (float)view->width, (float)view->height, 0, 1};
+    VkRect2D sc = {{0, 0}, {(uint32_t)view->width, (uint32_t)view->height}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &sc);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    if (box_count) vkCmdDraw(cmd, 6, box_count, 0, 0);
+    vkCmdEndRenderPass(cmd);
+    if (r->gpu->timestamps)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                  ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    if (r->gpu->timestamps)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT);
+}
+
+leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const leap_march *march_in,
+                                 leap_mode mode, float *rgba, float *depth, float *samples,
+                                 leap_frame_stats *stats, leap_error *err)
+{
+    leap_frame_stats st = {0};
+    if (!r->has_volume || !r->has_tf)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: no volume or transfer function uploaded");
+    if (!view || !march_in || view->width <= 0 || view->height <= 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: invalid view");
+    if (!(march_in->step > 0) || !isfinite(march_in->step))
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: step must be a positive number");
+    for (int i = 0; i < 3; ++i)
+        if (view->index_origin[i] != r->domain.index_origin[i])
+            return leap_fail(err, LEAP_ERR_USAGE, "renderer: the rays were made for another volume (index origin "
+                             "%g,%g,%g, uploaded volume's %g,%g,%g)", view->index_origin[0], view->index_origin[1],
+                             view->index_origin[2], r->domain.index_origin[0], r->domain.index_origin[1],
+                             r->domain.index_origin[2]);
+    /* Step and range are the caller's; the marching box is the uploaded atlas's. */
+    leap_march domain_march = r->domain;
+    domain_march.step = march_in->step;
+    domain_march.range_lo = march_in->range_lo;
+    domain_march.range_hi = march_in->range_hi;
+    const leap_march *march = &domain_march;
+    if ((int)mode < 0 || mode >= LEAP_RENDER_MODE_COUNT)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: unknown mode %d", (int)mode);
+    if (mode != LEAP_RENDER_NAIVE && !r->occupancy)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: mode %s needs an occupancy", leap_mode_name(mode));
+    int lists = mode == LEAP_RENDER_SPARSELEAP;
+    if (lists && !r->box_set)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: sparseleap needs occupancy boxes");
+    /* Boxes that reduce to at most one NONEMPTY box (the cut found nothing worth skipping inside
+     * it) give every pixel at most one segment: the ray's chord through that box. The
+     * composite pass computes it directly (the bbox pipeline with that box), with no raster or
+     * resolve; keep_lists (dumps) builds the lists anyway. */
+    uint32_t box_count = lists ? leap_boxes_count(r->box_set) : 0;
+    int chord = lists && !r->keep_lists && box_count <= 1;
+    size_t pixels = (size_t)view->width * view->height;
+    double t0 = leap__now_ms();
+    leap_result lr = ensure_frame_buffers(r, view, err);
+    if (!lr) lr = renderer_upload_tf(r, march->step, err);
+    if (!lr && lists) lr = ensure_boxes(r, box_count, err);
+    if (lr) return lr;
+    if (lists) {
+        double eye_or_dir[3];
+        /* The float values the GPU sees, so both agree on which side of a node plane the eye is. */
+        for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(view->ortho ? view->dir0[i] : view->origin0[i]);
+        st.order_ms = leap_boxes_order(r->box_set, eye_or_dir, view->ortho, r->boxes.mapped, NULL);
+        st.boxes = box_count;
+        if (chord && box_count == 1 && ((const leap_box_gpu *)r->boxes.mapped)[0].info.z != LEAP_CLASS_NONEMPTY)
+            chord = 0; /* one UNKNOWN box: its segment must be listed as UNKNOWN */
+    }
+    /* The tree is walked by octree and by sparseleap pixels whose lists overflow (not in a chord frame). */
+    if ((mode == LEAP_RENDER_OCTREE || (lists && !chord)) && (lr = upload_tree(r, err))) return lr;
+    const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
+    VkPipeline composite = VK_NULL_HANDLE;
+    if ((lr = renderer_composite_pipeline(r, pass_mode, r->tf_precorrected, &composite, err))) return lr;
+    renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
+    if (chord) {
+        leap_frame_gpu *f = r->frame.mapped;
+        const leap_box_gpu *b = r->boxes.mapped;
+        f->bbox_min = box_count ? b->lo : (leap_vec4){1, 1, 1, 0}; /* no box: an empty one */
+        f->bbox_max = box_count ? b->hi : (leap_vec4){0, 0, 0, 0};
+        st.single_box = 1;
+    }
+    chunk_rect *rects = NULL;
+    if ((lr = renderer_chunk_count(view, march, r->frame.mapped, &st.composite_chunks, &rects, err))) return lr;
+    write_descriptors(r);
+    double t1 = leap__now_ms();
+    st.upload_ms = t1 - t0;
+
+    leap_gpu *gpu = r->gpu;
+    if ((lr = leap_gpu_begin(gpu, err))) {
+        free(rects);
+        return lr;
+    }
+    VkCommandBuffer cmd = gpu->cmd;
+    if (gpu->timestamps) {
+        vkCmdResetQueryPool(cmd, gpu->timestamps, 0, TS_COUNT);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_START);
+    }
+    if (lists && !chord) {
+        record_lists(r, view, box_count);
+    } else if (gpu->timestamps) {
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);
+    }
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    st.tf_precorrected = r->tf_precorrected;
+    for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
+        chunk_rect q = rects ? rects[chunk] : (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height};
+        if (q.x0 >= q.x1 || q.y0 >= q.y1) continue;
+        if (chunk > 0)
+            shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                           VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0};
+        vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+        vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                      (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    }
+    free(rects);
+    if (gpu->timestamps)
+        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_HOST_READ_BIT);
+    if ((lr = leap_gpu_submit_wait(gpu, err))) return lr;
+    double t2 = leap__now_ms();
+    st.render_ms = t2 - t1;
+    double ts[TS_COUNT];
+    if (gpu->timestamps && leap_gpu_read_timestamps(gpu, TS_COUNT, ts, err) == LEAP_OK) {
+        st.gpu_raster_ms = ts[TS_RASTER];
+        st.gpu_resolve_ms = ts[TS_RESOLVE] - ts[TS_RASTER];
+        st.gpu_composite_ms = ts[TS_COMPOSITE] - ts[TS_RESOLVE];
+    }
+
+    const float *out = r->out_rgba.mapped, *aux = r->out_aux.mapped;
+    if (rgba) memcpy(rgba, out, pixels * 4 * sizeof(float));
+    uint64_t events = 0, segs = 0;
+    const uint32_t *pl = r->pixel_lists.mapped;
+    for (size_t i = 0; i < pixels; ++i) {
+        uint32_t n = (uint32_t)aux[4 * i + 1];
+        st.total_samples += n;
+        st.naive_samples += (uint64_t)aux[4 * i + 2];
+        if (n > st.samples_max) st.samples_max = n;
+        if (depth) depth[i] = aux[4 * i];
+        if (samples) samples[i] = aux[4 * i + 1];
+        if (lists && !chord) {
+            uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
+            events += e;
+            segs += s;
+            if (e > st.events_max) st.events_max = e;
+            if (s > st.segments_max) st.segments_max = s;
+            st.overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
+        }
+    }
+    r->lists_valid = lists && !chord;
+    st.readback_ms = leap__now_ms() - t2;
+    st.samples_mean = (double)st.total_samples / (double)pixels;
+    st.events_mean = (double)events / (double)pixels;
+    st.segments_mean = (double)segs / (double)pixels;
+    st.width = (uint32_t)view->width;
+    st.height = (uint32_t)view->height;
+    if (stats) *stats = st;
+    return LEAP_OK;
+}

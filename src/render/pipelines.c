@@ -1,0 +1,215 @@
+/* Shader modules and pipelines: the raster (ray events), resolve and composite passes. */
+#include "renderer_internal.h"
+
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const uint32_t composite_spv[] = {
+#include "composite_comp.inc"
+};
+static const uint32_t resolve_spv[] = {
+#include "resolve_comp.inc"
+};
+static const uint32_t events_vert_spv[] = {
+#include "events_vert.inc"
+};
+static const uint32_t events_frag_spv[] = {
+#include "events_frag.inc"
+};
+
+static VkShaderModule make_module(VkDevice dev, const uint32_t *code, size_t bytes)
+{
+    VkShaderModuleCreateInfo ci = {
+        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
+        .codeSize = bytes,
+        .pCode = code,
+    };
+    VkShaderModule m = VK_NULL_HANDLE;
+    if (vkCreateShaderModule(dev, &ci, NULL, &m) != VK_SUCCESS) return VK_NULL_HANDLE;
+    return m;
+}
+
+/* The ray-event pass: boxes as instances, back faces only (chosen in the vertex shader),
+ * no attachments: fragments only append to storage buffers. */
+static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
+{
+    VkDevice dev = r->gpu->device;
+    VkSubpassDescription subpass = {.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS};
+    VkRenderPassCreateInfo rpci = {
+        .sType = VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO,
+        .subpassCount = 1,
+        .pSubpasses = &subpass,
+    };
+    LEAP_VK_CHECK(vkCreateRenderPass(dev, &rpci, NULL, &r->render_pass));
+    VkShaderModule vs = make_module(dev, events_vert_spv, sizeof events_vert_spv);
+    VkShaderModule fs = make_module(dev, events_frag_spv, sizeof events_frag_spv);
+    VkPipelineShaderStageCreateInfo stages[2] = {
+        {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_VERTEX_BIT,
+         .module = vs, .pName = "main"},
+        {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_FRAGMENT_BIT,
+         .module = fs, .pName = "main"},
+    };
+    VkPipelineVertexInputStateCreateInfo vertex_input = {.sType = VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+    VkPipelineInputAssemblyStateCreateInfo assembly = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_INPUT_ASSEMBLY_STATE_CREATE_INFO,
+        .topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST,
+    };
+    VkPipelineViewportStateCreateInfo viewport = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_VIEWPORT_STATE_CREATE_INFO,
+        .viewportCount = 1,
+        .scissorCount = 1,
+    };
+    VkPipelineRasterizationStateCreateInfo raster = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_RASTERIZATION_STATE_CREATE_INFO,
+        .depthClampEnable = VK_TRUE, /* faces nearer than the near plane must not be clipped */
+        .polygonMode = VK_POLYGON_MODE_FILL,
+        .cullMode = VK_CULL_MODE_NONE,
+        .frontFace = VK_FRONT_FACE_COUNTER_CLOCKWISE,
+        .lineWidth = 1.0f,
+    };
+    VkPipelineMultisampleStateCreateInfo multisample = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_MULTISAMPLE_STATE_CREATE_INFO,
+        .rasterizationSamples = VK_SAMPLE_COUNT_1_BIT,
+    };
+    VkPipelineColorBlendStateCreateInfo blend = {.sType = VK_STRUCTURE_TYPE_PIPELINE_COLOR_BLEND_STATE_CREATE_INFO};
+    VkDynamicState dyn[] = {VK_DYNAMIC_STATE_VIEWPORT, VK_DYNAMIC_STATE_SCISSOR};
+    VkPipelineDynamicStateCreateInfo dynamic = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_DYNAMIC_STATE_CREATE_INFO,
+        .dynamicStateCount = 2,
+        .pDynamicStates = dyn,
+    };
+    VkGraphicsPipelineCreateInfo gpci = {
+        .sType = VK_STRUCTURE_TYPE_GRAPHICS_PIPELINE_CREATE_INFO,
+        .stageCount = 2,
+        .pStages = stages,
+        .pVertexInputState = &vertex_input,
+        .pInputAssemblyState = &assembly,
+        .pViewportState = &viewport,
+        .pRasterizationState = &raster,
+        .pMultisampleState = &multisample,
+        .pColorBlendState = &blend,
+        .pDynamicState = &dynamic,
+        .layout = r->pipeline_layout,
+        .renderPass = r->render_pass,
+    };
+    VkResult vr = vs && fs ? vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events)
+                           : VK_ERROR_INITIALIZATION_FAILED;
+    if (vs) vkDestroyShaderModule(dev, vs, NULL);
+    if (fs) vkDestroyShaderModule(dev, fs, NULL);
+    if (vr != VK_SUCCESS)
+        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create the ray-event pipeline: %s",
+                         leap_vk_result_name(vr));
+    return LEAP_OK;
+}
+
+/* The shaders' specialisation constants (shaders/march.glsl). */
+typedef struct spec_values {
+    VkBool32 tf_precorrected; /* constant_id 0 */
+    uint32_t mode;            /* constant_id 1 */
+} spec_values;
+
+static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
+                                  leap_error *err)
+{
+    const VkSpecializationMapEntry entries[] = {
+        {0, offsetof(spec_values, tf_precorrected), sizeof values.tf_precorrected},
+        {1, offsetof(spec_values, mode), sizeof values.mode},
+    };
+    VkSpecializationInfo spec = {2, entries, sizeof values, &values};
+    VkComputePipelineCreateInfo cpci = {
+        .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
+        .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
+                  .module = module, .pName = "main", .pSpecializationInfo = &spec},
+        .layout = r->pipeline_layout,
+    };
+    VkResult vr = vkCreateComputePipelines(r->gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, out);
+    if (vr != VK_SUCCESS)
+        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a compute pipeline: %s", leap_vk_result_name(vr));
+    return LEAP_OK;
+}
+
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int precorrected, VkPipeline *out,
+                                      leap_error *err)
+{
+    VkPipeline *p = &r->composite[mode][precorrected != 0];
+    if (!*p) {
+        spec_values values = {precorrected != 0, (uint32_t)mode};
+        leap_result lr = create_compute(r, r->composite_module, values, p, err);
+        if (lr) return lr;
+    }
+    *out = *p;
+    return LEAP_OK;
+}
+
+leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
+{
+    VkDevice dev = r->gpu->device;
+    VkDescriptorSetLayoutBinding b[BINDING_COUNT];
+    VkShaderStageFlags all = VK_SHADER_STAGE_COMPUTE_BIT | VK_SHADER_STAGE_VERTEX_BIT | VK_SHADER_STAGE_FRAGMENT_BIT;
+    for (uint32_t i = 0; i < BINDING_COUNT; ++i)
+        b[i] = (VkDescriptorSetLayoutBinding){i, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, all, NULL};
+    b[LEAP_BINDING_FRAME].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+    b[LEAP_BINDING_ATLAS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    b[LEAP_BINDING_TF].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    VkDescriptorSetLayoutCreateInfo dslci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
+        .bindingCount = BINDING_COUNT,
+        .pBindings = b,
+    };
+    LEAP_VK_CHECK(vkCreateDescriptorSetLayout(dev, &dslci, NULL, &r->set_layout));
+    VkPushConstantRange push = {VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(leap_push_gpu)};
+    VkPipelineLayoutCreateInfo plci = {
+        .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
+        .setLayoutCount = 1,
+        .pSetLayouts = &r->set_layout,
+        .pushConstantRangeCount = 1,
+        .pPushConstantRanges = &push,
+    };
+    LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
+    r->composite_module = make_module(dev, composite_spv, sizeof composite_spv);
+    VkShaderModule resolve_module = make_module(dev, resolve_spv, sizeof resolve_spv);
+    leap_result lr = LEAP_OK;
+    if (!r->composite_module || !resolve_module)
+        lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
+    if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
+    if (!lr) lr = create_events_pipeline(r, err);
+    if (lr) return lr;
+    VkSamplerCreateInfo sci = {
+        .sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,
+        .magFilter = VK_FILTER_LINEAR,
+        .minFilter = VK_FILTER_LINEAR,
+        .mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST,
+        .addressModeU = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+        .addressModeV = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+        .addressModeW = VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+        .maxLod = 0.0f,
+    };
+    LEAP_VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->linear_sampler));
+    VkDescriptorPoolSize sizes[] = {
+        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
+        {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, BINDING_COUNT - 3},
+    };
+    VkDescriptorPoolCreateInfo dpci = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,
+        .maxSets = 1,
+        .poolSizeCount = 3,
+        .pPoolSizes = sizes,
+    };
+    LEAP_VK_CHECK(vkCreateDescriptorPool(dev, &dpci, NULL, &r->pool));
+    VkDescriptorSetAllocateInfo dsai = {
+        .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO,
+        .descriptorPool = r->pool,
+        .descriptorSetCount = 1,
+        .pSetLayouts = &r->set_layout,
+    };
+    LEAP_VK_CHECK(vkAllocateDescriptorSets(dev, &dsai, &r->set));
+    lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_frame_gpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &r->frame, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_box_gpu), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, 32, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
+    return lr;
+}

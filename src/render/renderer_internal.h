@@ -1,0 +1,83 @@
+/* The renderer's state and the functions its files share (renderer.c: state and uploads,
+ * pipelines.c: shaders and pipelines, frame.c: per-frame parameters, passes.c: buffers and
+ * the recorded passes). Private to src/render. */
+#ifndef LEAP_RENDERER_INTERNAL_H
+#define LEAP_RENDERER_INTERNAL_H
+
+#include "leap/renderer.h"
+#include "leap/gpu.h"
+#include "shared.h"
+
+#define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
+
+_Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
+#define BINDING_COUNT 13
+#define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
+
+enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
+
+struct leap_renderer {
+    leap_gpu *gpu;
+    char driver[2 * VK_MAX_DRIVER_NAME_SIZE];
+    uint32_t pixel_events, max_segments;
+    VkDescriptorSetLayout set_layout;
+    VkPipelineLayout pipeline_layout;
+    VkPipeline resolve, events;
+    /* The composite pass per mode and opacity correction (per sample [0], in the TF table
+     * [1]): specialisation constants, so each pipeline holds only the code it runs. Created
+     * on first use from composite_module. */
+    VkShaderModule composite_module;
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][2];
+    VkRenderPass render_pass;
+    VkFramebuffer framebuffer;
+    uint32_t fb_width, fb_height;
+    VkSampler linear_sampler;
+    VkDescriptorPool pool;
+    VkDescriptorSet set;
+    leap_buffer frame;
+    leap_image atlas;
+    leap_buffer pages;
+    leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */
+    leap_tf tf_raw;
+    int has_tf;
+    double tf_step;
+    int tf_precorrected; /* the table's opacities are corrected for tf_step */
+    leap_buffer out_rgba, out_aux;
+    leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, tree;
+    uint32_t tree_depth;
+    int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
+    size_t pixels_allocated;
+    /* From the uploaded atlas. */
+    int has_volume;
+    uint64_t atlas_serial;  /* the uploaded atlas (0: none or not from a scene binding) */
+    leap_march domain;      /* its index origin and marching box */
+    double value_min, value_max;
+    uint32_t top_dims[3], top_count, slot_dims[3], block_shift;
+    uint64_t float_atlas_max_bytes;
+    uint32_t texel_bytes; /* 4: R32_SFLOAT, 2: R16_UNORM */
+    /* Not owned. */
+    const leap_occupancy *occupancy;
+    const leap_boxes *box_set;
+    int lists_valid;
+};
+
+typedef struct chunk_rect {
+    uint32_t x0, y0, x1, y1; /* pixels [x0, x1) x [y0, y1); empty if x0 >= x1 */
+} chunk_rect;
+
+/* The Vulkan context, for the present step on the same device (present.c). */
+struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
+
+/* pipelines.c */
+leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err);
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int precorrected, VkPipeline *out, leap_error *err);
+/* passes.c */
+void renderer_destroy_frame_buffers(leap_renderer *r);
+/* renderer.c: the TF table for a step (uploaded again when the step changes). */
+leap_result renderer_upload_tf(leap_renderer *r, double step, leap_error *err);
+/* frame.c: the frame's uniform block and the composite dispatches it needs. */
+void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode, uint32_t box_count, leap_frame_gpu *f);
+leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, const leap_frame_gpu *f, uint32_t *count, chunk_rect **rects_out, leap_error *err);
+
+#endif
