@@ -9,6 +9,7 @@
 #define LEAP_DUMP_H
 
 #include <stdint.h>
+#include <stdio.h>
 
 #include "leap/camera.h"
 #include "leap/error.h"
@@ -16,6 +17,7 @@
 #include "leap/boxes.h"
 #include "leap/occupancy.h"
 #include "leap/renderer.h"
+#include "leap/scene.h"
 
 #define LEAP_DUMP_NO_BOX 0xFFFFFFFFu /* an event whose order matches no box of the frame */
 
@@ -114,6 +116,56 @@ int leap_dump_clip_box(const double origin[3], const double dir[3], const double
 uint32_t leap_dump_lattice_count(double ta, double tb, double step, double *k_next);
 
 const char *leap_dump_class_name(uint32_t cls); /* "EMPTY", "NONEMPTY", "UNKNOWN" */
+
+/* ---- reports ------------------------------------------------------------------------------ */
+
+/* What a report is about, named for its reader. */
+typedef struct leap_dump_source {
+    const char *volume;        /* the volume's path as the user gave it */
+    const leap_scene *scene;
+    const leap_camera *camera; /* the frame's camera (whole-image summary) */
+    int width, height;
+} leap_dump_source;
+
+/* Writes the report of one pixel to out: its events with their boxes, the CPU resolve of those
+ * events next to the GPU's segments, and the samples of each segment; json = 1 for the JSON
+ * form (docs/DUMPS.md). Errors: LEAP_ERR_OOM, LEAP_ERR_IO (out could not be written). */
+leap_result leap_dump_pixel_report(FILE *out, int json, const leap_dump_source *src, const leap_dump_frame *f,
+                                   const leap_dump_pixel *p, leap_error *err);
+
+/* A whole-image dump directory: per-pixel events and segments (segments.bin), heat maps, counts.exr, box
+ * meshes and summary.json. Opened before rendering (creates missing directories, so a bad
+ * path fails before any work); every file is written to a temporary and all are renamed
+ * into place together; closing a dump that was not written removes everything it created. */
+typedef struct leap_dump_dir leap_dump_dir;
+
+typedef struct leap_dump_image_desc {
+    leap_dump_source source;
+    leap_dump_frame *frame;             /* of the sparseleap frame */
+    const leap_renderer *renderer;      /* that rendered it */
+    const leap_frame_stats *stats;      /* its statistics */
+    const float *samples;               /* its per-pixel samples */
+    const float *naive_samples;         /* per-pixel samples of a naive render of the same view */
+    void (*progress)(void *user, const char *msg); /* optional: one line per stage */
+    void *user;
+} leap_dump_image_desc;
+
+typedef struct leap_dump_image_summary {
+    uint32_t boxes;
+    uint64_t events, segments;
+    double skipped_fraction; /* 1 - samples / naive samples */
+} leap_dump_image_summary;
+
+/* The files of a dump directory (for checks before writing): names without the directory. */
+uint32_t leap_dump_dir_file_count(void);
+const char *leap_dump_dir_file_name(uint32_t i);
+
+/* Errors: LEAP_ERR_USAGE (path too long), LEAP_ERR_IO (not a directory, not writable). */
+leap_result leap_dump_dir_open(const char *path, leap_dump_dir **out, leap_error *err);
+/* Writes and publishes every file. summary may be NULL. Errors: LEAP_ERR_OOM, LEAP_ERR_IO. */
+leap_result leap_dump_dir_write(leap_dump_dir *dir, const leap_dump_image_desc *desc, leap_dump_image_summary *summary,
+                                leap_error *err);
+void leap_dump_dir_close(leap_dump_dir *dir); /* accepts NULL */
 
 /* ---- per-pixel binary dump (format: docs/DUMPS.md) ------------------------------------- */
 
