@@ -61,6 +61,94 @@ static int dir_entries(const char *path)
     return n;
 }
 
+/* Runs cmd through the shell; its exit status, or -1 if it did not exit. */
+static int run_status(const char *cmd)
+{
+    int rc = system(cmd);
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+static int write_text(const char *path, const char *text)
+{
+    FILE *f = fopen(path, "w");
+    if (!f) return 0;
+    int ok = fputs(text, f) >= 0;
+    return fclose(f) == 0 && ok;
+}
+
+/* A bad option inside a config file is the user's: a usage error (exit 2) naming it. */
+static void check_config_bad_option(void)
+{
+    char cfg[1024], cmd[4096], path[2048];
+    snprintf(cfg, sizeof cfg, "%s/bad_option.json", LEAP_TEST_TMP);
+    CHECK(write_text(cfg, "{\"views\": 1, \"warmup\": \"many\"}\n"));
+    snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --config %s -o %s/bad_option 2>%s/bad_option.err", LEAP_EXE,
+             LEAP_VOLUMES, cfg, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    int rc = run_status(cmd);
+    CHECK_MSG(rc == 2, "bad option in a config: exit status %d, expected 2", rc);
+    snprintf(path, sizeof path, "%s/bad_option.err", LEAP_TEST_TMP);
+    char *err = slurp(path, NULL);
+    CHECK_MSG(err && strstr(err, "--warmup 'many'"), "stderr: %s", err ? err : "(none)");
+    free(err);
+}
+
+/* A valid config over 64 KiB (padded with whitespace) is read whole; -o a/b/c creates the
+ * missing parents. */
+static void check_config_large_and_nested_output(void)
+{
+    char cfg[1024], cmd[4096], path[2048];
+    snprintf(cfg, sizeof cfg, "%s/large.json", LEAP_TEST_TMP);
+    size_t pad = 100 * 1024;
+    char *text = malloc(pad + 512);
+    CHECK(text != NULL);
+    if (!text) return;
+    int n = snprintf(text, 512, "{\"volumes\": [\"%s/sphere.vdb\"],", LEAP_VOLUMES);
+    memset(text + n, ' ', pad);
+    snprintf(text + n + pad, 512 - (size_t)n,
+             "\"sizes\": \"32x24\", \"views\": 1, \"steps\": [0.5, 1], \"modes\": [\"naive\", \"sparseleap\"], "
+             "\"repeats\": 1, \"warmup\": 0}\n");
+    CHECK(strlen(text) > 64 * 1024 && write_text(cfg, text));
+    free(text);
+    snprintf(cmd, sizeof cmd, "rm -rf %s/nested && %s bench --config %s -o %s/nested/a/b 2>%s/large.err", LEAP_TEST_TMP,
+             LEAP_EXE, cfg, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    int rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/large.err", LEAP_TEST_TMP);
+    char *err = slurp(path, NULL);
+    CHECK_MSG(rc == 0, "config over 64 KiB, -o nested/a/b: exit status %d; stderr: %s", rc, err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/nested/a/b/results.csv", LEAP_TEST_TMP);
+    char *csv = slurp(path, NULL);
+    int rows = 0;
+    for (const char *c = csv; c && (c = strchr(c, '\n')); ++c) ++rows;
+    /* the header, then 1 view x 2 steps x 2 modes (two steps: gnuplot warns on a single point) */
+    CHECK_MSG(rows == 5, "%s: %d lines, expected 5", path, rows);
+    free(csv);
+}
+
+/* An image buffer that cannot be allocated fails the bench with an out-of-memory error
+ * (exit 1, no results.csv) instead of leaving the size out. The address space is capped
+ * below one 16384x16384 RGBA float image (4 GiB). AddressSanitizer needs more. */
+static void check_image_out_of_memory(void)
+{
+#if defined(__SANITIZE_ADDRESS__)
+    return;
+#else
+    char cmd[4096], path[2048];
+    snprintf(cmd, sizeof cmd,
+             "ulimit -v 3000000 && %s bench %s/sphere.vdb --sizes 16384x16384 --views 1 --steps 1 --modes naive "
+             "--no-reference -o %s/oom 2>%s/oom.err",
+             LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    int rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/oom.err", LEAP_TEST_TMP);
+    char *err = slurp(path, NULL);
+    CHECK_MSG(rc == 1 && err && strstr(err, "out of memory") && strstr(err, "16384x16384"),
+              "image buffers out of memory: exit status %d, stderr: %s", rc, err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/oom/results.csv", LEAP_TEST_TMP);
+    CHECK_MSG(access(path, F_OK) != 0, "%s exists after running out of memory", path);
+#endif
+}
+
 /* Without vdb_render on PATH, --vs-vdb-render is a usage error (exit 2) that names the
  * missing program, and nothing is rendered. */
 static void check_vdb_render_missing(const char *path_env)
@@ -224,6 +312,10 @@ int main(void)
     snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --modes warp -o %s 2>/dev/null", LEAP_EXE, LEAP_VOLUMES, dir);
     int rc = system(cmd);
     CHECK(WIFEXITED(rc) && WEXITSTATUS(rc) == 2);
+
+    check_config_bad_option();
+    check_config_large_and_nested_output();
+    check_image_out_of_memory();
 
     /* --vs-vdb-render */
     check_vdb_render_missing("/nonexistent");

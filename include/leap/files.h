@@ -50,6 +50,11 @@ void leap_publish_abort(leap_publish *p);
  * rename, so a failed or interrupted write leaves any previous file intact. */
 leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err);
 
+/* mkdir -p: creates path and its missing parents (mode 0777 before the umask). An
+ * existing directory is fine; a component that exists and is not a directory, or a
+ * directory that cannot be created, is LEAP_ERR_IO naming it. */
+leap_result leap_make_dirs(const char *path, leap_error *err);
+
 #ifdef __cplusplus
 }
 #endif

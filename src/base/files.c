@@ -196,3 +196,28 @@ leap_result leap_file_publish_text(const char *path, const char *text, leap_erro
     }
     return leap_publish_commit(&pub, err);
 }
+
+leap_result leap_make_dirs(const char *path, leap_error *err)
+{
+    char buf[4096];
+    if (!path || !path[0]) return leap_fail(err, LEAP_ERR_USAGE, "empty directory path");
+    if (snprintf(buf, sizeof buf, "%s", path) >= (int)sizeof buf)
+        return leap_fail(err, LEAP_ERR_USAGE, "%s: path too long", path);
+    size_t len = strlen(buf);
+    while (len > 1 && buf[len - 1] == '/') buf[--len] = '\0';
+    /* Each prefix ending at a '/' (and the whole path) in turn; the root is never made. */
+    for (size_t i = 1; i <= len; ++i) {
+        if (buf[i] != '/' && buf[i] != '\0') continue;
+        char c = buf[i];
+        buf[i] = '\0';
+        struct stat st;
+        if (stat(buf, &st) == 0) {
+            if (!S_ISDIR(st.st_mode))
+                return leap_fail(err, LEAP_ERR_IO, "%s: '%s' exists and is not a directory", path, buf);
+        } else if (mkdir(buf, 0777) != 0 && errno != EEXIST) {
+            return leap_fail(err, LEAP_ERR_IO, "%s: cannot create directory '%s': %s", path, buf, strerror(errno));
+        }
+        buf[i] = c;
+    }
+    return LEAP_OK;
+}

@@ -1,0 +1,86 @@
+/* The benchmark behind `leap bench`: the same frames rendered with every mode, timed per
+ * stage, each compared with the CPU double-precision reference rendered with a finer step;
+ * optionally OpenVDB's vdb_render on the same frames as an external timing baseline. Writes
+ * DIR/results.csv, DIR/report.md and gnuplot plots. Nothing here prints: progress and notes
+ * go to the caller's callbacks. */
+#ifndef LEAP_BENCH_H
+#define LEAP_BENCH_H
+
+#include <stddef.h>
+
+#include "leap/error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Most volumes, modes, steps and sizes one bench takes. */
+#define LEAP_BENCH_MAX_ITEMS 16
+
+/* What the run reports while it works. */
+typedef enum leap_bench_message_kind {
+    LEAP_BENCH_NOTE,    /* something left out or not cleaned up; the bench goes on */
+    LEAP_BENCH_FAILURE, /* a failure the bench reports and goes on from (a vdb_render run) */
+    LEAP_BENCH_TOOL     /* a line a helper program (gnuplot) printed, with its prefix and newline */
+} leap_bench_message_kind;
+
+typedef struct leap_bench_desc {
+    const char *volumes[LEAP_BENCH_MAX_ITEMS];
+    int nvolumes;
+    int modes[LEAP_BENCH_MAX_ITEMS], nmodes; /* leap_mode values */
+    double steps[LEAP_BENCH_MAX_ITEMS];      /* voxels */
+    int nsteps;
+    int sizes[LEAP_BENCH_MAX_ITEMS][2], nsizes; /* width, height */
+    int views, repeats, warmup, no_reference, exact_boxes;
+    double ref_factor, elevation;
+    const char *tf, *device, *out; /* tf: preset or file, NULL = per volume; out: directory */
+    int vs_vdb;                    /* also time vdb_render */
+    double vdb_shadow_step;        /* vdb_render -shadowstep, voxels */
+    char vdb_render_exe[4096];     /* its path, from leap_bench_find_vdb_render; needed with vs_vdb */
+    /* Optional: progress (done of total steps, what runs now) and messages. */
+    void (*progress)(int done, int total, const char *what, void *user);
+    void (*message)(leap_bench_message_kind kind, const char *text, void *user);
+    void *user;
+    void *config; /* owned: the parsed config files the strings above may point into */
+} leap_bench_desc;
+
+/* What a finished (or failed) run tells beyond its result. */
+typedef struct leap_bench_outcome {
+    int failed_volume; /* index of the volume the failure is about, or -1 */
+    int vdb_failures;  /* volumes on which vdb_render failed (reported, the bench went on) */
+} leap_bench_outcome;
+
+/* The defaults: modes naive,bbox,octree,sparseleap; steps 0.25,0.5,1; 8 views at elevation
+ * 25; 512x512; 3 repeats after 1 warm-up frame; reference step / 4; shadow step 3. */
+void leap_bench_desc_init(leap_bench_desc *d);
+
+/* Frees what leap_bench_load_config kept; d's strings from config files are gone after. */
+void leap_bench_desc_release(leap_bench_desc *d);
+
+/* Applies one option by name (the long option without dashes, or the config key, e.g.
+ * "modes", "ref-factor" or "ref_factor") with its text value. A bad name or value is
+ * LEAP_ERR_USAGE with the command line's message. */
+leap_result leap_bench_set_option(leap_bench_desc *d, const char *name, const char *value, leap_error *err);
+
+/* Reads a JSON config file (at most 16 MiB): an object whose keys are option names; values
+ * are strings, numbers, booleans or arrays (joined with commas); "volumes" is an array of
+ * paths, appended. A bad option is LEAP_ERR_USAGE; an unreadable or malformed file
+ * LEAP_ERR_IO or LEAP_ERR_FORMAT. */
+leap_result leap_bench_load_config(leap_bench_desc *d, const char *path, leap_error *err);
+
+/* Full path of vdb_render on PATH into out; 0 if it is not there. */
+int leap_bench_find_vdb_render(char *out, size_t n);
+
+/* Every file the bench writes into d->out; returns the count (at most max), each path
+ * into paths[i]. */
+int leap_bench_output_paths(const leap_bench_desc *d, char (*paths)[4096], int max);
+
+/* Runs the bench: creates d->out (and its parents), writes results.csv (published whole
+ * or not at all), report.md and the plots. Failures before the CSV is published leave no
+ * results.csv. outcome may be NULL. */
+leap_result leap_bench_run(const leap_bench_desc *d, leap_bench_outcome *outcome, leap_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,216 @@
+/* The bench's options: defaults, one option by name (command line or config file), the
+ * JSON config file, and the files a bench writes. */
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_internal.h"
+#include "leap/files.h"
+#include "leap/renderer.h"
+
+void leap_bench_desc_init(leap_bench_desc *o)
+{
+    *o = (leap_bench_desc){.views = 8, .repeats = 3, .warmup = 1, .ref_factor = 4, .elevation = 25,
+                           .vdb_shadow_step = 3};
+    o->nmodes = 4;
+    o->modes[0] = LEAP_RENDER_NAIVE, o->modes[1] = LEAP_RENDER_BBOX, o->modes[2] = LEAP_RENDER_OCTREE,
+    o->modes[3] = LEAP_RENDER_SPARSELEAP;
+    o->nsteps = 3;
+    o->steps[0] = 0.25, o->steps[1] = 0.5, o->steps[2] = 1.0;
+    o->nsizes = 1;
+    o->sizes[0][0] = o->sizes[0][1] = 512;
+}
+
+void leap_bench_desc_release(leap_bench_desc *d)
+{
+    cJSON_Delete(d->config);
+    d->config = NULL;
+}
+
+/* Between min_n and n comma-separated finite numbers; returns the count or -1 (the same
+ * rule as the command line's numbers). */
+static int parse_numbers(const char *s, double *out, int min_n, int n)
+{
+    int count = 0;
+    const char *p = s;
+    while (*p) {
+        if (count == n) return -1;
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v)) return -1;
+        out[count++] = v;
+        p = end;
+        if (*p == ',') {
+            ++p;
+            if (!*p) return -1;
+        } else if (*p) {
+            return -1;
+        }
+    }
+    return count >= min_n ? count : -1;
+}
+
+static int parse_list_modes(const char *v, leap_bench_desc *o)
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", v);
+    o->nmodes = 0;
+    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+        int m = leap_mode_from_name(tok);
+        if (m < 0 || o->nmodes == MAX_ITEMS) return 0;
+        o->modes[o->nmodes++] = m;
+    }
+    return o->nmodes > 0;
+}
+
+static int parse_list_sizes(const char *v, leap_bench_desc *o)
+{
+    char buf[256];
+    snprintf(buf, sizeof buf, "%s", v);
+    o->nsizes = 0;
+    for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
+        int w, h;
+        char x;
+        if (o->nsizes == MAX_ITEMS || sscanf(tok, "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w < 1 ||
+            h < 1 || w > 16384 || h > 16384)
+            return 0;
+        o->sizes[o->nsizes][0] = w;
+        o->sizes[o->nsizes][1] = h;
+        o->nsizes++;
+    }
+    return o->nsizes > 0;
+}
+
+static int parse_count(const char *v, int lo, int hi, int *out)
+{
+    double d;
+    if (parse_numbers(v, &d, 1, 1) != 1 || d != floor(d) || d < lo || d > hi) return 0;
+    *out = (int)d;
+    return 1;
+}
+
+#define USAGE(...) return leap_fail(err, LEAP_ERR_USAGE, __VA_ARGS__)
+
+leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const char *v, leap_error *err)
+{
+    if (!strcmp(name, "modes")) {
+        if (!parse_list_modes(v, o)) USAGE("--modes '%s': use naive, bbox, octree, sparseleap", v);
+    } else if (!strcmp(name, "steps")) {
+        o->nsteps = parse_numbers(v, o->steps, 1, MAX_ITEMS);
+        for (int i = 0; i < o->nsteps; ++i)
+            if (!(o->steps[i] >= 1e-3 && o->steps[i] <= 1e6)) o->nsteps = -1;
+        if (o->nsteps < 1) USAGE("--steps '%s' must be numbers in [0.001, 1e6]", v);
+    } else if (!strcmp(name, "sizes")) {
+        if (!parse_list_sizes(v, o)) USAGE("--sizes '%s' must be WxH[,WxH...]", v);
+    } else if (!strcmp(name, "views")) {
+        if (!parse_count(v, 1, 360, &o->views)) USAGE("--views '%s' must be in 1..360", v);
+    } else if (!strcmp(name, "repeats")) {
+        if (!parse_count(v, 1, 1000, &o->repeats)) USAGE("--repeats '%s' must be in 1..1000", v);
+    } else if (!strcmp(name, "warmup")) {
+        if (!parse_count(v, 0, 100, &o->warmup)) USAGE("--warmup '%s' must be in 0..100", v);
+    } else if (!strcmp(name, "ref_factor") || !strcmp(name, "ref-factor")) {
+        if (parse_numbers(v, &o->ref_factor, 1, 1) != 1 || !(o->ref_factor >= 1 && o->ref_factor <= 64))
+            USAGE("--ref-factor '%s' must be in [1, 64]", v);
+    } else if (!strcmp(name, "elevation")) {
+        if (parse_numbers(v, &o->elevation, 1, 1) != 1 || fabs(o->elevation) > 90)
+            USAGE("--elevation '%s' must be in [-90, 90]", v);
+    } else if (!strcmp(name, "tf")) {
+        o->tf = v;
+    } else if (!strcmp(name, "vs_vdb_render") || !strcmp(name, "vs-vdb-render")) {
+        if (!strcmp(v, "true") || !strcmp(v, "1")) o->vs_vdb = 1;
+        else if (!strcmp(v, "false") || !strcmp(v, "0")) o->vs_vdb = 0;
+        else USAGE("vs_vdb_render '%s' must be true or false", v);
+    } else if (!strcmp(name, "vdb_shadow_step") || !strcmp(name, "vdb-shadow-step")) {
+        if (parse_numbers(v, &o->vdb_shadow_step, 1, 1) != 1 || !(o->vdb_shadow_step >= 1e-3 && o->vdb_shadow_step <= 1e6))
+            USAGE("--vdb-shadow-step '%s' must be in [0.001, 1e6]", v);
+    } else {
+        USAGE("unknown option '%s'", name);
+    }
+    return LEAP_OK;
+}
+
+/* Applies the keys of one parsed config object. String values that the desc keeps
+ * ("volumes", "tf") point into root, which the caller keeps alive. */
+static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *root, leap_error *err)
+{
+    cJSON *item;
+    cJSON_ArrayForEach(item, root)
+    {
+        char value[1024] = "";
+        if (!strcmp(item->string, "volumes")) {
+            cJSON *v;
+            cJSON_ArrayForEach(v, item)
+            {
+                if (!cJSON_IsString(v) || o->nvolumes == MAX_ITEMS)
+                    return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad \"volumes\"", path);
+                o->volumes[o->nvolumes++] = v->valuestring;
+            }
+            continue;
+        }
+        if (cJSON_IsArray(item)) {
+            cJSON *v;
+            cJSON_ArrayForEach(v, item)
+            {
+                char one[64];
+                if (cJSON_IsNumber(v)) snprintf(one, sizeof one, "%.17g", v->valuedouble);
+                else if (cJSON_IsString(v)) snprintf(one, sizeof one, "%s", v->valuestring);
+                else return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad value in \"%s\"", path, item->string);
+                if (value[0]) strncat(value, ",", sizeof value - strlen(value) - 1);
+                strncat(value, one, sizeof value - strlen(value) - 1);
+            }
+        } else if (cJSON_IsBool(item)) {
+            snprintf(value, sizeof value, "%s", cJSON_IsTrue(item) ? "true" : "false");
+        } else if (cJSON_IsNumber(item)) {
+            snprintf(value, sizeof value, "%.17g", item->valuedouble);
+        } else if (cJSON_IsString(item)) {
+            snprintf(value, sizeof value, "%s", item->valuestring);
+        } else {
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad value for \"%s\"", path, item->string);
+        }
+        /* The desc keeps the tf string: the file's own, not this loop's buffer. */
+        const char *kept = !strcmp(item->string, "tf") && cJSON_IsString(item) ? item->valuestring : value;
+        leap_result lr = leap_bench_set_option(o, item->string, kept, err);
+        if (lr) return lr; /* a bad option is the user's, in a file or not: a usage error */
+    }
+    return LEAP_OK;
+}
+
+leap_result leap_bench_load_config(leap_bench_desc *o, const char *path, leap_error *err)
+{
+    char *text = NULL;
+    leap_result lr = leap_file_read(path, "bench config", (size_t)16 << 20, &text, NULL, err);
+    if (lr) return lr;
+    cJSON *root = cJSON_Parse(text);
+    free(text);
+    if (!cJSON_IsObject(root)) {
+        cJSON_Delete(root);
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not a JSON object", path);
+    }
+    /* Every file loaded stays alive (earlier files' volumes may still be in use). */
+    if (!o->config && !(o->config = cJSON_CreateArray())) {
+        cJSON_Delete(root);
+        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+    }
+    cJSON_AddItemToArray(o->config, root);
+    return apply_config(o, path, root, err);
+}
+
+int leap_bench_output_paths(const leap_bench_desc *o, char (*paths)[4096], int max)
+{
+    enum { PER_PLOT = 4 };
+    int n = 0;
+    const char *fixed[] = {"results.csv", "report.md"};
+    for (int i = 0; i < 2 && n < max; ++i) snprintf(paths[n++], sizeof paths[0], "%s/%s", o->out, fixed[i]);
+    const char *ext[PER_PLOT] = {"dat", "gp", "png", "svg"};
+    for (int plot = -2; plot < o->nvolumes; ++plot)
+        for (int e = 0; e < PER_PLOT && n < max; ++e) {
+            if (plot == -2) snprintf(paths[n++], sizeof paths[0], "%s/speedup.%s", o->out, ext[e]);
+            else if (plot == -1) snprintf(paths[n++], sizeof paths[0], "%s/stages.%s", o->out, ext[e]);
+            else snprintf(paths[n++], sizeof paths[0], "%s/speed_error_%d.%s", o->out, plot, ext[e]);
+        }
+    return n;
+}

@@ -1,0 +1,282 @@
+/* The bench's report: report.md (per configuration the stages, the fixed costs, the
+ * vdb_render comparison), the plot data and the gnuplot plots (PNG and SVG). */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_internal.h"
+#include "leap/renderer.h"
+#include "util.h"
+
+static int run_gnuplot(const leap_bench_desc *o, const char *dir, const char *name, const char *body)
+{
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s.gp", dir, name);
+    FILE *f = fopen(path, "w");
+    if (!f) return 0;
+    /* The same plot twice: PNG for viewing, SVG for documents. */
+    for (int svg = 0; svg < 2; ++svg) {
+        /* noenhanced: underscores in names (vdb_render, file names) are not subscripts */
+        fprintf(f, "set terminal %s noenhanced size 900,600\nset output '%s/%s.%s'\n", svg ? "svg" : "pngcairo", dir, name,
+                svg ? "svg" : "png");
+        fputs(body, f);
+        fputs("\n", f);
+    }
+    fclose(f);
+    char cmd[8192];
+    snprintf(cmd, sizeof cmd, "gnuplot '%s' 2>&1", path);
+    FILE *p = popen(cmd, "r");
+    if (!p) return 0;
+    char line[512];
+    int noisy = 0;
+    while (fgets(line, sizeof line, p)) {
+        char text[600];
+        snprintf(text, sizeof text, "gnuplot: %s", line);
+        bench_message(o, LEAP_BENCH_TOOL, text);
+        noisy = 1;
+    }
+    int status = pclose(p);
+    return status == 0 && !noisy;
+}
+
+
+/* Median over views of one (volume, size, mode, step) group; means for the other columns. */
+typedef struct summary {
+    double frame_ms, raster_ms, resolve_ms, composite_ms, order_ms, spp, naive_spp, rmse, psnr, max_abs;
+    double events, segments;
+    double trace_ms; /* vdb_render: median over views of its ray-tracing time */
+    int n;
+} summary;
+
+static summary summarize(const bench_row *rows, size_t nrows, int vol, int size, int mode, int step)
+{
+    summary s = {0};
+    double frames[360], traces[360];
+    for (size_t i = 0; i < nrows; ++i) {
+        const bench_row *r = &rows[i];
+        if (r->volume != vol || r->size != size || r->mode != mode || r->step != step) continue;
+        traces[s.n] = r->r.trace_ms;
+        frames[s.n++] = r->r.frame_ms[0];
+        s.raster_ms += r->r.raster_ms, s.resolve_ms += r->r.resolve_ms, s.composite_ms += r->r.composite_ms;
+        s.order_ms += r->r.order_ms, s.spp += r->r.spp, s.naive_spp += r->r.naive_spp;
+        s.events += r->r.events, s.segments += r->r.segments;
+        s.rmse += r->r.rmse, s.psnr += r->r.psnr, s.max_abs = fmax(s.max_abs, r->r.max_abs);
+    }
+    if (!s.n) return s;
+    qsort(frames, (size_t)s.n, sizeof frames[0], bench_cmp_double);
+    qsort(traces, (size_t)s.n, sizeof traces[0], bench_cmp_double);
+    s.frame_ms = frames[s.n / 2];
+    s.trace_ms = traces[s.n / 2];
+    double k = 1.0 / s.n;
+    s.raster_ms *= k, s.resolve_ms *= k, s.composite_ms *= k, s.order_ms *= k, s.spp *= k, s.naive_spp *= k;
+    s.events *= k, s.segments *= k;
+    s.rmse *= k, s.psnr *= k;
+    return s;
+}
+
+/* The fastest leap mode of one group (for the vdb_render comparison); -1 if none. */
+static int fastest_mode(const leap_bench_desc *o, const bench_row *rows, size_t nrows, int v, int si, int st,
+                        summary *best)
+{
+    int at = -1;
+    for (int m = 0; m < o->nmodes; ++m) {
+        summary s = summarize(rows, nrows, v, si, m, st);
+        if (s.n && s.frame_ms > 0 && (at < 0 || s.frame_ms < best->frame_ms)) *best = s, at = m;
+    }
+    return at;
+}
+
+leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, size_t nrows,
+                               const fixed_costs *fixed, const char *device, const vdb_runner *vdb, leap_error *err)
+{
+    int have_errors = !o->no_reference;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/report.md", o->out);
+    FILE *md = fopen(path, "w");
+    if (!md) return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
+    fprintf(md, "# leap bench\n\nDevice: %s. %d views on an orbit at elevation %g deg, %d timed frames after %d "
+                "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. ",
+            device, o->views, o->elevation, o->repeats, o->warmup);
+    if (have_errors)
+        fprintf(md, "Error against the CPU double-precision reference with the smallest step / %g, mean over views "
+                    "(max abs: max over views).\n", o->ref_factor);
+    else
+        fprintf(md, "No reference was rendered (--no-reference): error columns are n/a.\n");
+    if (vdb)
+        fprintf(md, "\nRows `vdb_render`: OpenVDB's example ray tracer (`%s`, %s) on the CPU with all cores (`-cpus 0`), "
+                    "run on the same grid with the same camera (world-space eye, target and up; its horizontal field "
+                    "of view computed from leap's vertical one), image size and primary step (both renderers count "
+                    "the step in index-space voxels along the ray, so it is passed unchanged; shadow step %g voxels), "
+                    "timed over the same warm-up and repeats. vdb_render uses a different shading model (single "
+                    "scattering from a directional light with shadow rays, its own density-to-extinction mapping, no "
+                    "transfer function), so its image is not compared with the reference: its error columns are n/a "
+                    "and only time is compared. Its frame ms is the wall-clock time of the whole process (start-up, "
+                    "reading the .vdb, ray tracing, writing a PPM to a temporary directory); its ray-trace ms is the "
+                    "ray-tracing time it reports itself (`-v`). leap's frame ms excludes loading and preparing the "
+                    "volume, which happens once per volume.\n\nCommand per frame: `vdb_render VOLUME.vdb "
+                    "TMP/frame.ppm -name GRID -res WxH -translate EYE -lookat TARGET -up UP -fov HFOV -step STEP "
+                    "-shadowstep %g -cpus 0 -v`.\n",
+                vdb->exe, vdb->version[0] ? vdb->version : "version unknown", vdb->shadow_step, vdb->shadow_step);
+    int mid = o->nsteps / 2;
+    /* Data for the plots. */
+    snprintf(path, sizeof path, "%s/speedup.dat", o->out);
+    FILE *sp = fopen(path, "w");
+    snprintf(path, sizeof path, "%s/stages.dat", o->out);
+    FILE *sg = fopen(path, "w");
+    if (!sp || !sg) {
+        if (sp) fclose(sp);
+        if (sg) fclose(sg);
+        fclose(md);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot write plot data", o->out);
+    }
+    fprintf(sp, "volume");
+    for (int m = 0; m < o->nmodes; ++m) fprintf(sp, " %s", leap_mode_name((leap_mode)o->modes[m]));
+    if (vdb) fprintf(sp, " %s", VDB_NAME);
+    fprintf(sp, "\n");
+    fprintf(sg, "run order raster resolve composite\n");
+    int plots_ok = 1;
+    double sp_min = 1; /* smallest speedup drawn: the log axis starts below it */
+    for (int v = 0; v < o->nvolumes; ++v) {
+        for (int si = 0; si < o->nsizes; ++si) {
+            const double pixels = (double)o->sizes[si][0] * o->sizes[si][1];
+            fprintf(md, "\n## %s, %dx%d\n\n| mode | step | frame ms | speedup vs naive | samples/px | ideal speedup | "
+                        "raster | resolve | composite | order | lists %% of frame | ns/sample | events/px | segments/px | "
+                        "frame / floor | RMSE | PSNR dB | max abs |\n"
+                        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+                    leap__base_name(o->volumes[v]), o->sizes[si][0], o->sizes[si][1]);
+            for (int st = 0; st < o->nsteps; ++st) {
+                summary naive = {0};
+                for (int m = 0; m < o->nmodes; ++m)
+                    if (o->modes[m] == LEAP_RENDER_NAIVE) naive = summarize(rows, nrows, v, si, m, st);
+                for (int m = 0; m < o->nmodes; ++m) {
+                    summary s = summarize(rows, nrows, v, si, m, st);
+                    if (!s.n) continue;
+                    char speed[32] = "n/a";
+                    if (naive.n && s.frame_ms > 0) snprintf(speed, sizeof speed, "%.2f", naive.frame_ms / s.frame_ms);
+                    if (!have_errors) s.max_abs = NAN;
+                    /* floor: this mode's samples at naive's ns per sample, plus 40 ns per pixel */
+                    double naive_ns = naive.n && naive.spp > 0 ? naive.composite_ms * 1e6 / (naive.spp * pixels) : NAN;
+                    double floor_ms = (s.spp * pixels * naive_ns + 40.0 * pixels) * 1e-6;
+                    fprintf(md, "| %s | %g | %.1f | %s | %.2f | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f | %.2f | %.2f | %.2f "
+                                "| %.2f | %.2e | %.1f | %.2e |\n",
+                            leap_mode_name((leap_mode)o->modes[m]), o->steps[st], s.frame_ms,
+                            speed, s.spp, s.spp > 0 ? s.naive_spp / s.spp : 0, s.raster_ms,
+                            s.resolve_ms, s.composite_ms, s.order_ms,
+                            s.frame_ms > 0 ? 100.0 * (s.order_ms + s.raster_ms + s.resolve_ms) / s.frame_ms : 0.0,
+                            s.spp > 0 ? s.composite_ms * 1e6 / (s.spp * pixels) : NAN, s.events, s.segments,
+                            floor_ms > 0 ? s.frame_ms / floor_ms : NAN, s.rmse, s.psnr, s.max_abs);
+                }
+                summary s = summarize(rows, nrows, v, si, VDB_MODE, st);
+                if (vdb && s.n) {
+                    char speed[32] = "n/a";
+                    if (naive.n && s.frame_ms > 0) snprintf(speed, sizeof speed, "%.2f", naive.frame_ms / s.frame_ms);
+                    fprintf(md, "| %s | %g | %.1f | %s | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a | n/a "
+                                "| n/a | n/a | n/a |\n",
+                            VDB_NAME, o->steps[st], s.frame_ms, speed);
+                }
+            }
+            if (fixed) {
+                fprintf(md, "\nFixed per-pixel cost: composite pass of a frame in which no ray takes a sample (every "
+                            "value transparent; first view, step %g). Naive still takes every sample there: its "
+                            "figure is ns per sample.\n\n| mode | fixed ns/pixel | naive ns/sample |\n|---|---|---|\n",
+                        o->steps[0]);
+                for (int m = 0; m < o->nmodes; ++m) {
+                    double x = fixed->ns[v][si][m];
+                    if (!isfinite(x)) continue;
+                    if (o->modes[m] == LEAP_RENDER_NAIVE)
+                        fprintf(md, "| naive | n/a | %.2f |\n", x);
+                    else
+                        fprintf(md, "| %s | %.1f | n/a |\n", leap_mode_name((leap_mode)o->modes[m]), x);
+                }
+            }
+            if (vdb && vdb->note[v][0]) {
+                fprintf(md, "\nvdb_render: %s\n", vdb->note[v]);
+            } else if (vdb) {
+                fprintf(md, "\nvdb_render against leap's fastest mode (medians over views; a ratio above 1 means "
+                            "leap is faster):\n\n| step | vdb_render frame ms | vdb_render ray-trace ms | fastest "
+                            "leap mode | its frame ms | vdb_render frame / leap | vdb_render ray-trace / leap |\n"
+                            "|---|---|---|---|---|---|---|\n");
+                for (int st = 0; st < o->nsteps; ++st) {
+                    summary s = summarize(rows, nrows, v, si, VDB_MODE, st), best = {0};
+                    int m = fastest_mode(o, rows, nrows, v, si, st, &best);
+                    if (!s.n || m < 0) continue;
+                    fprintf(md, "| %g | %.1f | %.1f | %s | %.1f | %.2f | %.2f |\n", o->steps[st], s.frame_ms,
+                            s.trace_ms, leap_mode_name((leap_mode)o->modes[m]), best.frame_ms,
+                            s.frame_ms / best.frame_ms, s.trace_ms / best.frame_ms);
+                }
+            }
+            /* speedup at the middle step, first size */
+            if (si == 0) {
+                fprintf(sp, "%s", leap__base_name(o->volumes[v]));
+                summary naive = {0};
+                for (int m = 0; m < o->nmodes; ++m)
+                    if (o->modes[m] == LEAP_RENDER_NAIVE) naive = summarize(rows, nrows, v, si, m, mid);
+                for (int m = 0; m < o->nmodes; ++m) {
+                    summary s = summarize(rows, nrows, v, si, m, mid);
+                    double x = naive.n && s.frame_ms > 0 ? naive.frame_ms / s.frame_ms : 0.0;
+                    fprintf(sp, " %.4f", x);
+                    if (x > 0) sp_min = fmin(sp_min, x);
+                    fprintf(sg, "%s/%s %.4f %.4f %.4f %.4f\n", leap__base_name(o->volumes[v]),
+                            leap_mode_name((leap_mode)o->modes[m]), s.order_ms, s.raster_ms, s.resolve_ms,
+                            s.composite_ms);
+                }
+                if (vdb) {
+                    /* NaN: no bar (gnuplot skips undefined values) */
+                    summary s = summarize(rows, nrows, v, si, VDB_MODE, mid);
+                    double x = naive.n && s.n && s.frame_ms > 0 ? naive.frame_ms / s.frame_ms : NAN;
+                    fprintf(sp, " %.4f", x);
+                    if (x > 0) sp_min = fmin(sp_min, x);
+                }
+                fprintf(sp, "\n");
+            }
+        }
+        /* speed against error, one curve per mode over the steps (first size) */
+        if (!have_errors) continue;
+        snprintf(path, sizeof path, "%s/speed_error_%d.dat", o->out, v);
+        FILE *d = fopen(path, "w");
+        if (!d) continue;
+        for (int m = 0; m < o->nmodes; ++m) {
+            fprintf(d, "# %s\n", leap_mode_name((leap_mode)o->modes[m]));
+            for (int st = 0; st < o->nsteps; ++st) {
+                summary s = summarize(rows, nrows, v, 0, m, st);
+                fprintf(d, "%.6g %.6g %g\n", s.rmse > 0 ? s.rmse : 1e-9, s.frame_ms, o->steps[st]);
+            }
+            fprintf(d, "\n\n");
+        }
+        fclose(d);
+        char body[4096], name[256];
+        int len = snprintf(body, sizeof body,
+                           "set title 'speed against error: %s (%dx%d)'\nset xlabel 'RMSE against reference'\n"
+                           "set ylabel 'frame ms (median over views)'\nset logscale xy\nset key outside\nset grid\n"
+                           "plot ",
+                           leap__base_name(o->volumes[v]), o->sizes[0][0], o->sizes[0][1]);
+        for (int m = 0; m < o->nmodes; ++m)
+            len += snprintf(body + len, sizeof body - (size_t)len, "%s'%s' index %d using 1:2 with linespoints title '%s'",
+                            m ? ", " : "", path, m, leap_mode_name((leap_mode)o->modes[m]));
+        snprintf(name, sizeof name, "speed_error_%d", v);
+        plots_ok &= run_gnuplot(o, o->out, name, body);
+        fprintf(md, "\n![speed against error](%s.png)\n", name);
+    }
+    fclose(sp);
+    fclose(sg);
+    char body[2048];
+    snprintf(body, sizeof body,
+             "set title 'speedup over naive (step %g)'\nset style data histograms\nset style fill solid 0.8\n"
+             "set ylabel 'x naive frame time'\nset logscale y\nset yrange [%g:*]\nset key outside\nset grid y\n"
+             "set xtics rotate by -20\nplot for [c=2:%d] '%s/speedup.dat' using c:xtic(1) title columnheader\n",
+             o->steps[mid], sp_min / 2, o->nmodes + 1 + (vdb != NULL), o->out);
+    plots_ok &= run_gnuplot(o, o->out, "speedup", body);
+    snprintf(body, sizeof body,
+             "set title 'time per stage (step %g)'\nset style data histograms\nset style histogram rowstacked\n"
+             "set style fill solid 0.8\nset ylabel 'ms'\nset key outside\nset grid y\nset xtics rotate by -45 font ',8'\n"
+             "plot for [c=2:5] '%s/stages.dat' using c:xtic(1) title columnheader\n",
+             o->steps[mid], o->out);
+    plots_ok &= run_gnuplot(o, o->out, "stages", body);
+    fprintf(md, "\n![speedup](speedup.png)\n\n![stages](stages.png)\n");
+    fclose(md);
+    if (!plots_ok)
+        return leap_fail(err, LEAP_ERR_IO, "%s: gnuplot failed to draw some plots (is gnuplot installed?)", o->out);
+    return LEAP_OK;
+}

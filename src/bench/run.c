@@ -1,0 +1,334 @@
+/* The bench's runs: every volume x size x view x step x mode timed per stage, the CPU
+ * reference and the error against it, the fixed per-pixel cost, the vdb_render runs; the
+ * rows go to results.csv (published whole) and then to the report. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "bench_internal.h"
+#include "leap/files.h"
+#include "leap/reference.h"
+#include "leap/renderer.h"
+#include "leap/scene.h"
+#include "util.h"
+
+int bench_cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+void bench_message(const leap_bench_desc *d, leap_bench_message_kind kind, const char *text)
+{
+    if (d->message) d->message(kind, text, d->user);
+}
+
+static void progress(const leap_bench_desc *d, int done, int total, const char *what)
+{
+    if (d->progress) d->progress(done, total, what, d->user);
+}
+
+static void errors(const float *img, const float *ref, size_t pixels, run_result *r)
+{
+    double sum = 0, mx = 0;
+    for (size_t i = 0; i < 4 * pixels; ++i) {
+        double e = fabs((double)img[i] - (double)ref[i]);
+        if (!isfinite(e)) e = 1.0;
+        sum += e * e;
+        mx = fmax(mx, e);
+    }
+    r->rmse = sqrt(sum / (4.0 * pixels));
+    r->max_abs = mx;
+    r->psnr = r->rmse > 0 ? 20 * log10(1.0 / r->rmse) : 200.0;
+}
+
+/* Times one mode/step/view/size: warm-up frames, then repeats; the last frame's image is
+ * compared with the reference. */
+static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_rays *view, int mode,
+                            const leap_bench_desc *o, float *img, const float *ref, run_result *out, leap_error *err)
+{
+    double frames[1000];
+    leap_frame_stats st = {0};
+    run_result r = {0};
+    for (int i = 0; i < o->warmup + o->repeats; ++i) {
+        leap_result lr = leap_renderer_render(renderer, view, &s->march, (leap_mode)mode, img, NULL, NULL, &st, err);
+        if (lr) return lr;
+        if (i < o->warmup) continue;
+        int k = i - o->warmup;
+        frames[k] = st.upload_ms + st.render_ms;
+        r.raster_ms += st.gpu_raster_ms / o->repeats;
+        r.resolve_ms += st.gpu_resolve_ms / o->repeats;
+        r.composite_ms += st.gpu_composite_ms / o->repeats;
+        r.order_ms += st.order_ms / o->repeats;
+    }
+    qsort(frames, (size_t)o->repeats, sizeof frames[0], bench_cmp_double);
+    r.frame_ms[0] = frames[o->repeats / 2];
+    r.frame_ms[1] = frames[0];
+    r.frame_ms[2] = frames[o->repeats - 1];
+    size_t pixels = (size_t)view->width * view->height;
+    r.spp = st.samples_mean;
+    r.naive_spp = (double)st.naive_samples / pixels;
+    r.events = st.events_mean;
+    r.segments = st.segments_mean;
+    r.overflow = st.overflow_pixels;
+    if (ref) errors(img, ref, pixels, &r);
+    else r.rmse = r.psnr = r.max_abs = NAN;
+    *out = r;
+    return LEAP_OK;
+}
+
+/* Fills fixed->ns[vi][si][*] (see fixed_costs): every value transparent, the first orbit
+ * view, the first step; the scene's transfer function is restored afterwards. */
+static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const leap_bench_desc *o, int vi, int si,
+                                 float *img, fixed_costs *fixed, leap_error *err)
+{
+    const int w = o->sizes[si][0], h = o->sizes[si][1];
+    const double pixels = (double)w * h;
+    leap_camera cam;
+    leap_rays view;
+    leap_result lr;
+    if ((lr = leap_camera_orbit(s->center, s->radius, 0.0, o->elevation, 0, 40, 0, &cam, err)) ||
+        (lr = leap_scene_rays(s, &cam, w, h, &view, err)) || (lr = leap_scene_set_step(s, o->steps[0], err)))
+        return lr;
+    leap_tf keep = s->tf, blank = s->tf;
+    for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) blank.rgba[i][3] = 0.0f;
+    const double lo = s->march.range_lo, hi = s->march.range_hi;
+    if ((lr = leap_scene_set_tf(s, &blank, lo, hi, err)) || (lr = leap_renderer_bind_scene(renderer, s, err)))
+        return lr;
+    for (int m = 0; m < o->nmodes && !lr; ++m) {
+        run_result r;
+        if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, &r, err))) break;
+        fixed->ns[vi][si][m] = o->modes[m] == LEAP_RENDER_NAIVE
+                                   ? (r.spp > 0 ? r.composite_ms * 1e6 / (r.spp * pixels) : NAN)
+                                   : r.composite_ms * 1e6 / pixels;
+    }
+    leap_result restore = leap_scene_set_tf(s, &keep, lo, hi, err);
+    if (!restore) restore = leap_renderer_bind_scene(renderer, s, err);
+    return lr ? lr : restore;
+}
+
+/* One bench in progress. */
+typedef struct bench_state {
+    const leap_bench_desc *o;
+    leap_renderer *renderer;
+    vdb_runner *vdb; /* NULL without vs_vdb */
+    FILE *csv;
+    bench_row *rows;
+    size_t nrows;
+    fixed_costs *fixed;
+    double min_step;
+    int done, total;
+    leap_bench_outcome *outcome;
+} bench_state;
+
+static void csv_header(FILE *csv)
+{
+    fprintf(csv, "volume,grid,mode,step,view,width,height,repeats,frame_ms_median,frame_ms_min,frame_ms_max,"
+                 "raster_ms,resolve_ms,composite_ms,order_ms,samples_per_pixel,naive_samples_per_pixel,"
+                 "events_per_pixel,segments_per_pixel,overflow_pixels,speedup_vs_naive,rmse,psnr,max_abs,trace_ms\n");
+}
+
+/* vdb_render on one view and step; a failure is reported and skips the volume's other
+ * vdb_render runs, the bench goes on. */
+static void run_vdb(bench_state *b, const leap_scene *s, const leap_camera *cam, int vi, int si, int view_i, int st,
+                    double naive_ms)
+{
+    const leap_bench_desc *o = b->o;
+    vdb_runner *vdb = b->vdb;
+    const int w = o->sizes[si][0], h = o->sizes[si][1];
+    char what[256];
+    snprintf(what, sizeof what, "%s view %d step %g %s", leap__base_name(o->volumes[vi]), view_i, o->steps[st],
+             VDB_NAME);
+    progress(o, b->done, b->total, what);
+    run_result r;
+    char msg[1024];
+    if (vdb_time(vdb, o->volumes[vi], s->info->name, cam, w, h, o->steps[st], o, &r, msg, sizeof msg)) {
+        /* Reported now, with the volume named; the rest of the bench goes on. */
+        char text[6000];
+        snprintf(text, sizeof text,
+                 "vdb_render failed on %s (grid '%s', view %d, step %g, %dx%d): %s; skipping its other vdb_render runs",
+                 o->volumes[vi], s->info->name, view_i, o->steps[st], w, h, msg);
+        bench_message(o, LEAP_BENCH_FAILURE, text);
+        snprintf(vdb->note[vi], sizeof vdb->note[vi], "failed (view %d, step %g, %dx%d): %.400s", view_i, o->steps[st],
+                 w, h, msg);
+        vdb->ok[vi] = 0;
+        ++vdb->failures;
+        int per_volume = o->nsizes * o->views * o->nsteps;
+        b->done += per_volume - ((si * o->views + view_i) * o->nsteps + st);
+        return;
+    }
+    b->rows[b->nrows++] = (bench_row){vi, si, VDB_MODE, st, view_i, r};
+    fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,nan,nan,nan,nan,nan,nan,nan,nan,nan,%.4f,nan,nan,nan,%.4f\n",
+            leap__base_name(o->volumes[vi]), s->info->name, VDB_NAME, o->steps[st], view_i, w, h, o->repeats,
+            r.frame_ms[0], r.frame_ms[1], r.frame_ms[2], isfinite(naive_ms) ? naive_ms / r.frame_ms[0] : NAN,
+            r.trace_ms);
+    ++b->done;
+}
+
+/* One orbit view of one size: the reference, then every step x mode (and vdb_render). */
+static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int view_i, float *img, float *ref,
+                            leap_error *err)
+{
+    const leap_bench_desc *o = b->o;
+    const int w = o->sizes[si][0], h = o->sizes[si][1];
+    leap_camera cam;
+    leap_rays view;
+    leap_result lr;
+    double az = 360.0 * view_i / o->views;
+    if ((lr = leap_camera_orbit(s->center, s->radius, az, o->elevation, 0, 40, 0, &cam, err)) ||
+        (lr = leap_scene_rays(s, &cam, w, h, &view, err)))
+        return lr;
+    char what[256];
+    const float *refp = NULL;
+    if (!o->no_reference) {
+        snprintf(what, sizeof what, "%s view %d: CPU reference", leap__base_name(o->volumes[vi]), view_i);
+        progress(o, b->done, b->total, what);
+        leap_march fine = s->march;
+        fine.step = b->min_step / o->ref_factor;
+        leap_reference_desc refd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &fine};
+        if ((lr = leap_reference_render(&refd, ref, NULL, NULL, err))) {
+            char msg[sizeof err->msg];
+            snprintf(msg, sizeof msg, "%s", err->msg);
+            b->outcome->failed_volume = -1; /* not the volume's fault as such */
+            return leap_fail(err, lr, "reference: %s", msg);
+        }
+        refp = ref;
+        ++b->done;
+    }
+    for (int st = 0; st < o->nsteps; ++st) {
+        if ((lr = leap_scene_set_step(s, o->steps[st], err)) || (lr = leap_renderer_bind_scene(b->renderer, s, err)))
+            return lr;
+        double naive_ms = NAN;
+        for (int mi = 0; mi < o->nmodes; ++mi) {
+            snprintf(what, sizeof what, "%s view %d step %g %s", leap__base_name(o->volumes[vi]), view_i, o->steps[st],
+                     leap_mode_name((leap_mode)o->modes[mi]));
+            progress(o, b->done, b->total, what);
+            run_result r;
+            if (time_run(b->renderer, s, &view, o->modes[mi], o, img, refp, &r, err)) return LEAP_ERR_IO;
+            if (o->modes[mi] == LEAP_RENDER_NAIVE) naive_ms = r.frame_ms[0];
+            b->rows[b->nrows++] = (bench_row){vi, si, mi, st, view_i, r};
+            fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%u,%.4f,%.6g,%.4f,%.6g,nan\n",
+                    leap__base_name(o->volumes[vi]), s->info->name, leap_mode_name((leap_mode)o->modes[mi]),
+                    o->steps[st], view_i, w, h, o->repeats, r.frame_ms[0], r.frame_ms[1], r.frame_ms[2], r.raster_ms,
+                    r.resolve_ms, r.composite_ms, r.order_ms, r.spp, r.naive_spp, r.events, r.segments, r.overflow,
+                    isfinite(naive_ms) ? naive_ms / r.frame_ms[0] : NAN, r.rmse, r.psnr, r.max_abs);
+            ++b->done;
+        }
+        if (b->vdb && b->vdb->ok[vi]) run_vdb(b, s, &cam, vi, si, view_i, st, naive_ms);
+    }
+    return LEAP_OK;
+}
+
+/* Every size and view of one volume, then its fixed costs. */
+static leap_result run_volume(bench_state *b, int vi, leap_error *err)
+{
+    const leap_bench_desc *o = b->o;
+    leap_scene_desc sd = {.path = o->volumes[vi], .tf = o->tf, .step = o->steps[0], .exact_boxes = o->exact_boxes};
+    leap_scene *s = NULL;
+    leap_result lr;
+    b->outcome->failed_volume = vi;
+    if ((lr = leap_scene_create(&sd, &s, err)) || (lr = leap_renderer_bind_scene(b->renderer, s, err))) {
+        leap_scene_destroy(s);
+        return lr;
+    }
+    for (int si = 0; si < o->nsizes && !lr; ++si) {
+        int w = o->sizes[si][0], h = o->sizes[si][1];
+        size_t bytes = (size_t)w * h * 4 * sizeof(float);
+        float *img = malloc(bytes), *ref = malloc(bytes);
+        if (!img || !ref) {
+            /* Not the volume's fault: no path in front of the message. */
+            b->outcome->failed_volume = -1;
+            lr = leap_fail(err, LEAP_ERR_OOM, "out of memory: cannot allocate the %dx%d image buffers (2 x %zu MiB)",
+                           w, h, bytes >> 20);
+        }
+        for (int view_i = 0; view_i < o->views && !lr; ++view_i) lr = run_view(b, s, vi, si, view_i, img, ref, err);
+        if (!lr) {
+            char what[256];
+            snprintf(what, sizeof what, "%s %dx%d: fixed cost per pixel", leap__base_name(o->volumes[vi]), w, h);
+            progress(o, b->done, b->total, what);
+            lr = measure_fixed(b->renderer, s, o, vi, si, img, b->fixed, err);
+            ++b->done;
+        }
+        free(img);
+        free(ref);
+    }
+    leap_renderer_set_occupancy(b->renderer, NULL, NULL);
+    leap_scene_destroy(s);
+    if (!lr) b->outcome->failed_volume = -1;
+    return lr;
+}
+
+/* Creates the renderer, runs every volume into the CSV, publishes it. The caller frees. */
+static leap_result run_all(bench_state *b, char *device, size_t device_n, leap_error *err)
+{
+    const leap_bench_desc *o = b->o;
+    leap_renderer_desc rd = {.device_name = o->device};
+    leap_result lr = leap_renderer_create(&rd, &b->renderer, err);
+    if (lr) return lr;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/results.csv", o->out);
+    leap_publish pub;
+    if ((lr = leap_publish_begin(&pub, path, err))) return lr;
+    if (!(b->csv = fopen(pub.tmp, "w"))) {
+        leap_publish_abort(&pub);
+        return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
+    }
+    csv_header(b->csv);
+    b->min_step = o->steps[0];
+    for (int i = 1; i < o->nsteps; ++i) b->min_step = fmin(b->min_step, o->steps[i]);
+    b->rows = calloc((size_t)o->nvolumes * o->nsizes * o->views * o->nsteps * (o->nmodes + 1), sizeof *b->rows);
+    b->fixed = malloc(sizeof *b->fixed);
+    if (!b->rows || !b->fixed) lr = leap_fail(err, LEAP_ERR_OOM, "out of memory");
+    else
+        for (int a = 0; a < MAX_ITEMS; ++a)
+            for (int c = 0; c < MAX_ITEMS; ++c)
+                for (int m = 0; m < MAX_ITEMS; ++m) b->fixed->ns[a][c][m] = NAN;
+    if (!lr && b->vdb) lr = vdb_runner_open(b->vdb, o->vdb_shadow_step, err);
+    for (int vi = 0; vi < o->nvolumes && !lr; ++vi) lr = run_volume(b, vi, err);
+    if (b->rows && b->fixed) progress(o, b->done, b->total, lr ? "failed" : "done");
+    if (b->vdb) vdb_runner_close(b->vdb, o);
+    int closed = fclose(b->csv) == 0;
+    b->csv = NULL;
+    if (lr || !closed) {
+        leap_publish_abort(&pub);
+        return lr ? lr : leap_fail(err, LEAP_ERR_IO, "%s: cannot write", path);
+    }
+    if ((lr = leap_publish_commit(&pub, err))) return lr;
+    snprintf(device, device_n, "%s, %s", leap_renderer_device_name(b->renderer), leap_renderer_driver_name(b->renderer));
+    return LEAP_OK;
+}
+
+leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome, leap_error *err)
+{
+    leap_bench_outcome ignore;
+    bench_state b = {.o = o, .outcome = outcome ? outcome : &ignore};
+    *b.outcome = (leap_bench_outcome){.failed_volume = -1};
+    if (o->nvolumes < 1 || o->nvolumes > MAX_ITEMS || !o->out)
+        return leap_fail(err, LEAP_ERR_USAGE, "bench: no volume or no output directory");
+    leap_result lr = leap_make_dirs(o->out, err);
+    if (lr) return lr;
+    int vdb_runs = 0;
+    if (o->vs_vdb) {
+        if (!(b.vdb = calloc(1, sizeof *b.vdb))) return leap_fail(err, LEAP_ERR_OOM, "out of memory");
+        snprintf(b.vdb->exe, sizeof b.vdb->exe, "%s", o->vdb_render_exe);
+        if (!b.vdb->exe[0] && !leap_bench_find_vdb_render(b.vdb->exe, sizeof b.vdb->exe)) {
+            free(b.vdb);
+            return leap_fail(err, LEAP_ERR_USAGE, "vdb_render not found on PATH");
+        }
+        vdb_runner_check_volumes(b.vdb, o);
+        for (int vi = 0; vi < o->nvolumes; ++vi) vdb_runs += b.vdb->ok[vi];
+    }
+    b.total = o->nvolumes * o->nsizes * (o->views * (o->nsteps * o->nmodes + !o->no_reference) + 1) +
+              vdb_runs * o->nsizes * o->views * o->nsteps;
+    char device[512] = "";
+    lr = run_all(&b, device, sizeof device, err);
+    leap_renderer_destroy(b.renderer);
+    if (!lr) lr = bench_write_report(o, b.rows, b.nrows, b.fixed, device, b.vdb, err);
+    if (b.vdb) b.outcome->vdb_failures = b.vdb->failures;
+    free(b.rows);
+    free(b.fixed);
+    free(b.vdb);
+    return lr;
+}
