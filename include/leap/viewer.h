@@ -332,8 +332,8 @@ typedef struct leap_viewer_session_desc {
 typedef struct leap_viewer_session leap_viewer_session;
 
 /* Starts the window system. Errors: LEAP_ERR_UNSUPPORTED (no display: "cannot open a window:
- * ..."; no Vulkan loader with surface support). The session is made even on failure, for
- * leap_viewer_session_destroy. */
+ * ..."; no Vulkan loader with surface support), LEAP_ERR_OOM (then *out is NULL). On the
+ * other failures *out is a session for leap_viewer_session_destroy. */
 leap_result leap_viewer_session_create(const leap_viewer_session_desc *desc, leap_viewer_session **out,
                                        leap_error *err);
 /* Creates the renderer with the window system's surface extensions. Errors: those of

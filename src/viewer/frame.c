@@ -188,11 +188,11 @@ static void make_title(const leap_viewer_session *s, const leap_viewer *st, cons
              st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat);
 }
 
-static void set_fatal(leap_viewer_session *s, const char *msg)
+static void set_fatal(leap_viewer_session *s, leap_result code, const char *msg)
 {
     pthread_mutex_lock(&s->mu);
     if (!s->pub.fatal) {
-        s->pub.fatal = 1;
+        s->pub.fatal = code ? code : LEAP_ERR_VULKAN;
         snprintf(s->pub.fatal_msg, sizeof s->pub.fatal_msg, "%s", msg);
     }
     pthread_mutex_unlock(&s->mu);
@@ -281,8 +281,9 @@ void *session_render_thread(void *arg)
         int is_new = seq != rendered_seq;
         if (fb_seq != s->applied_fb_seq || leap_presenter_stale(s->presenter)) {
             s->applied_fb_seq = fb_seq;
-            if (leap_presenter_resize(s->presenter, fb_w, fb_h, &err)) {
-                set_fatal(s, err.msg);
+            leap_result r = leap_presenter_resize(s->presenter, fb_w, fb_h, &err);
+            if (r) {
+                set_fatal(s, r, err.msg);
                 break;
             }
             leap_presenter_size(s->presenter, &s->width, &s->height);
@@ -296,11 +297,12 @@ void *session_render_thread(void *arg)
             if (s->width <= 0 || s->height <= 0) continue;
         }
         s->tf_apply_ms = 0;
-        if (apply_tf(s, &st, &err)) {
+        leap_result tr = apply_tf(s, &st, &err);
+        if (tr) {
             char msg[1100];
             snprintf(msg, sizeof msg, "transfer function '%s': %s", st.tf, err.msg);
             if (script_mode) {
-                set_fatal(s, msg);
+                set_fatal(s, tr, msg);
                 break;
             }
             session_note(s, LEAP_VIEWER_NOTE_STATUS, "%s", msg);
@@ -313,14 +315,16 @@ void *session_render_thread(void *arg)
         frame_figures ff;
         memset(&ff, 0, sizeof ff);
         const uint8_t *shown_rgb = NULL;
-        if (render_rows(s, &st, &plan, &ff, &err) || compose_output(s, &st, &ff, &shown_rgb, &err)) {
-            set_fatal(s, err.msg);
+        leap_result r = render_rows(s, &st, &plan, &ff, &err);
+        if (!r) r = compose_output(s, &st, &ff, &shown_rgb, &err);
+        if (r) {
+            set_fatal(s, r, err.msg);
             break;
         }
         double t1 = leap__now_ms();
         int shown = 0;
-        if (leap_presenter_present(s->presenter, shown_rgb, W, H, &shown, &err)) {
-            set_fatal(s, err.msg);
+        if ((r = leap_presenter_present(s->presenter, shown_rgb, W, H, &shown, &err))) {
+            set_fatal(s, r, err.msg);
             break;
         }
         double t2 = leap__now_ms();

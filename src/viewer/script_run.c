@@ -9,31 +9,6 @@
 
 #define RESIZE_TIMEOUT_MS 30000.0
 
-leap_result leap_viewer_script_frames(long frames, const char *screenshot, leap_viewer_script *s, leap_error *err)
-{
-    memset(s, 0, sizeof *s);
-    s->cmds = calloc(3, sizeof *s->cmds);
-    if (!s->cmds) return leap_fail(err, LEAP_ERR_OOM, "out of memory");
-    if (frames <= 0) frames = 1;
-    if (screenshot) --frames; /* the screenshot renders the last frame */
-    if (frames > 0) {
-        leap_viewer_cmd *c = &s->cmds[s->count++];
-        c->op = LEAP_VIEWER_OP_FRAMES;
-        c->repeat = 1;
-        c->count = 1;
-        c->num[0] = (double)frames;
-    }
-    if (screenshot) {
-        leap_viewer_cmd *c = &s->cmds[s->count++];
-        c->op = LEAP_VIEWER_OP_SCREENSHOT;
-        c->repeat = 1;
-        snprintf(c->text, sizeof c->text, "%s", screenshot);
-    }
-    s->cmds[s->count].op = LEAP_VIEWER_OP_QUIT;
-    s->cmds[s->count++].repeat = 1;
-    return LEAP_OK;
-}
-
 static session_published published_now(leap_viewer_session *s)
 {
     pthread_mutex_lock(&s->mu);

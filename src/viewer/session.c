@@ -283,7 +283,7 @@ leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_sc
         glfwWaitEventsTimeout(script_done ? 0.25 : 0.01);
         session_handle_bits(s);
         pthread_mutex_lock(&s->mu);
-        int fatal = s->pub.fatal;
+        leap_result fatal = s->pub.fatal;
         char msg[1100], title[1024] = "";
         snprintf(msg, sizeof msg, "%s", s->pub.fatal_msg);
         if (s->pub.title_new) {
@@ -293,7 +293,7 @@ leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_sc
         pthread_mutex_unlock(&s->mu);
         if (title[0]) glfwSetWindowTitle(s->window, title);
         if (fatal) {
-            rc = leap_fail(err, LEAP_ERR_VULKAN, "%s", msg);
+            rc = leap_fail(err, fatal, "%s", msg);
             break;
         }
         if (glfwWindowShouldClose(s->window) || s->v.quit) break;

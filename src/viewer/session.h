@@ -1,5 +1,6 @@
-/* The interactive session's shared state (private to src/viewer): what the main thread
- * (window, events, script) and the render thread (renderer, presenter) exchange. */
+/* Private to src/viewer: the interactive session's shared state, what the main thread
+ * (window, events, script) and the render thread (renderer, presenter) exchange, and the
+ * helpers the folder's files share. */
 #ifndef LEAP_VIEWER_SESSION_H
 #define LEAP_VIEWER_SESSION_H
 
@@ -11,6 +12,9 @@
 
 struct GLFWwindow;
 
+/* Index of a transfer-function preset in the cycle list, -1 if name is none (viewer.c). */
+int viewer_preset_index(const char *name);
+
 /* Everything the render thread publishes for the main thread (under the mutex). */
 typedef struct session_published {
     uint64_t rendered_seq;     /* state version of the last presented frame */
@@ -21,7 +25,7 @@ typedef struct session_published {
     int title_new;
     uint64_t shot_done;
     int shot_failed;
-    int fatal;
+    leap_result fatal;         /* the render thread's failure (LEAP_OK: none) */
     char fatal_msg[1100];
 } session_published;
 
