@@ -1,7 +1,8 @@
-/* The interactive viewer's state and input mapping, independent of any window system:
+/* The interactive viewer. Its state and input mapping are independent of any window system:
  * key, mouse and wheel events (in the viewer's own codes; the window layer translates its
  * toolkit's codes) turn into camera and look changes, and a small script format drives the
- * same events for tests and demos. Nothing here renders or opens a window.
+ * same events for tests and demos. The frame scheduler and the overlay drawing need no
+ * window either; only the session (at the end of this header) opens one and renders.
  *
  * Input
  *   left drag            orbit (azimuth and elevation about the orbit centre)
@@ -325,7 +326,7 @@ typedef struct leap_viewer_session_desc {
     double budget_ms;         /* frame-time target while the camera moves */
     int adaptive;             /* 0: always full resolution */
     int quiet;                /* 1: no informational notes (device, screenshots written) */
-    leap_viewer_note_fn note; /* may be NULL */
+    leap_viewer_note_fn note; /* may be NULL; called from the main and the render thread */
     void *note_user;
 } leap_viewer_session_desc;
 
@@ -345,8 +346,8 @@ leap_result leap_viewer_session_bind(leap_viewer_session *s, leap_scene *scene, 
  * a failed transfer function ends the session instead of being reported and skipped.
  * Errors: LEAP_ERR_UNSUPPORTED, LEAP_ERR_VULKAN (no window, no surface, cannot present). */
 leap_result leap_viewer_session_open(leap_viewer_session *s, const leap_viewer *v, int scripted, leap_error *err);
-/* Runs the event loop until the window closes, the user quits or the script (NULL: none)
- * ends. Errors: a failure of the render thread (LEAP_ERR_VULKAN...), a failed screenshot
+/* After a successful open: runs the event loop until the window closes, the user quits or
+ * the script (NULL: none) ends; keep_open: stay open after the script. Errors: a failure of the render thread (LEAP_ERR_VULKAN...), a failed screenshot
  * (LEAP_ERR_IO; an empty message: it was reported through the note callback). */
 leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_script *script, int keep_open,
                                     leap_error *err);
