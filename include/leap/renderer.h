@@ -76,9 +76,6 @@ typedef struct leap_frame_stats {
 leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer **out, leap_error *err);
 void leap_renderer_destroy(leap_renderer *r); /* accepts NULL */
 
-/* The Vulkan context, for a present step on the same device (the viewer). */
-struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
-
 /* Device and driver, e.g. "llvmpipe (LLVM 15.0.6, 256 bits)" / "llvmpipe Mesa 22.3.6". */
 const char *leap_renderer_device_name(const leap_renderer *r);
 const char *leap_renderer_driver_name(const leap_renderer *r);

@@ -1,7 +1,8 @@
-/* The interactive viewer's state and input mapping, independent of any window system:
+/* The interactive viewer. Its state and input mapping are independent of any window system:
  * key, mouse and wheel events (in the viewer's own codes; the window layer translates its
  * toolkit's codes) turn into camera and look changes, and a small script format drives the
- * same events for tests and demos. Nothing here renders or opens a window.
+ * same events for tests and demos. The frame scheduler and the overlay drawing need no
+ * window either; only the session (at the end of this header) opens one and renders.
  *
  * Input
  *   left drag            orbit (azimuth and elevation about the orbit centre)
@@ -44,10 +45,13 @@
 #define LEAP_VIEWER_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 #include "leap/camera.h"
 #include "leap/error.h"
+#include "leap/occupancy.h"
 #include "leap/renderer.h"
+#include "leap/scene.h"
 
 /* Keys that are not characters (characters arrive as Unicode code points). */
 enum {
@@ -220,5 +224,134 @@ void leap_viewer_script_free(leap_viewer_script *s); /* accepts a zeroed script 
  * returns the change bits; frames, wait, resize, mark, screenshot and quit are the window
  * layer's (screenshot and quit still set the request bits and counters here). */
 unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *cmd);
+
+/* The script for `leap view --frames N` and/or `--screenshot OUT.png`: N full frames (the
+ * screenshot renders the last one), the screenshot, quit. frames 0 means 1. Errors:
+ * LEAP_ERR_OOM. */
+leap_result leap_viewer_script_frames(long frames, const char *screenshot, leap_viewer_script *out, leap_error *err);
+
+/* ---- adaptive-resolution frame scheduler --------------------------------------------------
+ * Decides the resolution and the rows of each frame. New states and a moving camera render at
+ * reduced resolution (the divisor that brings the estimated time under the budget); once idle
+ * the image refines in halving steps to full resolution, in bands of about twice the budget.
+ * A pure state machine: render times are passed in, nothing reads a clock. */
+
+#define LEAP_VIEWER_MAX_SCALE 16
+#define LEAP_VIEWER_IDLE_MS 200.0 /* the camera counts as moving this long after a change */
+
+typedef struct leap_viewer_schedule {
+    double budget_ms;
+    int adaptive;
+    double est_ms_per_px[LEAP_RENDER_MODE_COUNT]; /* 0: not measured yet */
+    int last_scale;                 /* divisor of the last completed image */
+    int refine_scale, refine_row;   /* refinement pass under way (scale 0: none) */
+    double pass_render_ms, pass_pixels;
+} leap_viewer_schedule;
+
+/* What the next frame is (flags of leap_viewer_schedule_plan). */
+enum {
+    LEAP_VIEWER_FRAME_MOVING = 1u << 0,     /* recent camera input */
+    LEAP_VIEWER_FRAME_NEW = 1u << 1,        /* a state not shown yet */
+    LEAP_VIEWER_FRAME_FORCED = 1u << 2,     /* a full frame a script asked for */
+    LEAP_VIEWER_FRAME_SCREENSHOT = 1u << 3  /* always full resolution */
+};
+
+typedef struct leap_viewer_frame_plan {
+    int whole;         /* 1: a whole image; 0: a band of a refinement pass */
+    int new_pass;      /* 1: this band starts a refinement pass */
+    int scale;         /* resolution divisor, 1..LEAP_VIEWER_MAX_SCALE */
+    int width, height; /* of the 1/scale image */
+    int y0, rows;      /* the rows to render: [y0, y0 + rows) of the 1/scale image */
+} leap_viewer_frame_plan;
+
+/* budget_ms: frame-time target while moving; adaptive 0: always full resolution. */
+void leap_viewer_schedule_init(leap_viewer_schedule *s, double budget_ms, int adaptive);
+/* Abandons a refinement pass (the window was resized). */
+void leap_viewer_schedule_restart(leap_viewer_schedule *s);
+/* 1 while the shown image is below full resolution: refine once idle. */
+int leap_viewer_schedule_pending(const leap_viewer_schedule *s);
+/* The next frame for a width x height window; flags are LEAP_VIEWER_FRAME_*. */
+leap_viewer_frame_plan leap_viewer_schedule_plan(leap_viewer_schedule *s, leap_mode mode, int width, int height,
+                                                 unsigned flags);
+/* The frame of plan p took render_ms for `pixels` pixels (whole images update the estimate). */
+void leap_viewer_schedule_rendered(leap_viewer_schedule *s, const leap_viewer_frame_plan *p, leap_mode mode,
+                                   double render_ms, double pixels);
+/* The frame of plan p was shown. Returns 1 while its refinement pass is still under way
+ * (*progress: the part done, 0..1), 0 once the image is complete (*progress = 1). */
+int leap_viewer_schedule_presented(leap_viewer_schedule *s, const leap_viewer_frame_plan *p, leap_mode mode,
+                                   double render_ms, double pixels, double *progress);
+
+/* ---- overlays: CPU drawing into 8-bit RGB images (rows top to bottom) -------------------- */
+
+/* The 8-bit value a PNG written by `leap render` holds for a float channel (NaN: 0). */
+uint8_t leap_viewer_to_u8(float v);
+/* A one-pixel line from (x0, y0) to (x1, y1) in pixel coordinates, clipped to the w x h image. */
+void leap_viewer_draw_line(uint8_t *rgb, int w, int h, double x0, double y0, double x1, double y1, const uint8_t color[3]);
+/* Blends a heat map over the image: heat holds w * h counts (-1: an overflowed pixel, drawn
+ * magenta), normalised by their maximum. `what` receives the legend ("heat: samples/pixel
+ * 0..N"). */
+void leap_viewer_draw_heat(uint8_t *rgb, const float *heat, int w, int h, leap_mode mode, char *what, size_t what_size);
+
+/* The boxes overlay keeps the boxes in drawing order between frames. */
+typedef struct leap_viewer_overlay leap_viewer_overlay;
+leap_result leap_viewer_overlay_create(leap_viewer_overlay **out, leap_error *err); /* LEAP_ERR_OOM */
+void leap_viewer_overlay_destroy(leap_viewer_overlay *o);                           /* accepts NULL */
+/* Draws the edges of the boxes, in their class colours, as seen through view (rays of a
+ * view->width x view->height image). The boxes are re-read when `generation` changes (the
+ * scene's boxes were rebuilt). Errors: LEAP_ERR_OOM (nothing drawn). */
+leap_result leap_viewer_draw_boxes(leap_viewer_overlay *o, const leap_boxes *boxes, unsigned generation,
+                                   const leap_rays *view, uint8_t *rgb, leap_error *err);
+
+/* ---- interactive sessions: a window, a render thread, a swapchain ------------------------
+ * The main thread owns the window: it turns window events into state changes, runs the
+ * script and sets the title. The render thread owns the renderer and the presenter: it takes
+ * the newest state, renders it with the same core as `leap render`, draws overlays and
+ * presents, at the resolution the scheduler picks. Sessions report through a callback; they
+ * never print. */
+
+typedef enum leap_viewer_note {
+    LEAP_VIEWER_NOTE_RESULT, /* one line for standard output: screenshot written, mark */
+    LEAP_VIEWER_NOTE_STATUS, /* one line for standard error: device in use, a warning */
+    LEAP_VIEWER_NOTE_HELP    /* the key list, to show as it is */
+} leap_viewer_note;
+
+typedef void (*leap_viewer_note_fn)(void *user, leap_viewer_note kind, const char *text);
+
+typedef struct leap_viewer_session_desc {
+    const char *volume_path;  /* its base name goes into the title; the path into render lines */
+    const char *grid;         /* the grid the volume was opened with (NULL: the default) */
+    const char *script_path;  /* names the script in messages (NULL: none) */
+    const char *device_name;  /* as leap_renderer_desc */
+    uint32_t max_segments;    /* as leap_renderer_desc */
+    double budget_ms;         /* frame-time target while the camera moves */
+    int adaptive;             /* 0: always full resolution */
+    int quiet;                /* 1: no informational notes (device, screenshots written) */
+    leap_viewer_note_fn note; /* may be NULL; called from the main and the render thread */
+    void *note_user;
+} leap_viewer_session_desc;
+
+typedef struct leap_viewer_session leap_viewer_session;
+
+/* Starts the window system. Errors: LEAP_ERR_UNSUPPORTED (no display: "cannot open a window:
+ * ..."; no Vulkan loader with surface support), LEAP_ERR_OOM (then *out is NULL). On the
+ * other failures *out is a session for leap_viewer_session_destroy. */
+leap_result leap_viewer_session_create(const leap_viewer_session_desc *desc, leap_viewer_session **out,
+                                       leap_error *err);
+/* Creates the renderer with the window system's surface extensions. Errors: those of
+ * leap_renderer_create, LEAP_ERR_UNSUPPORTED (no surface extension). */
+leap_result leap_viewer_session_start_gpu(leap_viewer_session *s, leap_error *err);
+/* Uploads the scene (borrowed until destroy). Errors: those of leap_renderer_bind_scene. */
+leap_result leap_viewer_session_bind(leap_viewer_session *s, leap_scene *scene, leap_error *err);
+/* Opens the window (v->width x v->height) on state v and starts the render thread. `scripted`:
+ * a failed transfer function ends the session instead of being reported and skipped.
+ * Errors: LEAP_ERR_UNSUPPORTED, LEAP_ERR_VULKAN (no window, no surface, cannot present). */
+leap_result leap_viewer_session_open(leap_viewer_session *s, const leap_viewer *v, int scripted, leap_error *err);
+/* After a successful open: runs the event loop until the window closes, the user quits or
+ * the script (NULL: none) ends; keep_open: stay open after the script. Errors: a failure of the render thread (LEAP_ERR_VULKAN...), a failed screenshot
+ * (LEAP_ERR_IO; an empty message: it was reported through the note callback). */
+leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_script *script, int keep_open,
+                                    leap_error *err);
+/* Stops the render thread and frees everything (the scene stays the caller's). */
+void leap_viewer_session_destroy(leap_viewer_session *s); /* accepts NULL */
 
 #endif

@@ -1,6 +1,6 @@
 /* Vulkan context: instance, device, one queue, one command buffer, a timestamp pool.
  * Prepared in dependency order by leap_gpu_create, released in reverse by leap_gpu_destroy. */
-#include "leap/gpu.h"
+#include "gpu.h"
 
 #include <stdio.h>
 #include <stdlib.h>

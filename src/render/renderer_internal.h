@@ -5,7 +5,7 @@
 #define LEAP_RENDERER_INTERNAL_H
 
 #include "leap/renderer.h"
-#include "leap/gpu.h"
+#include "gpu.h"
 #include "shared.h"
 
 #define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */

@@ -1,0 +1,381 @@
+/* The render thread: takes the newest state, renders it with the same core as `leap render`
+ * (leap_renderer_render into float RGBA), converts the premultiplied colour (over black) to
+ * the 8-bit values `leap render` writes to PNG, draws overlays and presents, at the
+ * resolution and in the bands the scheduler picks. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "leap/image.h"
+#include "session.h"
+#include "util.h"
+
+typedef struct frame_figures {
+    double render_ms, raster_ms, resolve_ms, composite_ms, readback_ms, compose_ms, present_ms, total_ms;
+    uint64_t samples, pixels;
+    int scale;
+    int refining;     /* 1 while a refinement pass is under way */
+    double progress;  /* of the refinement pass, 0..1 */
+    char heat[96];
+} frame_figures;
+
+static void figures_add(frame_figures *acc, const frame_figures *f)
+{
+    acc->render_ms += f->render_ms;
+    acc->raster_ms += f->raster_ms;
+    acc->resolve_ms += f->resolve_ms;
+    acc->composite_ms += f->composite_ms;
+    acc->readback_ms += f->readback_ms;
+    acc->compose_ms += f->compose_ms;
+    acc->present_ms += f->present_ms;
+    acc->total_ms += f->total_ms;
+    acc->samples += f->samples;
+    acc->pixels += f->pixels;
+    acc->scale = f->scale;
+    memcpy(acc->heat, f->heat, sizeof acc->heat);
+}
+
+/* Switches transfer function and value window (re-classify and rebuild boxes, no reload), and
+ * the step (the boxes' cost-model cut depends on it). */
+static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
+{
+    const int same_tf = !strcmp(st->tf, s->applied_tf) && st->range[0] == s->applied_range[0] &&
+                        st->range[1] == s->applied_range[1];
+    if (same_tf && st->step == s->scene->march.step) return LEAP_OK;
+    double t = leap__now_ms();
+    leap_result r = LEAP_OK;
+    if (!same_tf) {
+        memcpy(s->applied_tf, st->tf, sizeof s->applied_tf);
+        s->applied_range[0] = st->range[0];
+        s->applied_range[1] = st->range[1];
+        leap_tf tf;
+        r = leap_tf_from_arg(st->tf, leap_scene_label_count(st->range[0], st->range[1]), &tf, err);
+        if (!r) r = leap_scene_set_tf(s->scene, &tf, st->range[0], st->range[1], err);
+    }
+    if (!r) r = leap_scene_set_step(s->scene, st->step, err);
+    if (!r) r = leap_renderer_bind_scene(s->renderer, s->scene, err);
+    ++s->tf_gen;
+    s->tf_apply_ms = leap__now_ms() - t;
+    return r;
+}
+
+/* Renders the rows of plan p for state st and writes them, upscaled, into the base image
+ * and, with the heat overlay on, the heat values. A band is the same camera with its first
+ * row moved to y0. */
+static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, const leap_viewer_frame_plan *p,
+                               frame_figures *ff, leap_error *err)
+{
+    const int W = s->width, H = s->height, scale = p->scale, y0 = p->y0, rows = p->rows, w = p->width;
+    leap_camera cam;
+    leap_rays view;
+    leap_result r = leap_viewer_camera(st, &cam, err);
+    if (!r) r = leap_scene_rays(s->scene, &cam, w, p->height, &view, err);
+    if (r) return r;
+    if (y0 != 0 || rows != p->height) {
+        for (int i = 0; i < 3; ++i) {
+            view.origin0[i] += y0 * view.origin_dy[i];
+            view.dir0[i] += y0 * view.dir_dy[i];
+        }
+        view.height = rows;
+    }
+    size_t band = (size_t)w * rows;
+    if (!leap__grow((void **)&s->rgba, &s->rgba_cap, band * 5, sizeof(float)) ||
+        !leap__grow((void **)&s->base8, &s->base8_cap, (size_t)W * H * 3, 1) ||
+        !leap__grow((void **)&s->rgb8, &s->rgb8_cap, (size_t)W * H * 3, 1) ||
+        (st->show_heat && !leap__grow((void **)&s->heat, &s->heat_cap, (size_t)W * H, sizeof(float))))
+        return leap_fail(err, LEAP_ERR_OOM, "out of memory for a %dx%d frame", W, H);
+    s->samples = s->rgba + band * 4;
+    leap_march march = s->scene->march;
+    march.step = st->step;
+    int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
+    leap_frame_stats fs;
+    double t0 = leap__now_ms();
+    r = leap_renderer_render(s->renderer, &view, &march, st->mode, s->rgba, NULL, want_samples ? s->samples : NULL, &fs, err);
+    if (r) return r;
+    double t1 = leap__now_ms();
+    ff->render_ms = t1 - t0;
+    ff->raster_ms = fs.gpu_raster_ms;
+    ff->resolve_ms = fs.gpu_resolve_ms;
+    ff->composite_ms = fs.gpu_composite_ms;
+    ff->readback_ms = fs.readback_ms;
+    ff->samples = fs.total_samples;
+    ff->pixels = band;
+    ff->scale = scale;
+    leap_viewer_schedule_rendered(&s->schedule, p, st->mode, ff->render_ms, (double)band);
+    /* premultiplied colour over black = the RGB channels, as leap render writes PNGs */
+    const uint32_t *lists = st->show_heat && st->mode == LEAP_RENDER_SPARSELEAP ? leap_renderer_pixel_lists(s->renderer) : NULL;
+    int Y1 = (y0 + rows) * scale < H ? (y0 + rows) * scale : H;
+    for (int Y = y0 * scale; Y < Y1; ++Y) {
+        size_t row = (size_t)(Y / scale - y0) * w;
+        const float *src = s->rgba + row * 4;
+        uint8_t *dst = s->base8 + (size_t)Y * W * 3;
+        for (int X = 0; X < W; ++X) {
+            const float *px = src + (size_t)(X / scale) * 4;
+            dst[3 * X] = leap_viewer_to_u8(px[0]);
+            dst[3 * X + 1] = leap_viewer_to_u8(px[1]);
+            dst[3 * X + 2] = leap_viewer_to_u8(px[2]);
+        }
+        if (st->show_heat) {
+            float *hv = s->heat + (size_t)Y * W;
+            for (int X = 0; X < W; ++X) {
+                size_t si = row + (size_t)(X / scale);
+                if (lists) hv[X] = (lists[4 * si] & LEAP_PIXEL_OVERFLOW) ? -1.0f : (float)(lists[4 * si] & LEAP_PIXEL_COUNT_MASK);
+                else hv[X] = s->samples[si];
+            }
+        }
+    }
+    ff->compose_ms = leap__now_ms() - t1;
+    return LEAP_OK;
+}
+
+/* The presented image: the base image, or a copy with the overlays. */
+static leap_result compose_output(leap_viewer_session *s, const leap_viewer *st, frame_figures *ff, const uint8_t **out,
+                                  leap_error *err)
+{
+    double t0 = leap__now_ms();
+    const int W = s->width, H = s->height;
+    uint8_t *rgb = s->base8;
+    ff->heat[0] = '\0';
+    if (st->show_heat || st->show_boxes) {
+        memcpy(s->rgb8, s->base8, (size_t)W * H * 3);
+        rgb = s->rgb8;
+        if (st->show_heat && s->heat) leap_viewer_draw_heat(rgb, s->heat, W, H, st->mode, ff->heat, sizeof ff->heat);
+        if (st->show_boxes) {
+            leap_camera cam;
+            leap_rays full;
+            leap_result r = leap_viewer_camera(st, &cam, err);
+            if (!r) r = leap_scene_rays(s->scene, &cam, W, H, &full, err);
+            if (r) return r;
+            leap_error ignored;
+            (void)leap_viewer_draw_boxes(s->overlay, s->scene->boxes, s->tf_gen, &full, rgb, &ignored); /* no memory: no boxes */
+        }
+    }
+    *out = rgb;
+    ff->compose_ms += leap__now_ms() - t0;
+    return LEAP_OK;
+}
+
+/* Writes the presented frame as a PNG. */
+static leap_result save_presented(const leap_viewer_session *s, const uint8_t *rgb, const char *path, leap_error *err)
+{
+    size_t n = (size_t)s->width * s->height;
+    float *px = malloc(n * 3 * sizeof(float));
+    if (!px) return leap_fail(err, LEAP_ERR_OOM, "out of memory for a screenshot");
+    for (size_t i = 0; i < 3 * n; ++i) px[i] = rgb[i] / 255.0f;
+    leap_result r = leap_image_write(path, s->width, s->height, 3, NULL, px, err);
+    free(px);
+    return r;
+}
+
+static void make_title(const leap_viewer_session *s, const leap_viewer *st, const frame_figures *ff, char *out, size_t size)
+{
+    char res[64] = "";
+    if (ff->refining)
+        snprintf(res, sizeof res, " (refining%s: %.0f %%)", ff->scale > 1 ? " at reduced res" : "", 100.0 * ff->progress);
+    else if (ff->scale > 1)
+        snprintf(res, sizeof res, " (1/%d res)", ff->scale);
+    char tf_ms[48] = "";
+    if (s->tf_apply_ms > 0) snprintf(tf_ms, sizeof tf_ms, " | re-classify %.1f ms", s->tf_apply_ms);
+    snprintf(out, size,
+             "leap view %s | %s | %ux%u%s | %.1f ms (%.1f fps) | raster %.1f resolve %.1f composite %.1f "
+             "readback %.1f compose %.1f present %.1f ms | %u boxes | %.1f spp | step %g | %s [%g, %g]%s%s%s",
+             s->volume_name, leap_mode_name(st->mode), (unsigned)s->width, (unsigned)s->height, res, ff->total_ms,
+             ff->total_ms > 0 ? 1000.0 / ff->total_ms : 0.0, ff->raster_ms, ff->resolve_ms, ff->composite_ms, ff->readback_ms,
+             ff->compose_ms, ff->present_ms, leap_boxes_count(s->scene->boxes),
+             ff->pixels ? (double)ff->samples / (double)ff->pixels : 0.0, st->step, leap__base_name(st->tf), st->range[0],
+             st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat);
+}
+
+static void set_fatal(leap_viewer_session *s, leap_result code, const char *msg)
+{
+    pthread_mutex_lock(&s->mu);
+    if (!s->pub.fatal) {
+        s->pub.fatal = code ? code : LEAP_ERR_VULKAN;
+        snprintf(s->pub.fatal_msg, sizeof s->pub.fatal_msg, "%s", msg);
+    }
+    pthread_mutex_unlock(&s->mu);
+    session_wake();
+}
+
+/* Whether the render thread has work; *wake_at > 0: check again at that time. */
+static int frame_needed(leap_viewer_session *s, double now, double *wake_at)
+{
+    *wake_at = 0;
+    if (s->pub.fatal || s->fb_w <= 0 || s->fb_h <= 0) return 0;
+    if (s->fb_seq != s->applied_fb_seq || leap_presenter_stale(s->presenter)) return 1;
+    if (s->width <= 0 || s->height <= 0) return 0;
+    if (s->seq != s->pub.rendered_seq || s->force_frames > 0 || s->shot_req != s->pub.shot_done) return 1;
+    if (leap_viewer_schedule_pending(&s->schedule)) { /* refine once idle */
+        if (now >= s->moving_until) return 1;
+        *wake_at = s->moving_until;
+    }
+    return 0;
+}
+
+/* Waits (mutex held) until there is work or the session stops; returns 0 to stop. */
+static int wait_for_work(leap_viewer_session *s)
+{
+    double wake_at = 0;
+    while (!s->stop && !frame_needed(s, leap__now_ms(), &wake_at)) {
+        if (wake_at > 0) {
+            struct timespec ts;
+            clock_gettime(CLOCK_MONOTONIC, &ts);
+            double ms = wake_at - leap__now_ms();
+            if (ms < 0) ms = 0;
+            ts.tv_sec += (time_t)(ms / 1000);
+            ts.tv_nsec += (long)(fmod(ms, 1000.0) * 1e6);
+            if (ts.tv_nsec >= 1000000000L) {
+                ts.tv_sec += 1;
+                ts.tv_nsec -= 1000000000L;
+            }
+            pthread_cond_timedwait(&s->cv, &s->mu, &ts);
+        } else {
+            pthread_cond_wait(&s->cv, &s->mu);
+        }
+    }
+    return !s->stop;
+}
+
+/* Reports a screenshot written, with the `leap render` line that reproduces it. */
+static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char *path)
+{
+    char args[1024];
+    leap_viewer_render_args(st, args, sizeof args);
+    const char *overlays = st->show_boxes && st->show_heat ? " (overlays: boxes, heat map)"
+                           : st->show_boxes                ? " (overlay: boxes)"
+                           : st->show_heat                 ? " (overlay: heat map)"
+                                                           : "";
+    const char *grid = s->desc.grid;
+    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s --size %ux%u %s", path, overlays,
+                 s->desc.volume_path, grid ? " --grid " : "", grid ? grid : "", (unsigned)s->width, (unsigned)s->height,
+                 args);
+}
+
+void *session_render_thread(void *arg)
+{
+    leap_viewer_session *s = arg;
+    leap_error err = {{0}};
+    frame_figures pass; /* figures of the refinement pass under way */
+    memset(&pass, 0, sizeof pass);
+    for (;;) {
+        pthread_mutex_lock(&s->mu);
+        if (!wait_for_work(s)) {
+            pthread_mutex_unlock(&s->mu);
+            break;
+        }
+        leap_viewer st = s->posted;
+        uint64_t rendered_seq = s->pub.rendered_seq;
+        uint64_t seq = s->seq, fb_seq = s->fb_seq, shot_id = s->shot_req != s->pub.shot_done ? s->shot_req : 0;
+        int fb_w = s->fb_w, fb_h = s->fb_h;
+        /* moving: recent camera input, or a camera change this frame is the first to show */
+        int moving = leap__now_ms() < s->moving_until || s->camera_seq > s->pub.rendered_seq;
+        int forced = s->force_frames > 0;
+        char shot_path[1024];
+        snprintf(shot_path, sizeof shot_path, "%s", s->shot_path);
+        int script_mode = s->script_mode;
+        pthread_mutex_unlock(&s->mu);
+
+        double t0 = leap__now_ms();
+        int is_new = seq != rendered_seq;
+        if (fb_seq != s->applied_fb_seq || leap_presenter_stale(s->presenter)) {
+            s->applied_fb_seq = fb_seq;
+            leap_result r = leap_presenter_resize(s->presenter, fb_w, fb_h, &err);
+            if (r) {
+                set_fatal(s, r, err.msg);
+                break;
+            }
+            leap_presenter_size(s->presenter, &s->width, &s->height);
+            if (!s->device_announced && s->width > 0 && !s->desc.quiet)
+                session_note(s, LEAP_VIEWER_NOTE_STATUS, "%s on %s, %dx%d %s swapchain, %s", s->desc.volume_path,
+                             leap_renderer_device_name(s->renderer), s->width, s->height,
+                             leap_presenter_format_name(s->presenter), leap_presenter_mode_name(s->presenter));
+            if (s->width > 0) s->device_announced = 1;
+            leap_viewer_schedule_restart(&s->schedule);
+            is_new = 1;
+            if (s->width <= 0 || s->height <= 0) continue;
+        }
+        s->tf_apply_ms = 0;
+        leap_result tr = apply_tf(s, &st, &err);
+        if (tr) {
+            char msg[1100];
+            snprintf(msg, sizeof msg, "transfer function '%s': %s", st.tf, err.msg);
+            if (script_mode) {
+                set_fatal(s, tr, msg);
+                break;
+            }
+            session_note(s, LEAP_VIEWER_NOTE_STATUS, "%s", msg);
+        }
+        const int W = s->width, H = s->height;
+        unsigned flags = (moving ? LEAP_VIEWER_FRAME_MOVING : 0) | (is_new ? LEAP_VIEWER_FRAME_NEW : 0) |
+                         (forced ? LEAP_VIEWER_FRAME_FORCED : 0) | (shot_id ? LEAP_VIEWER_FRAME_SCREENSHOT : 0);
+        leap_viewer_frame_plan plan = leap_viewer_schedule_plan(&s->schedule, st.mode, W, H, flags);
+        if (plan.new_pass) memset(&pass, 0, sizeof pass);
+        frame_figures ff;
+        memset(&ff, 0, sizeof ff);
+        const uint8_t *shown_rgb = NULL;
+        leap_result r = render_rows(s, &st, &plan, &ff, &err);
+        if (!r) r = compose_output(s, &st, &ff, &shown_rgb, &err);
+        if (r) {
+            set_fatal(s, r, err.msg);
+            break;
+        }
+        double t1 = leap__now_ms();
+        int shown = 0;
+        if ((r = leap_presenter_present(s->presenter, shown_rgb, W, H, &shown, &err))) {
+            set_fatal(s, r, err.msg);
+            break;
+        }
+        double t2 = leap__now_ms();
+        ff.present_ms = t2 - t1;
+        ff.total_ms = t2 - t0;
+        if (!shown) continue; /* recreate the swapchain and render again */
+        double frame_render_ms = ff.render_ms, frame_total_ms = ff.total_ms;
+        double progress = 1.0;
+        int refining = leap_viewer_schedule_presented(&s->schedule, &plan, st.mode, ff.render_ms, (double)ff.pixels, &progress);
+        int full_image = !refining && plan.scale == 1;
+        if (!plan.whole) {
+            figures_add(&pass, &ff);
+            pass.refining = refining;
+            pass.progress = progress;
+            ff = pass;
+        }
+        int shot_failed = 0;
+        if (shot_id) {
+            if (save_presented(s, shown_rgb, shot_path, &err)) {
+                session_note(s, LEAP_VIEWER_NOTE_STATUS, "screenshot: %s", err.msg);
+                shot_failed = 1;
+            } else if (!s->desc.quiet) {
+                note_shot(s, &st, shot_path);
+            }
+        }
+        char title[1024];
+        make_title(s, &st, &ff, title, sizeof title);
+        pthread_mutex_lock(&s->mu);
+        session_published *p = &s->pub;
+        p->rendered_seq = seq;
+        /* After a reduced frame of a moving camera, give the user the idle time to see it and
+         * move on before refining starts (a slow reduced frame must not let a refine slip in). */
+        if (plan.scale > 1 && moving) s->moving_until = fmax(s->moving_until, leap__now_ms() + LEAP_VIEWER_IDLE_MS);
+        p->frames++;
+        p->frames_full += full_image;
+        p->frame_ms_sum += frame_total_ms;
+        p->render_ms_sum += frame_render_ms;
+        p->width = W;
+        p->height = H;
+        if (plan.whole && forced && s->force_frames > 0) {
+            s->force_frames--;
+            p->forced_done++;
+        }
+        if (shot_id) {
+            p->shot_done = shot_id;
+            p->shot_failed |= shot_failed;
+        }
+        snprintf(p->title, sizeof p->title, "%s", title);
+        p->title_new = 1;
+        pthread_mutex_unlock(&s->mu);
+        session_wake();
+    }
+    return NULL;
+}

@@ -1,0 +1,118 @@
+/* Private to src/viewer: the interactive session's shared state, what the main thread
+ * (window, events, script) and the render thread (renderer, presenter) exchange, and the
+ * helpers the folder's files share. */
+#ifndef LEAP_VIEWER_SESSION_H
+#define LEAP_VIEWER_SESSION_H
+
+#include <pthread.h>
+#include <stdint.h>
+
+#include "leap/present.h"
+#include "leap/viewer.h"
+
+struct GLFWwindow;
+
+/* Index of a transfer-function preset in the cycle list, -1 if name is none (viewer.c). */
+int viewer_preset_index(const char *name);
+
+/* Everything the render thread publishes for the main thread (under the mutex). */
+typedef struct session_published {
+    uint64_t rendered_seq;     /* state version of the last presented frame */
+    uint64_t frames, frames_full, forced_done;
+    double frame_ms_sum, render_ms_sum;
+    int width, height;         /* swapchain extent of the last presented frame */
+    char title[1024];
+    int title_new;
+    uint64_t shot_done;
+    int shot_failed;
+    leap_result fatal;         /* the render thread's failure (LEAP_OK: none) */
+    char fatal_msg[1100];
+} session_published;
+
+struct leap_viewer_session {
+    leap_viewer_session_desc desc;
+    const char *volume_name;
+    int glfw_started;
+    leap_scene *scene;
+    leap_renderer *renderer;
+    struct GLFWwindow *window;
+    leap_presenter *presenter;
+
+    /* render thread: frame buffers, overlays, schedule and applied look */
+    float *rgba, *samples;
+    size_t rgba_cap;
+    uint8_t *rgb8, *base8;     /* presented image / the same without overlays */
+    size_t rgb8_cap, base8_cap;
+    float *heat;               /* heat-map values at full resolution (-1: overflowed) */
+    size_t heat_cap;
+    int width, height;         /* the swapchain's extent (0: no area) */
+    leap_viewer_overlay *overlay;
+    leap_viewer_schedule schedule;
+    unsigned tf_gen;
+    char applied_tf[512];
+    double applied_range[2];
+    double tf_apply_ms;
+    uint64_t applied_fb_seq;
+    int device_announced;      /* the device line went out with the first swapchain */
+
+    /* shared (mutex) */
+    pthread_t thread;
+    int thread_started;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    leap_viewer posted;
+    uint64_t seq;
+    uint64_t camera_seq;       /* state version of the last camera change */
+    double moving_until;
+    int fb_w, fb_h;
+    uint64_t fb_seq;
+    unsigned force_frames;
+    char shot_path[1024];
+    uint64_t shot_req;
+    int stop;
+    int script_mode;
+    session_published pub;
+
+    /* main thread */
+    leap_viewer v;
+    unsigned bits;
+    double cursor_scale_x, cursor_scale_y;
+    unsigned shot_counter;
+};
+
+/* Reports a line through the session's note callback (printf-style). */
+void session_note(leap_viewer_session *s, leap_viewer_note kind, const char *fmt, ...)
+    __attribute__((format(printf, 3, 4)));
+
+/* Render thread (frame.c). */
+void *session_render_thread(void *arg);
+
+/* Main thread (session.c): publish the edited state to the render thread, queue a
+ * screenshot (its id; 0 if one is pending), resize the window, wake the event loop. */
+void session_post_state(leap_viewer_session *s);
+uint64_t session_request_shot(leap_viewer_session *s, const char *path);
+void session_handle_bits(leap_viewer_session *s);
+void session_resize_window(leap_viewer_session *s, int width, int height);
+void session_wake(void);
+
+/* Script runner (script_run.c). */
+typedef struct script_run {
+    const leap_viewer_script *script;
+    size_t pc;
+    int rep_done;           /* repetitions of the current command done */
+    int waiting;            /* 0 none, 1 frame of seq, 2 forced frames, 3 shot, 4 time, 5 resize */
+    uint64_t wait_value;
+    double wait_until;
+    int wait_w, wait_h;
+    const leap_viewer_cmd *wait_cmd;
+    double mark_ms;
+    uint64_t mark_frames, mark_full;
+    double mark_frame_ms, mark_render_ms;
+} script_run;
+
+void script_mark(leap_viewer_session *s, script_run *run, const char *label);
+/* Runs script commands until one has to wait. Returns 0 to continue, 1 when the script has
+ * ended, -1 when a screenshot failed (reported already). */
+int script_step(leap_viewer_session *s, script_run *run);
+
+#endif
