@@ -33,6 +33,10 @@
 #include "leap/vdb.h"
 #include "shared.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct leap_occupancy_desc {
     const leap_brick *bricks; /* from leap_grid_bricks */
     size_t brick_count;
@@ -163,4 +167,7 @@ typedef struct leap_segment {
 size_t leap_resolve_events(leap_event *events, size_t count, uint32_t outside, leap_segment *out,
                            size_t cap);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

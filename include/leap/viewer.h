@@ -49,6 +49,10 @@
 #include "leap/error.h"
 #include "leap/renderer.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Keys that are not characters (characters arrive as Unicode code points). */
 enum {
     LEAP_VIEWER_KEY_NONE = 0,
@@ -221,4 +225,7 @@ void leap_viewer_script_free(leap_viewer_script *s); /* accepts a zeroed script 
  * layer's (screenshot and quit still set the request bits and counters here). */
 unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *cmd);
 
+#ifdef __cplusplus
+}
+#endif
 #endif
