@@ -21,7 +21,7 @@ typedef struct scene {
     double center[3], radius;
 } scene;
 
-static int scene_load(scene *s, const char *path, const char *grid_name, const char *tf, double step)
+static inline int scene_load(scene *s, const char *path, const char *grid_name, const char *tf, double step)
 {
     memset(s, 0, sizeof *s);
     leap_error err = {{0}};
@@ -52,7 +52,7 @@ static int scene_load(scene *s, const char *path, const char *grid_name, const c
     return 1;
 }
 
-static void scene_free(scene *s)
+static inline void scene_free(scene *s)
 {
     leap_atlas_destroy(s->atlas);
     leap_grid_destroy(s->grid);
