@@ -6,8 +6,15 @@
 #include <math.h>
 #include <stdio.h>
 
+#ifdef LEAP_CHECK_SHARED
+/* A test program of several translation units (the hard cases): one of them defines the
+ * counters (int check_failures, check_count;), every CHECK in any of them counts there. */
+extern int check_failures;
+extern int check_count;
+#else
 static int check_failures = 0;
 static int check_count = 0;
+#endif
 
 #define CHECK(cond)                                                                        \
     do {                                                                                   \

@@ -1,5 +1,6 @@
-/* Shared set-up for the GPU tests: load a shipped volume, build its atlas, frame a camera,
- * render with the GPU and with the CPU reference, compare images. */
+/* Shared set-up for the GPU tests: a renderer, image comparison. Scenes (grid, atlas, TF,
+ * occupancy) come from the library's leap_scene_create and are bound with
+ * leap_renderer_bind_scene. */
 #ifndef LEAP_TEST_GPU_FIXTURE_H
 #define LEAP_TEST_GPU_FIXTURE_H
 
@@ -11,53 +12,6 @@
 #include "leap/atlas.h"
 #include "leap/reference.h"
 #include "leap/renderer.h"
-
-typedef struct scene {
-    leap_grid *grid;
-    const leap_grid_info *info;
-    leap_atlas *atlas;
-    leap_tf tf;
-    leap_march march;
-    double center[3], radius;
-} scene;
-
-static int scene_load(scene *s, const char *path, const char *grid_name, const char *tf, double step)
-{
-    memset(s, 0, sizeof *s);
-    leap_error err = {{0}};
-    leap_vdb_file *file = NULL;
-    if (leap_vdb_open(path, &file, &err)) {
-        fprintf(stderr, "cannot open %s: %s\n", path, err.msg);
-        return 0;
-    }
-    int index = leap_vdb_find_grid(file, grid_name);
-    leap_result r = index < 0 ? LEAP_ERR_FORMAT : leap_vdb_load_grid(file, index, &s->grid, &err);
-    leap_vdb_close(file);
-    if (r) {
-        fprintf(stderr, "cannot load %s: %s\n", path, err.msg);
-        return 0;
-    }
-    s->info = leap_grid_get_info(s->grid);
-    s->march.step = step;
-    s->march.range_lo = s->info->value_min;
-    s->march.range_hi = s->info->value_max;
-    int labels = (int)(s->march.range_hi - s->march.range_lo + 1);
-    leap_atlas_desc ad = {.grid = s->grid};
-    if (leap_tf_preset(tf, labels, &s->tf, &err) || leap_atlas_create(&ad, &s->atlas, &err)) {
-        fprintf(stderr, "%s: %s\n", path, err.msg);
-        return 0;
-    }
-    leap_atlas_march_domain(s->atlas, &s->march);
-    leap_camera_bounds(s->info->index_to_world, s->info->bbox_min, s->info->bbox_max, s->center, &s->radius);
-    return 1;
-}
-
-static void scene_free(scene *s)
-{
-    leap_atlas_destroy(s->atlas);
-    leap_grid_destroy(s->grid);
-    memset(s, 0, sizeof *s);
-}
 
 typedef struct image_diff {
     double rmse, max_abs;

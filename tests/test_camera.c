@@ -1,6 +1,7 @@
 /* Cameras: orbit framing, ray parameterisation, index-space conversion and errors. */
 #include "check.h"
 #include "leap/camera.h"
+#include "util.h" /* leap__invert3 */
 
 #include <math.h>
 #include <string.h>
@@ -36,20 +37,16 @@ static double dist3(const double a[3], const double b[3])
     return sqrt(dot(d, d));
 }
 
-/* Solves [c0 c1 c2] x = b (columns) by Cramer's rule; returns 0 if singular. */
+/* Solves [c0 c1 c2] x = b (columns) with the library's inverse; returns 0 if singular. */
 static int solve3(const double c0[3], const double c1[3], const double c2[3], const double b[3],
                   double x[3])
 {
-    double t[3];
-    cross(c1, c2, t);
-    const double det = dot(c0, t);
-    if (fabs(det) < 1e-300)
+    const double m[3][3] = {{c0[0], c1[0], c2[0]}, {c0[1], c1[1], c2[1]}, {c0[2], c1[2], c2[2]}};
+    double inv[3][3];
+    if (!leap__invert3(m, inv))
         return 0;
-    x[0] = dot(b, t) / det;
-    cross(c2, c0, t);
-    x[1] = dot(b, t) / det;
-    cross(c0, c1, t);
-    x[2] = dot(b, t) / det;
+    for (int r = 0; r < 3; ++r)
+        x[r] = inv[r][0] * b[0] + inv[r][1] * b[1] + inv[r][2] * b[2];
     return 1;
 }
 

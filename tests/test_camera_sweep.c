@@ -423,9 +423,7 @@ static void run_case(leap_renderer *rend, const sweep_case *sc, int count, rng *
         fog_tf(&tf);
         CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
     }
-    CHECK_OK(leap_renderer_set_volume(rend, s->atlas, &err), &err);
-    CHECK_OK(leap_renderer_set_tf(rend, &s->tf, &err), &err);
-    leap_renderer_set_occupancy(rend, s->occupancy, s->boxes);
+    CHECK_OK(leap_renderer_bind_scene(rend, s, &err), &err);
 
     geo g = {.s = s};
     for (int i = 0; i < 3; ++i) {

@@ -2,8 +2,10 @@
  * shipped volume, five kinds of camera and three transfer functions (one with opacity at the
  * background value), with exact boxes and with the cost-model cut (including cuts that leave
  * a single box, marched as its chord); per-pixel list overflow still gives the naive image
- * and is counted. */
+ * and is counted. Scenes come from leap_scene_create (grid, atlas, occupancy, boxes as the CLI
+ * builds them) and are bound with leap_renderer_bind_scene; only the exact boxes are built here. */
 #include "gpu_fixture.h"
+#include "leap/scene.h"
 
 #define W 64
 #define H 64
@@ -19,7 +21,7 @@ static const vol_case volumes[] = {
 };
 
 /* A world point at the centre of a leaf brick with the largest value (inside non-empty data). */
-static void nonempty_point(const scene *s, double world[3])
+static void nonempty_point(const leap_scene *s, double world[3])
 {
     size_t n = leap_grid_brick_count(s->grid);
     leap_brick *b = malloc(n * sizeof *b);
@@ -36,7 +38,7 @@ static void nonempty_point(const scene *s, double world[3])
     free(b);
 }
 
-static int camera(const scene *s, int which, leap_camera *cam)
+static int camera(const leap_scene *s, int which, leap_camera *cam)
 {
     leap_error err;
     *cam = (leap_camera){.fov_deg = 60, .up = {0, 1, 0}};
@@ -71,6 +73,17 @@ static void fog_tf(leap_tf *tf)
     snprintf(tf->name, sizeof tf->name, "fog");
 }
 
+static leap_scene *load_scene(const char *file, const char *grid, const char *tf, int exact_boxes)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, file);
+    leap_error err = {{0}};
+    leap_scene_desc d = {.path = path, .grid = grid, .tf = tf, .step = 0.5, .exact_boxes = exact_boxes};
+    leap_scene *s = NULL;
+    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    return s;
+}
+
 int main(void)
 {
     leap_renderer *renderer = make_renderer();
@@ -80,52 +93,39 @@ int main(void)
     float *naive = malloc(W * H * 4 * sizeof(float)), *img = malloc(W * H * 4 * sizeof(float));
     int single_box_frames = 0; /* sparseleap frames whose cut left one box (marched as its chord) */
     for (size_t v = 0; v < sizeof volumes / sizeof volumes[0]; ++v) {
-        char path[1024];
-        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
-        scene s;
-        int ok = scene_load(&s, path, volumes[v].grid, strcmp(volumes[v].file, "labels.vdb") ? "viridis" : "labels", 0.5);
-        CHECK_MSG(ok, "%s", path);
-        if (!ok) continue;
-        CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
+        leap_scene *s = load_scene(volumes[v].file, volumes[v].grid,
+                                   strcmp(volumes[v].file, "labels.vdb") ? "viridis" : "labels", 0);
+        CHECK_MSG(s != NULL, "%s", volumes[v].file);
+        if (!s) continue;
+        const leap_tf scene_tf = s->tf;
         for (int tfi = 0; tfi < 3; ++tfi) {
-            leap_tf tf = s.tf;
+            leap_tf tf = scene_tf;
             if (tfi == 1) fog_tf(&tf);
             /* grey: opacity ramps from exactly 0 at the bottom of the range, where background
              * values are clamped: exercises the clamped end of the classification. */
             if (tfi == 2) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
-            leap_occupancy *occ = NULL;
-            leap_boxes *boxes = NULL;
-            size_t nb = leap_grid_brick_count(s.grid);
-            leap_brick *bricks = malloc(nb * sizeof *bricks);
-            CHECK_OK(leap_grid_bricks(s.grid, bricks, &err), &err);
-            leap_occupancy_desc od = {.bricks = bricks, .brick_count = nb, .background = (float)s.info->background,
-                                      .value_min = s.atlas->value_min, .value_max = s.atlas->value_max};
-            for (int i = 0; i < 3; ++i) od.origin[i] = s.atlas->origin[i], od.cells[i] = s.atlas->cells[i];
-            CHECK_OK(leap_occupancy_create(&od, &occ, &err), &err);
-            free(bricks);
-            if (!occ) continue;
-            CHECK_OK(leap_occupancy_classify(occ, &tf, s.march.range_lo, s.march.range_hi, &err), &err);
-            CHECK_OK(leap_renderer_set_tf(renderer, &tf, &err), &err);
-            /* Exact class-change boxes, then the cost-model cut for the step (the default). */
+            /* re-classifies the scene's occupancy and rebuilds its (cost-model cut) boxes */
+            CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
+            /* Exact class-change boxes, then the cost-model cut for the step (the scene's own). */
+            leap_boxes *exact = NULL;
+            CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = s->occupancy, .merge_siblings = 1, .step = 0},
+                                       &exact, &err), &err);
             for (int cut = 0; cut < 2; ++cut) {
-            leap_boxes_destroy(boxes);
-            boxes = NULL;
-            CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1, .step = cut ? s.march.step : 0},
-                                       &boxes, &err), &err);
-            leap_renderer_set_occupancy(renderer, occ, boxes);
+            CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+            if (!cut) leap_renderer_set_occupancy(renderer, s->occupancy, exact);
             for (int c = 0; c < 5; ++c) {
                 leap_camera cam;
-                CHECK(camera(&s, c, &cam));
+                CHECK(camera(s, c, &cam));
                 leap_rays view;
-                CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+                CHECK_OK(leap_scene_rays(s, &cam, W, H, &view, &err), &err);
                 leap_frame_stats ns, st;
-                CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err),
+                CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err),
                          &err);
                 double alpha = 0;
                 for (int i = 0; i < W * H; ++i) alpha += naive[4 * i + 3];
                 CHECK_MSG(alpha > 0.5, "%s %s: naive image is empty", volumes[v].file, camera_names[c]);
                 for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
-                    CHECK_OK(leap_renderer_render(renderer, &view, &s.march, (leap_mode)m, img, NULL, NULL, &st, &err),
+                    CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, img, NULL, NULL, &st, &err),
                              &err);
                     image_diff d = compare_rgba(img, naive, W * H);
                     printf("%-12s %-4s %-5s %-22s %-10s max %.2e samples %6.1f%% of naive, boxes %u%s, events/px %.1f, "
@@ -143,53 +143,34 @@ int main(void)
             }
             }
             leap_renderer_set_occupancy(renderer, NULL, NULL);
-            leap_boxes_destroy(boxes);
-            leap_occupancy_destroy(occ);
+            leap_boxes_destroy(exact);
         }
-        scene_free(&s);
+        leap_scene_destroy(s);
     }
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");
 
-    /* Overflow: one segment and four events per pixel; images still equal naive. */
+    /* Overflow: one segment and four events per pixel, exact boxes; images still equal naive. */
     leap_renderer_desc tiny = {.pixel_events = 4, .max_segments = 1};
     leap_renderer *r2 = NULL;
     CHECK_OK(leap_renderer_create(&tiny, &r2, &err), &err);
-    char path[1024];
-    snprintf(path, sizeof path, "%s/blobs.vdb", LEAP_VOLUMES);
-    scene s;
-    if (r2 && scene_load(&s, path, NULL, "viridis", 0.5)) {
-        size_t nb = leap_grid_brick_count(s.grid);
-        leap_brick *bricks = malloc(nb * sizeof *bricks);
-        leap_grid_bricks(s.grid, bricks, &err);
-        leap_occupancy_desc od = {.bricks = bricks, .brick_count = nb, .background = (float)s.info->background,
-                                  .value_min = s.atlas->value_min, .value_max = s.atlas->value_max};
-        for (int i = 0; i < 3; ++i) od.origin[i] = s.atlas->origin[i], od.cells[i] = s.atlas->cells[i];
-        leap_occupancy *occ = NULL;
-        leap_boxes *boxes = NULL;
-        CHECK_OK(leap_occupancy_create(&od, &occ, &err), &err);
-        free(bricks);
-        CHECK_OK(leap_occupancy_classify(occ, &s.tf, s.march.range_lo, s.march.range_hi, &err), &err);
-        CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1}, &boxes, &err), &err);
-        CHECK_OK(leap_renderer_set_volume(r2, s.atlas, &err), &err);
-        CHECK_OK(leap_renderer_set_tf(r2, &s.tf, &err), &err);
-        leap_renderer_set_occupancy(r2, occ, boxes);
+    leap_scene *s = r2 ? load_scene("blobs.vdb", NULL, "viridis", 1) : NULL;
+    if (s) {
+        CHECK_OK(leap_renderer_bind_scene(r2, s, &err), &err);
         leap_camera cam;
-        camera(&s, 0, &cam);
+        camera(s, 0, &cam);
         leap_rays view;
-        CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+        CHECK_OK(leap_scene_rays(s, &cam, W, H, &view, &err), &err);
         leap_frame_stats st;
-        CHECK_OK(leap_renderer_render(r2, &view, &s.march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
-        CHECK_OK(leap_renderer_render(r2, &view, &s.march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err), &err);
+        CHECK_OK(leap_renderer_render(r2, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
+        CHECK_OK(leap_renderer_render(r2, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err), &err);
         image_diff d = compare_rgba(img, naive, W * H);
         printf("overflow: %u of %d pixels overflowed, max abs %.2e\n", st.overflow_pixels, W * H, d.max_abs);
         CHECK(st.overflow_pixels > 0);
         CHECK(d.max_abs <= TOL);
         leap_renderer_set_occupancy(r2, NULL, NULL);
-        leap_boxes_destroy(boxes);
-        leap_occupancy_destroy(occ);
-        scene_free(&s);
+        leap_scene_destroy(s);
     }
     leap_renderer_destroy(r2);
     free(naive);

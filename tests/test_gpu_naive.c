@@ -27,6 +27,7 @@
  * rounding above (the layouts put a sample at different atlas coordinates); a missing apron
  * or a wrong slot would differ by the value range. */
 #include "gpu_fixture.h"
+#include "leap/scene.h"
 #include "test_random.h"
 
 #include <sys/stat.h>
@@ -68,7 +69,7 @@ static const vol_case volumes[] = {
     {"rotated.vdb", "temperature", "grey"},
 };
 
-static int make_camera(const scene *s, const cam_case *c, leap_camera *cam)
+static int make_camera(const leap_scene *s, const cam_case *c, leap_camera *cam)
 {
     leap_error err = {{0}};
     if (c->inside) {
@@ -80,6 +81,16 @@ static int make_camera(const scene *s, const cam_case *c, leap_camera *cam)
         return 1;
     }
     return leap_camera_orbit(s->center, s->radius, c->az, c->el, c->dist, 40, c->ortho, cam, &err) == LEAP_OK;
+}
+
+/* A scene as the CLI loads it (grid, atlas, TF preset, occupancy), range = the grid's values. */
+static leap_scene *load_scene(const char *path, const char *grid, const char *tf, double step)
+{
+    leap_error err = {{0}};
+    leap_scene_desc d = {.path = path, .grid = grid, .tf = tf, .step = step};
+    leap_scene *s = NULL;
+    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    return s;
 }
 
 /* A 4096^3 bounding box with leaves scattered at random: so many page blocks hold data that
@@ -113,35 +124,33 @@ static void scattered_box(leap_renderer *renderer)
     CHECK_OK(leap_vdb_writer_save(w, path, &err), &err);
     leap_vdb_writer_destroy(w);
 
-    scene s;
     double t0 = now_ms();
-    int loaded = scene_load(&s, path, NULL, "viridis", 2.0);
-    CHECK_MSG(loaded, "%s", path);
-    if (!loaded) return;
+    leap_scene *s = load_scene(path, NULL, "viridis", 2.0);
+    CHECK_MSG(s != NULL, "%s", path);
+    if (!s) return;
     const double dense = (double)edge * edge * edge * 2;
-    const uint64_t bytes = leap_atlas_gpu_bytes(s.atlas);
+    const uint64_t bytes = leap_atlas_gpu_bytes(s->atlas);
     printf("scattered %d^3, %d leaves (%.4f %% active): page blocks of %u^3 cells, %u slots, GPU %.1f MB "
            "(dense %.0f GB), load + atlas %.0f ms\n",
-           edge, leaves, 100.0 * leaves * 512 / ((double)edge * edge * edge), 1u << s.atlas->block_shift,
-           s.atlas->slot_count, bytes / 1e6, dense / 1e9, now_ms() - t0);
-    CHECK_MSG(s.atlas->block_shift < LEAP_BLOCK_SHIFT_MAX, "page blocks of %u^3 cells: the case does not test the fallback",
-              1u << s.atlas->block_shift);
+           edge, leaves, 100.0 * leaves * 512 / ((double)edge * edge * edge), 1u << s->atlas->block_shift,
+           s->atlas->slot_count, bytes / 1e6, dense / 1e9, now_ms() - t0);
+    CHECK_MSG(s->atlas->block_shift < LEAP_BLOCK_SHIFT_MAX, "page blocks of %u^3 cells: the case does not test the fallback",
+              1u << s->atlas->block_shift);
     /* An isolated leaf takes up to 8 slots (its cell and the 7 cells whose apron reaches into
      * it): ~24 bytes per active voxel at 0.1 % active, 1.2 % of the dense box. */
     CHECK_MSG(bytes < dense / 50, "GPU bytes %llu for a %d^3 box", (unsigned long long)bytes, edge);
-    CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
-    CHECK_OK(leap_renderer_set_tf(renderer, &s.tf, &err), &err);
+    CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
     const char *format = leap_renderer_atlas_format(renderer);
     CHECK(format && strcmp(format, "R16_UNORM") == 0);
     CHECK(leap_renderer_volume_bytes(renderer) == bytes);
     enum { SW = 48, SH = 48 };
     float *gpu = malloc(SW * SH * 4 * sizeof(float)), *ref = malloc(SW * SH * 4 * sizeof(float));
     leap_camera cam;
-    CHECK_OK(leap_camera_orbit(s.center, s.radius, 30, 20, 0, 40, 0, &cam, &err), &err);
+    CHECK_OK(leap_camera_orbit(s->center, s->radius, 30, 20, 0, 40, 0, &cam, &err), &err);
     leap_rays view;
-    CHECK_OK(leap_rays_make(&cam, SW, SH, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
-    CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
-    leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .rays = &view, .march = &s.march};
+    CHECK_OK(leap_rays_make(&cam, SW, SH, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
+    CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
+    leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
     CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
     image_diff d = compare_rgba(gpu, ref, SW * SH);
     double alpha_sum = 0;
@@ -151,7 +160,8 @@ static void scattered_box(leap_renderer *renderer)
     CHECK_MSG(alpha_sum > 2.0, "scattered: reference image is empty");
     free(gpu);
     free(ref);
-    scene_free(&s);
+    leap_renderer_set_occupancy(renderer, NULL, NULL);
+    leap_scene_destroy(s);
 }
 
 int main(void)
@@ -166,31 +176,29 @@ int main(void)
     for (size_t v = 0; v < sizeof volumes / sizeof volumes[0]; ++v) {
         char path[1024];
         snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
-        scene s;
-        int loaded = scene_load(&s, path, volumes[v].grid, volumes[v].tf, 0.5);
-        CHECK_MSG(loaded, "%s", path);
-        if (!loaded) continue;
-        CHECK_OK(leap_renderer_set_volume(renderer, s.atlas, &err), &err);
-        CHECK_OK(leap_renderer_set_tf(renderer, &s.tf, &err), &err);
+        leap_scene *s = load_scene(path, volumes[v].grid, volumes[v].tf, 0.5);
+        CHECK_MSG(s != NULL, "%s", path);
+        if (!s) continue;
+        CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
         const char *format = leap_renderer_atlas_format(renderer);
         CHECK(format && strcmp(format, "R32_SFLOAT") == 0); /* small atlases: float (default) */
         for (size_t c = 0; c < sizeof cameras / sizeof cameras[0]; ++c) {
             leap_camera cam;
-            CHECK(make_camera(&s, &cameras[c], &cam));
+            CHECK(make_camera(s, &cameras[c], &cam));
             leap_rays view;
-            CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
+            CHECK_OK(leap_rays_make(&cam, W, H, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
             leap_frame_stats st;
-            CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, gpu_samples, &st, &err),
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, gpu_samples, &st, &err),
                      &err);
-            leap_reference_desc rd = {.grid = s.grid, .tf = &s.tf, .rays = &view, .march = &s.march};
+            leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
             CHECK_OK(leap_reference_render(&rd, ref, NULL, ref_samples, &err), &err);
             image_diff d = compare_rgba(gpu, ref, W * H);
             double alpha_sum = 0;
             for (int i = 0; i < W * H; ++i) alpha_sum += ref[4 * i + 3];
             printf("%-12s %-12s %-40s rmse %.2e max %.2e mean alpha %.3f spp %.1f, opacity corrected %s\n",
-                   volumes[v].file, s.info->name, cameras[c].name, d.rmse, d.max_abs, alpha_sum / (W * H),
+                   volumes[v].file, s->info->name, cameras[c].name, d.rmse, d.max_abs, alpha_sum / (W * H),
                    st.samples_mean, st.tf_precorrected ? "in the table" : "per sample");
-            CHECK(st.tf_precorrected == leap_tf_precorrect_ok(&s.tf, s.march.step));
+            CHECK(st.tf_precorrected == leap_tf_precorrect_ok(&s->tf, s->march.step));
             CHECK_MSG(d.nonfinite == 0, "%s %s: %zu non-finite values", volumes[v].file, cameras[c].name, d.nonfinite);
             int steep = strcmp(volumes[v].tf, "labels") == 0;
             CHECK_MSG(d.rmse <= (steep ? 1e-3 : 2e-4), "%s %s: rmse %g", volumes[v].file, cameras[c].name, d.rmse);
@@ -203,26 +211,27 @@ int main(void)
 
         /* Bricking independence: every cell in its own slot, slots shuffled. */
         leap_atlas *dense = NULL;
-        leap_atlas_desc ad = {.grid = s.grid, .dense = 1, .shuffle_seed = 12345};
+        leap_atlas_desc ad = {.grid = s->grid, .dense = 1, .shuffle_seed = 12345};
         CHECK_OK(leap_atlas_create(&ad, &dense, &err), &err);
         if (dense) {
-            CHECK(dense->slot_count > s.atlas->slot_count);
+            CHECK(dense->slot_count > s->atlas->slot_count);
             leap_camera cam;
-            make_camera(&s, &cameras[0], &cam);
+            make_camera(s, &cameras[0], &cam);
             leap_rays view;
-            CHECK_OK(leap_rays_make(&cam, W, H, s.info->index_to_world, s.march.index_origin, &view, &err), &err);
-            CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, ref, NULL, NULL, NULL, &err), &err);
+            CHECK_OK(leap_rays_make(&cam, W, H, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, ref, NULL, NULL, NULL, &err), &err);
             CHECK_OK(leap_renderer_set_volume(renderer, dense, &err), &err);
-            CHECK_OK(leap_renderer_render(renderer, &view, &s.march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
             image_diff d = compare_rgba(gpu, ref, W * H);
-            printf("%-12s %-12s bricking: %u vs %u slots, rmse %.2e max abs %.2e\n", volumes[v].file, s.info->name,
-                   s.atlas->slot_count, dense->slot_count, d.rmse, d.max_abs);
+            printf("%-12s %-12s bricking: %u vs %u slots, rmse %.2e max abs %.2e\n", volumes[v].file, s->info->name,
+                   s->atlas->slot_count, dense->slot_count, d.rmse, d.max_abs);
             int steep = strcmp(volumes[v].tf, "labels") == 0;
             CHECK_MSG(d.rmse <= (steep ? 1e-3 : 2e-4) && d.max_abs <= (steep ? 0.05 : 5e-3),
                       "%s: image depends on the brick layout (rmse %g, max abs %g)", volumes[v].file, d.rmse, d.max_abs);
             leap_atlas_destroy(dense);
         }
-        scene_free(&s);
+        leap_renderer_set_occupancy(renderer, NULL, NULL);
+        leap_scene_destroy(s);
     }
     free(gpu);
     free(ref);

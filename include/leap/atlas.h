@@ -13,6 +13,10 @@
 #include "leap/march.h"
 #include "leap/vdb.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct leap_atlas_desc {
     const leap_grid *grid;
     int dense;            /* 1 = every cell next to data gets a slot, even where its footprint
@@ -54,4 +58,7 @@ void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);
  * texels as 32-bit float: leap_renderer_volume_bytes.) */
 uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

@@ -3,6 +3,13 @@
 #ifndef LEAP_CLI_H
 #define LEAP_CLI_H
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 int leap_cli_main(int argc, char **argv);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

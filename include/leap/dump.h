@@ -19,6 +19,10 @@
 #include "leap/renderer.h"
 #include "leap/scene.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 #define LEAP_DUMP_NO_BOX 0xFFFFFFFFu /* an event whose order matches no box of the frame */
 
 /* One box of a frame's view order, with its tree facts. lo/hi: index space relative to the
@@ -223,4 +227,7 @@ leap_result leap_dump_write_mtl(const char *path, leap_error *err);
 leap_result leap_dump_write_ply(const char *path, const leap_dump_box *boxes, uint32_t count,
                                 const double index_to_world[4][4], const double index_origin[3], leap_error *err);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

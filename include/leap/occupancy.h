@@ -33,6 +33,10 @@
 #include "leap/vdb.h"
 #include "shared.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct leap_occupancy_desc {
     const leap_brick *bricks; /* from leap_grid_bricks */
     size_t brick_count;
@@ -80,4 +84,7 @@ int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], doub
  * out of memory. */
 size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

@@ -16,6 +16,10 @@
 #include "leap/scene.h"
 #include "leap/tf.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef enum leap_mode {
     LEAP_RENDER_NAIVE = LEAP_MODE_NAIVE,           /* every lattice sample in the domain box */
     LEAP_RENDER_BBOX = LEAP_MODE_BBOX,             /* only inside the non-empty cells' bounds */
@@ -134,4 +138,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *rays, const 
                                  leap_mode mode, float *rgba, float *depth, float *samples,
                                  leap_frame_stats *stats, leap_error *err);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

@@ -13,6 +13,10 @@
 #include "leap/tf.h"
 #include "leap/vdb.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct leap_scene_desc {
     const char *path;      /* .vdb file */
     const char *grid;      /* grid name; NULL = the first scalar grid */
@@ -60,4 +64,7 @@ int leap_scene_label_count(double range_lo, double range_hi);
 leap_result leap_scene_rays(const leap_scene *scene, const leap_camera *cam, int width, int height,
                             leap_rays *out, leap_error *err);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

@@ -53,6 +53,10 @@
 #include "leap/renderer.h"
 #include "leap/scene.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 /* Keys that are not characters (characters arrive as Unicode code points). */
 enum {
     LEAP_VIEWER_KEY_NONE = 0,
@@ -354,4 +358,7 @@ leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_sc
 /* Stops the render thread and frees everything (the scene stays the caller's). */
 void leap_viewer_session_destroy(leap_viewer_session *s); /* accepts NULL */
 
+#ifdef __cplusplus
+}
+#endif
 #endif

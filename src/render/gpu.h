@@ -10,6 +10,10 @@
 
 #include "leap/error.h"
 
+#ifdef __cplusplus
+extern "C" {
+#endif
+
 typedef struct leap_gpu_desc {
     const char *device_name; /* substring of the device name to pick; NULL = env
                                 LEAP_DEVICE, else the first hardware GPU, else lavapipe */
@@ -99,4 +103,7 @@ leap_result leap_gpu_compute_pipeline(leap_gpu *gpu, const uint32_t *code, size_
 /* Total bytes of device memory allocated by this context so far (for stats). */
 uint64_t leap_gpu_allocated_bytes(const leap_gpu *gpu);
 
+#ifdef __cplusplus
+}
+#endif
 #endif

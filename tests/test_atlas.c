@@ -1,0 +1,406 @@
+/* Unit test of the brick atlas (include/leap/atlas.h, src/volume/atlas.c) on small grids built
+ * here, decoded on the CPU exactly as the shaders read it (page table layout in
+ * shaders/shared.h):
+ *   - bricking: every voxel of the domain (active, inactive inside a leaf, background) is
+ *     found at its atlas texel (or constant entry) through the two-level page table, with the
+ *     atlas's 16-bit quantisation of its value;
+ *   - the apron: a slot's texels at local index 8 (the next voxel on each + side) hold the
+ *     neighbouring cell's voxels, or the background where there is no data;
+ *   - the page table: well-formed (block indices, slot positions in range and each slot used
+ *     by exactly one cell), page blocks far from any data are one constant entry holding the
+ *     background (no block allocated), constant cells inside a tile decode to the tile value;
+ *   - texels: 16-bit, 0 and 65535 stand for value_min and value_max (data and background),
+ *     gpu bytes = 2 per texel + 4 per page word; the dense and shuffled brick layouts decode to
+ *     the same volume; an empty grid; leap_atlas_march_domain.
+ * (Whether the renderer uploads the texels as 16-bit or float is decided by the renderer:
+ * test_gpu_naive covers that.) */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#include "check.h"
+#include "leap/atlas.h"
+#include "leap/vdb.h"
+#include "shared.h"
+
+/* ---- the test grid: a model of every voxel's value --------------------------------------- */
+
+#define BG 0.25      /* background */
+#define TILE_V 0.8   /* value of the constant 32^3 block T */
+
+/* A: one leaf [8, 15]^3 of distinct values; B: the leaf next to it in +x, other values (so
+ * A's + x apron holds B's voxels); T: a constant block [64, 95]^3 (tiles); D: a diagonal of 8
+ * voxels in the leaf [40, 47]^3, the rest of that leaf inactive (background); S1 / S2: single
+ * voxels holding the largest / smallest value, S1 far in +x so that whole page blocks lie
+ * between the data, S2 at negative coordinates. */
+static double value_a(int i, int j, int k) { return 0.3 + 0.4 * ((i * 7 + j * 13 + k * 29) % 64) / 63.0; }
+static double value_b(int i, int j, int k) { return 0.05 + 0.15 * ((i * 3 + j * 5 + k * 11) % 16) / 15.0; }
+
+static int in_range(int v, int lo, int hi) { return v >= lo && v <= hi; }
+
+static int in_box(int i, int j, int k, int lo, int hi)
+{
+    return in_range(i, lo, hi) && in_range(j, lo, hi) && in_range(k, lo, hi);
+}
+
+/* 1: voxel (absolute index) is active data; *v its value. Otherwise *v = background. */
+static int model(int i, int j, int k, double *v)
+{
+    *v = BG;
+    if (in_range(i, 8, 15) && in_range(j, 8, 15) && in_range(k, 8, 15)) return *v = value_a(i, j, k), 1;
+    if (in_range(i, 16, 23) && in_range(j, 8, 15) && in_range(k, 8, 15)) return *v = value_b(i, j, k), 1;
+    if (in_box(i, j, k, 64, 95)) return *v = TILE_V, 1;
+    if (i == j && j == k && i >= 40 && i <= 47) return *v = 0.5 + 0.05 * (i - 40), 1;
+    if (i == 300 && j == 40 && k == 50) return *v = 1.0, 1;
+    if (i == -3 && j == -9 && k == -17) return *v = 0.0, 1;
+    return 0;
+}
+
+static int write_grid(const char *path, int empty)
+{
+    leap_error err = {{0}};
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    if (!w) return 0;
+    int g = leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, BG, NULL, 1, &err);
+    CHECK_MSG(g >= 0, "add_grid: %s", err.msg);
+    if (!empty) {
+        for (int k = 8; k <= 15; ++k)
+            for (int j = 8; j <= 15; ++j) {
+                for (int i = 8; i <= 15; ++i) leap_vdb_writer_set(w, g, i, j, k, value_a(i, j, k));
+                for (int i = 16; i <= 23; ++i) leap_vdb_writer_set(w, g, i, j, k, value_b(i, j, k));
+            }
+        const int32_t lo[3] = {64, 64, 64}, hi[3] = {95, 95, 95};
+        leap_vdb_writer_fill(w, g, lo, hi, TILE_V, 1);
+        for (int t = 40; t <= 47; ++t) leap_vdb_writer_set(w, g, t, t, t, 0.5 + 0.05 * (t - 40));
+        leap_vdb_writer_set(w, g, 300, 40, 50, 1.0);
+        leap_vdb_writer_set(w, g, -3, -9, -17, 0.0);
+    }
+    leap_result r = leap_vdb_writer_save(w, path, &err);
+    CHECK_OK(r, &err);
+    leap_vdb_writer_destroy(w);
+    return r == LEAP_OK;
+}
+
+static leap_grid *load_grid(const char *path)
+{
+    leap_error err = {{0}};
+    leap_vdb_file *f = NULL;
+    leap_grid *grid = NULL;
+    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    if (!f) return NULL;
+    CHECK_OK(leap_vdb_load_grid(f, 0, &grid, &err), &err);
+    leap_vdb_close(f);
+    return grid;
+}
+
+/* ---- decoding the atlas as the shaders do ------------------------------------------------ */
+
+/* The atlas's 16-bit code of a value (texel 0 = value_min, 65535 = value_max). */
+static long expected_code(const leap_atlas *a, double v)
+{
+    double s = ((double)(float)v - a->value_min) / (a->value_max - a->value_min);
+    s = s < 0 ? 0 : s > 1 ? 1 : s;
+    return lrint(s * 65535.0);
+}
+
+static uint32_t top_entry(const leap_atlas *a, const uint32_t c[3])
+{
+    const uint32_t s = a->block_shift;
+    return a->pages[(c[0] >> s) + a->top_dims[0] * ((c[1] >> s) + a->top_dims[1] * (c[2] >> s))];
+}
+
+/* The cell entry of cell c: a constant (LEAP_PAGE_CONST | code) or a packed slot position. */
+static uint32_t cell_entry(const leap_atlas *a, const uint32_t c[3])
+{
+    uint32_t e = top_entry(a, c);
+    if (e & LEAP_PAGE_CONST) return e;
+    const uint32_t s = a->block_shift, m = (1u << s) - 1;
+    size_t at = a->top_count + (size_t)e * (1u << (3 * s)) + ((c[0] & m) | (c[1] & m) << s | (c[2] & m) << (2 * s));
+    return a->pages[at];
+}
+
+/* Texel at local position l (0..8 per axis) of the slot at packed position e. */
+static uint16_t slot_texel(const leap_atlas *a, uint32_t e, const int l[3])
+{
+    size_t x = (size_t)(e & LEAP_SLOT_MASK) * LEAP_SLOT + l[0];
+    size_t y = (size_t)(e >> LEAP_SLOT_BITS & LEAP_SLOT_MASK) * LEAP_SLOT + l[1];
+    size_t z = (size_t)(e >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK) * LEAP_SLOT + l[2];
+    return a->texels[x + a->texel_dims[0] * (y + a->texel_dims[1] * z)];
+}
+
+/* 16-bit code of the voxel at relative position p (inside the cell grid). */
+static long lookup(const leap_atlas *a, const int64_t p[3])
+{
+    uint32_t c[3];
+    int l[3];
+    for (int i = 0; i < 3; ++i) c[i] = (uint32_t)(p[i] >> LEAP_CELL_SHIFT), l[i] = (int)(p[i] & (LEAP_CELL - 1));
+    uint32_t e = cell_entry(a, c);
+    if (e & LEAP_PAGE_CONST) return e & 0xFFFFu;
+    return slot_texel(a, e, l);
+}
+
+/* ---- checks ------------------------------------------------------------------------------- */
+
+typedef struct scan_result {
+    long voxels, active, bad, first_bad_printed;
+    long apron_texels, apron_data, apron_background, apron_bad;
+    long const_tile_cells, tile_interior_cells;
+    long empty_blocks, bad_empty_blocks;
+} scan_result;
+
+/* Every voxel of the cell grid through the page table, every slot's apron, the constant tile
+ * cells and the page blocks far from data. */
+static scan_result scan(const leap_atlas *a, int dense, const char *what)
+{
+    scan_result r;
+    memset(&r, 0, sizeof r);
+    const int64_t n[3] = {(int64_t)a->cells[0] * LEAP_CELL, (int64_t)a->cells[1] * LEAP_CELL,
+                          (int64_t)a->cells[2] * LEAP_CELL};
+    const long bg = expected_code(a, BG);
+    uint8_t *near_data = calloc(a->top_count, 1); /* page block within a cell of some data */
+    for (int64_t z = 0; z < n[2]; ++z)
+        for (int64_t y = 0; y < n[1]; ++y)
+            for (int64_t x = 0; x < n[0]; ++x) {
+                const int64_t p[3] = {x, y, z};
+                double v;
+                int act = model((int)(x + a->origin[0]), (int)(y + a->origin[1]), (int)(z + a->origin[2]), &v);
+                long want = expected_code(a, v), got = lookup(a, p);
+                r.voxels++, r.active += act;
+                if (got != want && r.bad++ == 0)
+                    fprintf(stderr, "%s: voxel (%d, %d, %d): atlas code %ld, expected %ld (value %g)\n", what,
+                            (int)(x + a->origin[0]), (int)(y + a->origin[1]), (int)(z + a->origin[2]), got, want, v);
+                if (!act || !near_data) continue;
+                for (int d = 0; d < 8; ++d) { /* the cells whose footprint [8c, 8c + 8] holds p */
+                    uint32_t c[3];
+                    int ok = 1;
+                    for (int i = 0; i < 3; ++i) {
+                        int64_t q = (p[i] - ((d >> i) & 1 ? LEAP_CELL : 0)) >> LEAP_CELL_SHIFT;
+                        ok &= q >= 0 && q < (int64_t)a->cells[i];
+                        c[i] = (uint32_t)q;
+                    }
+                    if (!ok) continue;
+                    const uint32_t s = a->block_shift;
+                    near_data[(c[0] >> s) + a->top_dims[0] * ((c[1] >> s) + a->top_dims[1] * (c[2] >> s))] = 1;
+                }
+            }
+    /* aprons and constant cells */
+    for (uint32_t cz = 0; cz < a->cells[2]; ++cz)
+        for (uint32_t cy = 0; cy < a->cells[1]; ++cy)
+            for (uint32_t cx = 0; cx < a->cells[0]; ++cx) {
+                const uint32_t c[3] = {cx, cy, cz};
+                const uint32_t e = cell_entry(a, c);
+                int32_t base[3];
+                for (int i = 0; i < 3; ++i) base[i] = a->origin[i] + (int32_t)c[i] * LEAP_CELL;
+                /* cells whose whole footprint lies inside T: one constant, the tile value */
+                int interior = 1;
+                for (int i = 0; i < 3; ++i) interior &= base[i] >= 64 && base[i] + LEAP_CELL <= 95;
+                if (interior) {
+                    r.tile_interior_cells++;
+                    if ((e & LEAP_PAGE_CONST) && (long)(e & 0xFFFFu) == expected_code(a, TILE_V)) r.const_tile_cells++;
+                }
+                if (e & LEAP_PAGE_CONST) continue;
+                for (int lz = 0; lz <= LEAP_CELL; ++lz)
+                    for (int ly = 0; ly <= LEAP_CELL; ++ly)
+                        for (int lx = 0; lx <= LEAP_CELL; ++lx) {
+                            if (lx < LEAP_CELL && ly < LEAP_CELL && lz < LEAP_CELL) continue;
+                            const int l[3] = {lx, ly, lz};
+                            double v;
+                            int act = model(base[0] + lx, base[1] + ly, base[2] + lz, &v);
+                            long want = expected_code(a, v), got = slot_texel(a, e, l);
+                            r.apron_texels++;
+                            if (act) r.apron_data++;
+                            else r.apron_background++;
+                            if (got != want && r.apron_bad++ == 0)
+                                fprintf(stderr, "%s: apron texel (%d, %d, %d) of cell (%d, %d, %d): code %ld, expected "
+                                                "%ld (value %g)\n", what, lx, ly, lz, base[0], base[1], base[2], got,
+                                        want, v);
+                        }
+            }
+    /* page blocks that no data reaches: one constant entry, the background (the dense layout
+     * gives slots to background-only cells next to data, so its blocks are not checked) */
+    for (uint32_t t = 0; t < a->top_count && near_data && !dense; ++t) {
+        if (near_data[t]) continue;
+        r.empty_blocks++;
+        if (a->pages[t] != (LEAP_PAGE_CONST | (uint32_t)bg) && r.bad_empty_blocks++ == 0)
+            fprintf(stderr, "%s: page block %u holds no data but its entry is 0x%08x (background 0x%08x)\n", what, t,
+                    a->pages[t], LEAP_PAGE_CONST | (uint32_t)bg);
+    }
+    free(near_data);
+    return r;
+}
+
+/* Page table well-formed: sizes, block indices, slot positions in range, each slot position
+ * used by exactly one cell entry. Returns the number of slot cells. */
+static long check_structure(const leap_atlas *a, const char *what)
+{
+    const uint32_t bc = 1u << (3 * a->block_shift);
+    CHECK_MSG(a->page_words == (size_t)a->top_count + (size_t)a->block_count * bc, "%s: page words %zu", what,
+              a->page_words);
+    CHECK_MSG(a->top_count == a->top_dims[0] * a->top_dims[1] * a->top_dims[2], "%s: top count", what);
+    for (int i = 0; i < 3; ++i) {
+        CHECK_MSG(a->top_dims[i] == (a->cells[i] + (1u << a->block_shift) - 1) >> a->block_shift, "%s: top dims", what);
+        CHECK_MSG(a->texel_dims[i] == a->slot_dims[i] * LEAP_SLOT, "%s: texel dims", what);
+        CHECK_MSG(a->origin[i] % LEAP_CELL == 0, "%s: origin %d not a multiple of 8", what, a->origin[i]);
+    }
+    CHECK_MSG(a->block_shift >= LEAP_BLOCK_SHIFT_MIN && a->block_shift <= LEAP_BLOCK_SHIFT_HUGE, "%s: block shift %u",
+              what, a->block_shift);
+    CHECK_MSG(leap_atlas_gpu_bytes(a) == (uint64_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2] * 2 +
+                                             (uint64_t)a->page_words * 4,
+              "%s: gpu bytes %llu", what, (unsigned long long)leap_atlas_gpu_bytes(a));
+    long bad_block = 0, bad_slot = 0, slots = 0, twice = 0;
+    uint64_t positions = (uint64_t)a->slot_dims[0] * a->slot_dims[1] * a->slot_dims[2];
+    uint8_t *used = calloc(positions ? positions : 1, 1);
+    for (uint32_t t = 0; t < a->top_count; ++t)
+        if (!(a->pages[t] & LEAP_PAGE_CONST)) bad_block += a->pages[t] >= a->block_count;
+    for (size_t w = a->top_count; w < a->page_words; ++w) {
+        uint32_t e = a->pages[w];
+        if (e & LEAP_PAGE_CONST) {
+            bad_slot += (e & ~(LEAP_PAGE_CONST | 0xFFFFu)) != 0;
+            continue;
+        }
+        uint32_t s[3] = {e & LEAP_SLOT_MASK, e >> LEAP_SLOT_BITS & LEAP_SLOT_MASK, e >> (2 * LEAP_SLOT_BITS)};
+        if (s[0] >= a->slot_dims[0] || s[1] >= a->slot_dims[1] || s[2] >= a->slot_dims[2]) {
+            bad_slot++;
+            continue;
+        }
+        uint64_t d = s[0] + (uint64_t)a->slot_dims[0] * (s[1] + (uint64_t)a->slot_dims[1] * s[2]);
+        twice += used[d]++ != 0;
+        slots++;
+    }
+    free(used);
+    CHECK_MSG(bad_block == 0, "%s: %ld top entries name no allocated block", what, bad_block);
+    CHECK_MSG(bad_slot == 0, "%s: %ld cell entries outside the atlas (or constants with stray bits)", what, bad_slot);
+    CHECK_MSG(twice == 0, "%s: %ld slots used by more than one cell", what, twice);
+    CHECK_MSG(slots == (long)a->slot_count, "%s: %ld slot cells, slot_count %u", what, slots, a->slot_count);
+    return slots;
+}
+
+static void check_atlas(const leap_atlas *a, const leap_grid_info *info, int dense, const char *what, scan_result *out)
+{
+    printf("%s: origin (%d %d %d), %u x %u x %u cells, blocks of %u^3 cells: %u of %u allocated, %u slots, "
+           "atlas %u x %u x %u texels\n", what, a->origin[0], a->origin[1], a->origin[2], a->cells[0], a->cells[1],
+           a->cells[2], 1u << a->block_shift, a->block_count, a->top_count, a->slot_count, a->texel_dims[0],
+           a->texel_dims[1], a->texel_dims[2]);
+    CHECK(!a->empty);
+    /* 16-bit texels spanning the data and the background */
+    CHECK_NEAR(a->value_min, 0.0, 0);
+    CHECK_NEAR(a->value_max, 1.0, 0);
+    CHECK(expected_code(a, 0.0) == 0 && expected_code(a, 1.0) == 65535);
+    CHECK(sizeof a->texels[0] == 2);
+    /* one spare cell below the active box, the marching box its voxels' extent */
+    leap_march m;
+    memset(&m, 0, sizeof m);
+    leap_atlas_march_domain(a, &m);
+    for (int i = 0; i < 3; ++i) {
+        CHECK(a->origin[i] <= info->bbox_min[i] - LEAP_CELL && a->origin[i] > info->bbox_min[i] - 2 * LEAP_CELL);
+        CHECK((int64_t)a->origin[i] + (int64_t)a->cells[i] * LEAP_CELL > info->bbox_max[i] + 1);
+        CHECK_NEAR(m.index_origin[i], a->origin[i], 0);
+        CHECK_NEAR(m.domain_min[i], info->bbox_min[i] - 0.5 - a->origin[i], 0);
+        CHECK_NEAR(m.domain_max[i], info->bbox_max[i] + 0.5 - a->origin[i], 0);
+    }
+    check_structure(a, what);
+    scan_result r = scan(a, dense, what);
+    printf("%s: %ld voxels decoded (%ld active), %ld wrong; %ld apron texels (%ld data, %ld background), %ld wrong; "
+           "%ld of %ld tile-interior cells constant; %ld page blocks far from data\n",
+           what, r.voxels, r.active, r.bad, r.apron_texels, r.apron_data, r.apron_background, r.apron_bad,
+           r.const_tile_cells, r.tile_interior_cells, r.empty_blocks);
+    CHECK_MSG(r.bad == 0, "%s: %ld voxels decode to the wrong value", what, r.bad);
+    CHECK_MSG(r.apron_bad == 0, "%s: %ld apron texels differ from the neighbouring voxels", what, r.apron_bad);
+    CHECK_MSG(r.bad_empty_blocks == 0, "%s: %ld page blocks far from data are not the background constant", what,
+              r.bad_empty_blocks);
+    /* the model's active voxels: A, B (512 each), T (32^3), D (8), S1, S2 */
+    CHECK_MSG(r.active == 512 + 512 + 32768 + 8 + 2, "%s: %ld active voxels in the cell grid", what, r.active);
+    /* the checks above must have had something to check */
+    CHECK(r.apron_data > 0 && r.apron_background > 0);
+    CHECK(dense || r.empty_blocks > 0);
+    CHECK(r.tile_interior_cells == 27);
+    *out = r;
+}
+
+int main(void)
+{
+    leap_error err = {{0}};
+    char path[1024], empty_path[1024];
+    mkdir(LEAP_TEST_TMP, 0755);
+    snprintf(path, sizeof path, "%s/atlas.vdb", LEAP_TEST_TMP);
+    snprintf(empty_path, sizeof empty_path, "%s/atlas_empty.vdb", LEAP_TEST_TMP);
+    CHECK(write_grid(path, 0));
+    CHECK(write_grid(empty_path, 1));
+    leap_grid *grid = load_grid(path);
+    CHECK(grid != NULL);
+    if (grid) {
+        const leap_grid_info *info = leap_grid_get_info(grid);
+        CHECK(info->bbox_min[0] == -3 && info->bbox_min[1] == -9 && info->bbox_min[2] == -17);
+        CHECK(info->bbox_max[0] == 300 && info->bbox_max[1] == 95 && info->bbox_max[2] == 95);
+
+        /* the default layout: constant footprints take no slot */
+        leap_atlas *sparse = NULL, *dense = NULL, *shuffled = NULL;
+        leap_atlas_desc d0 = {.grid = grid};
+        CHECK_OK(leap_atlas_create(&d0, &sparse, &err), &err);
+        scan_result rs = {0}, rd = {0}, rx = {0};
+        if (sparse) {
+            check_atlas(sparse, info, 0, "sparse", &rs);
+            CHECK_MSG(rs.const_tile_cells == rs.tile_interior_cells, "sparse: %ld of %ld tile-interior cells constant",
+                      rs.const_tile_cells, rs.tile_interior_cells);
+            CHECK(sparse->block_count < sparse->top_count);
+        }
+        /* dense: every candidate cell gets a slot, even a constant one */
+        leap_atlas_desc d1 = {.grid = grid, .dense = 1};
+        CHECK_OK(leap_atlas_create(&d1, &dense, &err), &err);
+        if (dense) check_atlas(dense, info, 1, "dense", &rd);
+        /* shuffled slot order, the same volume */
+        leap_atlas_desc d2 = {.grid = grid, .shuffle_seed = 777};
+        CHECK_OK(leap_atlas_create(&d2, &shuffled, &err), &err);
+        if (shuffled) check_atlas(shuffled, info, 0, "shuffled", &rx);
+        if (sparse && dense && shuffled) {
+            CHECK_MSG(dense->slot_count > sparse->slot_count, "dense %u slots, sparse %u", dense->slot_count,
+                      sparse->slot_count);
+            CHECK(shuffled->slot_count == sparse->slot_count);
+            /* the same slots in another order: some cell's slot position differs */
+            long moved = 0;
+            for (size_t w = sparse->top_count; w < sparse->page_words && w < shuffled->page_words; ++w)
+                moved += !(sparse->pages[w] & LEAP_PAGE_CONST) && sparse->pages[w] != shuffled->pages[w];
+            CHECK_MSG(moved > 0, "shuffle_seed moved no slot");
+            CHECK(sparse->serial != dense->serial && dense->serial != shuffled->serial);
+        }
+        leap_atlas_destroy(sparse);
+        leap_atlas_destroy(dense);
+        leap_atlas_destroy(shuffled);
+        leap_grid_destroy(grid);
+    }
+
+    /* an empty grid: no slot, every page entry the background constant, an empty domain */
+    leap_grid *eg = load_grid(empty_path);
+    CHECK(eg != NULL);
+    if (eg) {
+        leap_atlas *a = NULL;
+        leap_atlas_desc d = {.grid = eg};
+        CHECK_OK(leap_atlas_create(&d, &a, &err), &err);
+        if (a) {
+            CHECK(a->empty);
+            CHECK(a->slot_count == 0 && a->block_count == 0);
+            CHECK(a->page_words == a->top_count && a->top_count >= 1);
+            long bg = expected_code(a, BG), bad = 0;
+            for (size_t w = 0; w < a->page_words; ++w) bad += a->pages[w] != (LEAP_PAGE_CONST | (uint32_t)bg);
+            CHECK_MSG(bad == 0, "empty grid: %ld page entries not the background constant", bad);
+            leap_march m;
+            memset(&m, 0, sizeof m);
+            leap_atlas_march_domain(a, &m);
+            CHECK(m.domain_min[0] > m.domain_max[0]);
+            leap_atlas_destroy(a);
+        }
+        leap_grid_destroy(eg);
+    }
+
+    /* usage errors */
+    static leap_atlas sentinel;
+    leap_atlas *none = &sentinel;
+    leap_atlas_desc nogrid = {0};
+    CHECK(leap_atlas_create(&nogrid, &none, &err) == LEAP_ERR_USAGE && none == NULL);
+    leap_atlas_destroy(NULL);
+    return check_exit_code();
+}

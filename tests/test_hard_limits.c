@@ -1,0 +1,151 @@
+/* Hard cases, limits (labels gpu;hard;limits): per-pixel list overflow with the default
+ * capacities (a comb of single voxels), one segment per pixel and 4 events per pixel; the
+ * vdb writer's fill of a box in the last root node of the int32 index range (in a child
+ * process, before OpenVDB and TBB start). Every frame gets the checks of hard_cases.h. */
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include "hard_cases.h"
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define LEAP_ASAN 1
+#endif
+#endif
+
+static void case_overflow(gpu *g, const char *what)
+{
+    hc_begin(what);
+    static const double zero[3] = {0, 0, 0};
+    if (g == &G) {
+        /* default capacities: the comb's exact boxes overflow the events a pixel can sort and
+         * its segments (the cost-model cut merges the comb's teeth into fewer boxes) */
+        leap_scene *c = load_tmp_exact("comb", &RAMP, 0.0, 1.0);
+        uint64_t ovf = 0;
+        if (c) {
+            gpu_bind(g, c);
+            printf("  comb: %u boxes\n", leap_boxes_count(c->boxes));
+            leap_rays v = axis_ortho(c, 0, 1, 2, 2, 0.25, -40, 16, 16);
+            frame(g, c, &v, 0.5, "comb: ortho along the line of voxels");
+            ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+            printf("  comb: events per pixel max %u, segments per pixel max %u\n",
+                   g->st[LEAP_RENDER_SPARSELEAP].events_max, g->st[LEAP_RENDER_SPARSELEAP].segments_max);
+            double eye[3] = {-30, 4, 4};
+            v = axis_persp(c, 0, 1, eye, 32, 32);
+            frame(g, c, &v, 0.5, "comb: perspective along the line of voxels");
+            ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+            double eye2[3] = {500, 4.25, 4.125};
+            v = axis_persp(c, 0, -1, eye2, 32, 32);
+            frame(g, c, &v, 0.5, "comb: perspective back along the line, eye inside");
+            ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+            gpu_unbind(g);
+            leap_scene_destroy(c);
+        }
+        printf("  %llu pixels overflowed\n", (unsigned long long)ovf);
+        CHECK_MSG(ovf > 0, "%s: no pixel overflowed", what);
+        hc_end();
+        return;
+    }
+    leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
+    uint64_t overflow = 0;
+    if (s) {
+        gpu_bind(g, s);
+        for (int k = 0; k < N_SHARED_VIEWS; ++k) {
+            leap_rays v;
+            if (!shared_view(s, k, zero, &v)) continue;
+            frame(g, s, &v, 0.5, fmt("blocks: %s", shared_view_names[k]));
+            overflow += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+        }
+        gpu_unbind(g);
+        leap_scene_destroy(s);
+    }
+    s = load_shipped("blobs.vdb", NULL, NULL);
+    if (s) {
+        gpu_bind(g, s);
+        leap_camera c = orbit(s, 35, 25, 0, 40, 0);
+        frame_cam(g, s, &c, 48, 48, 2.0, "blobs.vdb: orbit");
+        overflow += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+        gpu_unbind(g);
+        leap_scene_destroy(s);
+    }
+    printf("  %llu pixels overflowed in total\n", (unsigned long long)overflow);
+    CHECK_MSG(overflow > 0, "%s: no pixel overflowed", what);
+    hc_end();
+}
+
+/* Child process of case_fill_int32_end: fills one leaf in the last root node of the int32 index
+ * range (x in [2^31 - 4096, 2^31 - 1]), saves and reads it back. Exit status 0 = all well. */
+static int fill_int32_end_child(void)
+{
+    leap_error err = {{0}};
+    leap_vdb_writer *w = NULL;
+    if (leap_vdb_writer_create(&w, &err) != LEAP_OK) return 2;
+    int g = leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err);
+    const int32_t lo[3] = {2147479552, 0, 0}, hi[3] = {2147479559, 7, 7};
+    leap_vdb_writer_fill(w, g, lo, hi, 1.0, 1);
+    char path[1024];
+    tmp_path("fill_int32_end", path, sizeof path);
+    leap_result r = leap_vdb_writer_save(w, path, &err);
+    leap_vdb_writer_destroy(w);
+    if (r != LEAP_OK) {
+        fprintf(stderr, "fill near INT32_MAX: %s\n", err.msg);
+        return 3;
+    }
+    leap_vdb_file *f = NULL;
+    leap_grid *grid = NULL;
+    if (leap_vdb_open(path, &f, &err) != LEAP_OK || leap_vdb_load_grid(f, 0, &grid, &err) != LEAP_OK) return 4;
+    uint64_t n = leap_grid_get_info(grid)->active_voxels;
+    leap_grid_destroy(grid);
+    leap_vdb_close(f);
+    return n == 512 ? 0 : 5;
+}
+
+/* The writer's fill of a box in the last 4096 voxels of the int32 range: OpenVDB's fill loop
+ * advances to the next tile with tile_max + 1, which overflows there, so it never ends (and
+ * allocates without bound). Run in a child process with an address-space limit and an alarm,
+ * so that a failure costs seconds, not the machine. Must run before OpenVDB / TBB start. */
+static void case_fill_int32_end(void)
+{
+    hc_begin("vdb writer: a fill box in the last root node of the int32 index range");
+    fflush(NULL);
+    pid_t pid = fork();
+    if (pid == 0) {
+#if !defined(__SANITIZE_ADDRESS__) && !defined(LEAP_ASAN)
+        /* (AddressSanitizer reserves far more address space than this: no limit there) */
+        struct rlimit rl = {(rlim_t)1 << 31, (rlim_t)1 << 31};
+        setrlimit(RLIMIT_AS, &rl);
+#endif
+        alarm(8);
+        _exit(fill_int32_end_child());
+    }
+    int status = 0;
+    int ok = pid > 0 && waitpid(pid, &status, 0) == pid && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+    if (WIFSIGNALED(status))
+        printf("  fill of x in [2147479552, 2147479559]: child killed by signal %d (%s)\n", WTERMSIG(status),
+               WTERMSIG(status) == SIGALRM ? "still filling after 8 s" : "crashed");
+    else
+        printf("  fill of x in [2147479552, 2147479559]: child exit status %d\n", WEXITSTATUS(status));
+    CHECK_MSG(ok, "leap_vdb_writer_fill of a leaf at x = 2^31 - 4096 does not complete (status 0x%x)", status);
+    hc_end();
+}
+
+int main(void)
+{
+    hc_start();
+    case_fill_int32_end(); /* first: forks, before OpenVDB and TBB start */
+    if (!hc_gpu_start()) return hc_finish();
+    case_overflow(&G, "per-pixel list overflow: more than 16 events and 12 segments on a ray (default capacities)");
+    leap_renderer_desc one_seg = {.max_segments = 1, .keep_lists = 1};
+    if (gpu_init(&G_small, &one_seg)) {
+        case_overflow(&G_small, "per-pixel list overflow: one segment per pixel");
+        gpu_free(&G_small);
+    }
+    leap_renderer_desc tiny_pool = {.max_segments = 2, .pixel_events = 4, .keep_lists = 1};
+    if (gpu_init(&G_small, &tiny_pool)) {
+        case_overflow(&G_small, "per-pixel list overflow: 4 events per pixel");
+        gpu_free(&G_small);
+    }
+    return hc_finish();
+}
