@@ -93,7 +93,7 @@ typedef struct leap_dump_frame_desc {
 typedef struct leap_dump_frame leap_dump_frame;
 
 /* Captures the frame's box order and matches it with leap_boxes_order for the same view
- * (the float-rounded eye or direction the renderer uses), which gives each box its level and
+ * (leap_renderer_order_eye), which gives each box its level and
  * id. Errors: LEAP_ERR_USAGE (the last frame was not a sparseleap frame of this view),
  * LEAP_ERR_FORMAT (the renderer's box order differs from leap_boxes_order), LEAP_ERR_OOM. */
 leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_frame **out, leap_error *err);
@@ -101,10 +101,6 @@ void leap_dump_frame_destroy(leap_dump_frame *f); /* accepts NULL */
 
 uint32_t leap_dump_frame_box_count(const leap_dump_frame *f);
 const leap_dump_box *leap_dump_frame_boxes(const leap_dump_frame *f); /* view order */
-
-/* The eye (perspective) or view direction (orthographic) as the renderer orders boxes with:
- * rays->origin0 or rays->dir0 rounded to float. */
-void leap_dump_rays_eye(const leap_rays *rays, double eye_or_dir[3]);
 
 /* Explains pixel (x, y) (row 0 at the top). The arrays in *out stay valid until the next
  * call on f. Errors: LEAP_ERR_USAGE (outside the image), LEAP_ERR_OOM. */

@@ -127,6 +127,10 @@ uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_e
 uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap_segment *out, uint32_t cap,
                                       int *overflow);
 
+/* The eye (perspective) or view direction (orthographic) the renderer orders boxes from:
+ * rays->origin0 or rays->dir0 rounded to float, as the GPU sees them. */
+void leap_renderer_order_eye(const leap_rays *rays, double eye_or_dir[3]);
+
 /* The boxes of the last sparseleap frame in the view order used (count in *count). */
 const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count);
 

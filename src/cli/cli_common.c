@@ -154,7 +154,7 @@ int cli_dir_writable(const char *path)
     return stat(dir, &st) == 0 && S_ISDIR(st.st_mode) && access(dir, W_OK) == 0;
 }
 
-const char *cli_view_options_help =
+const char *cli_camera_options_help =
     "volume and look:\n"
     "  --grid NAME         grid to render (default: the first scalar grid)\n"
     "  --tf PRESET|FILE    transfer function: grey, viridis, labels, hot, cloud, or a\n"
@@ -181,13 +181,13 @@ const char *cli_view_options_help =
     "  --fov DEG           vertical field of view (default 40)\n"
     "  --ortho             orthographic projection (framing the bounding sphere)\n";
 
-void cli_view_options_init(cli_camera_options *o)
+void cli_camera_options_init(cli_camera_options *o)
 {
     *o = (cli_camera_options){.width = 512, .height = 512, .fov = 40.0, .mode_name = "sparseleap", .up = {0, 1, 0}};
     o->scene.step = 0.5;
 }
 
-int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o)
+int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o)
 {
     const char *a = argv[*i], *v;
     int missing = 0;
@@ -205,10 +205,13 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_
         o->scene.exact_boxes = 1;
         return 1;
     }
-    const char *names[] = {"--grid", "--tf", "--range", "--step", "--size", "--mode", "--segments", "--device",
-                           "--orbit", "--eye", "--target", "--up", "--fov"};
+    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, FOV, COUNT };
+    static const char *const names[COUNT] = {
+        [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
+        [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
+        [TARGET] = "--target", [UP] = "--up",    [FOV] = "--fov"};
     int which = -1;
-    for (int k = 0; k < (int)(sizeof names / sizeof names[0]) && which < 0; ++k)
+    for (int k = 0; k < COUNT && which < 0; ++k)
         if (OPT(names[k])) which = k;
     if (which < 0) {
         if (a[0] == '-' && a[1] != '\0') return 0;
@@ -219,29 +222,29 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_
     if (missing) FAIL("option %s needs a value", names[which]);
     double n;
     switch (which) {
-    case 0: o->scene.grid = v; break;
-    case 1: o->scene.tf = v; break;
-    case 2:
+    case GRID: o->scene.grid = v; break;
+    case TF: o->scene.tf = v; break;
+    case RANGE:
         if (cli_parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
             FAIL("--range '%s' must be LO,HI with LO < HI", v);
         o->scene.has_range = 1;
         break;
-    case 3:
+    case STEP:
         if (cli_parse_numbers(v, &n, 1, 1) != 1 || !(n > 0)) FAIL("--step '%s' must be a positive number of voxels", v);
         if (n < 1e-3 || n > 1e6) FAIL("--step %g is outside [0.001, 1e6] voxels", n);
         o->scene.step = n;
         break;
-    case 4:
+    case SIZE:
         if (!parse_size(v, &o->width, &o->height)) FAIL("--size '%s' is not WxH with 1 <= W, H <= 16384", v);
         break;
-    case 5: o->mode_name = v; break;
-    case 6:
+    case MODE: o->mode_name = v; break;
+    case SEGMENTS:
         if (cli_parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > LEAP_MAX_SEGMENTS)
             FAIL("--segments '%s' must be an integer in 1..%d", v, LEAP_MAX_SEGMENTS);
         o->max_segments = (int)n;
         break;
-    case 7: o->device = v; break;
-    case 8:
+    case DEVICE: o->device = v; break;
+    case ORBIT:
         o->orbit_n = cli_parse_numbers(v, o->orbit, 2, 3);
         if (o->orbit_n < 0 || (o->orbit_n == 3 && !(o->orbit[2] > 0)))
             FAIL("--orbit '%s' must be AZ,EL[,DIST] with DIST > 0", v);
@@ -250,20 +253,21 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_
                  o->orbit[2]);
         o->has_orbit = 1;
         break;
-    case 9:
-    case 10: {
-        double *p = which == 9 ? o->eye : o->target;
+    case EYE:
+    case TARGET: {
+        double *p = which == EYE ? o->eye : o->target;
         if (cli_parse_numbers(v, p, 3, 3) != 3) FAIL("%s '%s' must be X,Y,Z", names[which], v);
         /* Beyond this, squared distances overflow and the view direction is lost. */
         for (int k = 0; k < 3; ++k)
             if (fabs(p[k]) > 1e100) FAIL("%s '%s': coordinates must be within +-1e100", names[which], v);
-        *(which == 9 ? &o->has_eye : &o->has_target) = 1;
+        *(which == EYE ? &o->has_eye : &o->has_target) = 1;
         break;
     }
-    case 11:
+    case UP:
         if (cli_parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
         o->has_up = 1;
         break;
+    case FOV:
     default:
         if (cli_parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))
             FAIL("--fov '%s' must be in (0, 180) degrees", v);
@@ -274,7 +278,7 @@ int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_
 #undef FAIL
 }
 
-int cli_view_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
+int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
 {
     if (!o->input) return cli_usage_error(verb, "no input volume given");
     if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");

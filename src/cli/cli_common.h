@@ -49,17 +49,17 @@ typedef struct cli_camera_options {
 } cli_camera_options;
 
 /* Help text for the shared options. */
-extern const char *cli_view_options_help;
+extern const char *cli_camera_options_help;
 
-void cli_view_options_init(cli_camera_options *o);
+void cli_camera_options_init(cli_camera_options *o);
 
 /* Tries to consume argv[*i] as a shared option or the input path. Returns 1 if consumed,
  * 0 if not a shared option, or EXIT_USAGE + 1000 after printing a usage error. */
-int cli_view_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o);
+int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o);
 #define CLI_OPTION_ERROR 1000
 
 /* Checks combinations once all options are read; returns 0 or EXIT_USAGE. */
-int cli_view_options_check(const char *verb, const cli_camera_options *o, int allow_reference);
+int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference);
 
 /* Camera for the options (orbit framing by default). Returns a leap_result. */
 leap_result cli_camera(const cli_camera_options *o, const leap_scene *scene, leap_camera *cam, leap_error *err);

@@ -87,7 +87,7 @@ static int info_tfs(const char *path, const char *grid_name, const char *const *
     double t = leap__now_ms();
     leap_scene *s = NULL;
     if (leap_scene_create(&sd, &s, &err)) return cli_runtime_error("%s", err.msg);
-    double first_ms = s->occupancy_ms + s->classify_ms + s->boxes_ms;
+    double first_ms = s->bricks_ms + s->occupancy_ms + s->classify_ms + s->boxes_ms;
     (void)t;
     cJSON *arr = json_grid ? cJSON_AddArrayToObject(json_grid, "transfer_functions") : NULL;
     int rc = 0;

@@ -136,7 +136,7 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
 int cli_render(int argc, char **argv)
 {
     cli_camera_options o;
-    cli_view_options_init(&o);
+    cli_camera_options_init(&o);
     const char *output = NULL, *stats = NULL;
     int quiet = 0;
     for (int i = 2; i < argc; ++i) {
@@ -144,7 +144,7 @@ int cli_render(int argc, char **argv)
         int missing = 0;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(render_help_head, stdout);
-            fputs(cli_view_options_help, stdout);
+            fputs(cli_camera_options_help, stdout);
             fputs(render_help_tail, stdout);
             return 0;
         }
@@ -165,11 +165,11 @@ int cli_render(int argc, char **argv)
             stats = v;
             continue;
         }
-        int c = cli_view_option(argc, argv, &i, "render", &o);
+        int c = cli_camera_option(argc, argv, &i, "render", &o);
         if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
         if (c == 0) return cli_usage_error("render", "unknown option '%s'", a);
     }
-    int rc = cli_view_options_check("render", &o, 1);
+    int rc = cli_camera_options_check("render", &o, 1);
     if (rc) return rc;
     if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
     if (!leap_image_can_write(output))
@@ -193,7 +193,7 @@ int cli_render(int argc, char **argv)
     if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
     times.load = scene->load_ms;
     times.atlas = scene->atlas_ms;
-    times.occupancy = scene->occupancy_ms;
+    times.occupancy = scene->bricks_ms + scene->occupancy_ms;
     times.classify = scene->classify_ms;
     times.boxes = scene->boxes_ms;
 

@@ -40,13 +40,13 @@ typedef struct seg_options {
 static int parse_args(int argc, char **argv, seg_options *o, int *done)
 {
     *done = 0;
-    cli_view_options_init(&o->view);
+    cli_camera_options_init(&o->view);
     for (int i = 2; i < argc; ++i) {
         const char *a = argv[i], *v;
         int missing = 0;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(segments_help_head, stdout);
-            fputs(cli_view_options_help, stdout);
+            fputs(cli_camera_options_help, stdout);
             fputs(segments_help_tail, stdout);
             *done = 1;
             return 0;
@@ -77,11 +77,11 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
             o->outdir = v;
             continue;
         }
-        int c = cli_view_option(argc, argv, &i, "segments", &o->view);
+        int c = cli_camera_option(argc, argv, &i, "segments", &o->view);
         if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
         if (c == 0) return cli_usage_error("segments", "unknown option '%s'", a);
     }
-    int rc = cli_view_options_check("segments", &o->view, 0);
+    int rc = cli_camera_options_check("segments", &o->view, 0);
     if (rc) return rc;
     if (strcmp(o->view.mode_name, "sparseleap") != 0)
         return cli_usage_error("segments", "--mode %s has no segment lists (only sparseleap)", o->view.mode_name);

@@ -50,7 +50,7 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
 {
     *done = 0;
     memset(o, 0, sizeof *o);
-    cli_view_options_init(&o->view);
+    cli_camera_options_init(&o->view);
     o->adaptive = 1;
     o->budget_ms = 50;
     for (int i = 2; i < argc; ++i) {
@@ -58,7 +58,7 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
         int missing = 0;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(view_help_head, stdout);
-            fputs(cli_view_options_help, stdout);
+            fputs(cli_camera_options_help, stdout);
             fputs(view_help_tail, stdout);
             *done = 1;
             return 0;
@@ -102,11 +102,11 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
                 return cli_usage_error("view", "--budget '%s' must be milliseconds in 1..10000", v);
             continue;
         }
-        int c = cli_view_option(argc, argv, &i, "view", &o->view);
+        int c = cli_camera_option(argc, argv, &i, "view", &o->view);
         if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
         if (c == 0) return cli_usage_error("view", "unknown option '%s'", a);
     }
-    int rc = cli_view_options_check("view", &o->view, 0);
+    int rc = cli_camera_options_check("view", &o->view, 0);
     if (rc) return rc;
     if (o->script && (o->frames || o->screenshot))
         return cli_usage_error("view", "--script cannot be combined with --frames or --screenshot");

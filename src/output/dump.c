@@ -20,11 +20,6 @@ const char *leap_dump_class_name(uint32_t cls)
     }
 }
 
-void leap_dump_rays_eye(const leap_rays *view, double eye_or_dir[3])
-{
-    for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(view->ortho ? view->dir0[i] : view->origin0[i]);
-}
-
 int leap_dump_clip_box(const double origin[3], const double dir[3], const double lo[3], const double hi[3],
                        double *t0, double *t1)
 {
@@ -101,7 +96,7 @@ leap_result leap_dump_frame_create(const leap_dump_frame_desc *desc, leap_dump_f
     f->box_count = count;
 
     double eye[3];
-    leap_dump_rays_eye(desc->rays, eye);
+    leap_renderer_order_eye(desc->rays, eye);
     leap_boxes_order(desc->boxes, eye, desc->rays->ortho, mine, meta);
     for (size_t i = 0; i < 2 * (size_t)count; ++i) f->order_map[i] = LEAP_DUMP_NO_BOX;
     for (uint32_t i = 0; i < count; ++i) {

@@ -213,7 +213,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     if (lists) {
         double eye_or_dir[3];
         /* The float values the GPU sees, so both agree on which side of a node plane the eye is. */
-        for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(view->ortho ? view->dir0[i] : view->origin0[i]);
+        leap_renderer_order_eye(view, eye_or_dir);
         st.order_ms = leap_boxes_order(r->box_set, eye_or_dir, view->ortho, r->boxes.mapped, NULL);
         st.boxes = box_count;
         if (chord && box_count == 1 && ((const leap_box_gpu *)r->boxes.mapped)[0].info.z != LEAP_CLASS_NONEMPTY)

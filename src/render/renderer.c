@@ -243,6 +243,11 @@ uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap
     return n;
 }
 
+void leap_renderer_order_eye(const leap_rays *rays, double eye_or_dir[3])
+{
+    for (int i = 0; i < 3; ++i) eye_or_dir[i] = (double)(float)(rays->ortho ? rays->dir0[i] : rays->origin0[i]);
+}
+
 const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count)
 {
     *count = r->lists_valid && r->box_set ? leap_boxes_count(r->box_set) : 0;

@@ -60,9 +60,14 @@ static leap_result build_occupancy(leap_scene *s, leap_error *err)
         od.origin[i] = s->atlas->origin[i];
         od.cells[i] = s->atlas->cells[i];
     }
+    s->bricks_ms = leap__now_ms() - t;
     if (!r) r = leap_occupancy_create(&od, &s->occupancy, err);
     free(bricks);
-    s->occupancy_ms = leap__now_ms() - t;
+    if (!r) {
+        leap_occupancy_stats os;
+        leap_occupancy_get_stats(s->occupancy, &os);
+        s->occupancy_ms = os.build_ms;
+    }
     return r;
 }
 
@@ -94,7 +99,6 @@ static leap_result check_transform(const char *path, const leap_grid_info *gi, c
 /* The boxes for the current classification and step (the cut depends on both). */
 static leap_result build_boxes(leap_scene *s, leap_error *err)
 {
-    double t = leap__now_ms();
     leap_boxes_destroy(s->boxes);
     s->boxes = NULL;
     leap_boxes_desc bd = {
@@ -103,7 +107,11 @@ static leap_result build_boxes(leap_scene *s, leap_error *err)
         .step = s->exact_boxes ? 0.0 : s->march.step,
     };
     leap_result r = leap_boxes_create(&bd, &s->boxes, err);
-    s->boxes_ms = leap__now_ms() - t;
+    if (!r) {
+        leap_boxes_stats bs;
+        leap_boxes_get_stats(s->boxes, &bs);
+        s->boxes_ms = bs.build_ms;
+    }
     return r;
 }
 
@@ -112,10 +120,11 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
     if (tf != &s->tf) s->tf = *tf;
     s->march.range_lo = lo;
     s->march.range_hi = hi;
-    double t = leap__now_ms();
     leap_result r = leap_occupancy_classify(s->occupancy, &s->tf, lo, hi, err);
-    s->classify_ms = leap__now_ms() - t;
     if (r) return r;
+    leap_occupancy_stats os;
+    leap_occupancy_get_stats(s->occupancy, &os);
+    s->classify_ms = os.classify_ms;
     return build_boxes(s, err);
 }
 
@@ -155,10 +164,9 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         s->march.range_hi = hi;
     }
     if (!r) {
-        t = leap__now_ms();
         leap_atlas_desc ad = {.grid = s->grid};
         r = leap_atlas_create(&ad, &s->atlas, err);
-        s->atlas_ms = leap__now_ms() - t;
+        if (!r) s->atlas_ms = s->atlas->build_ms;
     }
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);

@@ -115,14 +115,14 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     FILE *saved = stderr;
     stderr = mem;
     cli_camera_options o;
-    cli_view_options_init(&o);
+    cli_camera_options_init(&o);
     int rc = 0;
     for (int i = 2; i < argc && rc == 0; ++i) {
-        int c = cli_view_option(argc, argv, &i, "render", &o);
+        int c = cli_camera_option(argc, argv, &i, "render", &o);
         if (c >= CLI_OPTION_ERROR) rc = c - CLI_OPTION_ERROR;
         /* c == 0: an option of the verb itself (-o, --stats, ...), not parsed here */
     }
-    if (rc == 0) rc = cli_view_options_check("render", &o, 1);
+    if (rc == 0) rc = cli_camera_options_check("render", &o, 1);
     fclose(mem);
     stderr = saved;
 
