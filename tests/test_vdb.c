@@ -1,5 +1,6 @@
 /* Tests of the OpenVDB shim (include/leap/vdb.h): every file is written here with the
  * writer API, then read back. */
+#include "util.h"
 #include "leap/vdb.h"
 
 #include "check.h"
@@ -42,17 +43,6 @@ static double now_seconds(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void matmul(double a[4][4], double b[4][4], double out[4][4])
-{
-    double r[4][4];
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-            r[i][j] = 0.0;
-            for (int k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
-        }
-    memcpy(out, r, sizeof r);
 }
 
 static void identity(double m[4][4])
@@ -309,8 +299,8 @@ static void test_transforms(void)
     scale[0][0] = 0.5;
     scale[1][1] = 1.0;
     scale[2][2] = 2.0;
-    matmul(rz, rx, m);
-    matmul(m, scale, m);
+    leap__mat4_mul(rz, rx, m);
+    leap__mat4_mul(m, scale, m);
     m[0][3] = 10.0;
     m[1][3] = -20.0;
     m[2][3] = 5.5;

@@ -1,5 +1,6 @@
 /* Writes leap's demo volumes (.vdb) into a directory. Every volume is deterministic: the
  * only randomness comes from a fixed-seed generator defined here. */
+#include "util.h"
 #include "leap/vdb.h"
 
 #include <errno.h>
@@ -214,17 +215,6 @@ static int make_labels(void)
     return save(w, "labels.vdb");
 }
 
-static void matmul(double a[4][4], double b[4][4], double out[4][4])
-{
-    double r[4][4];
-    for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 4; ++j) {
-            r[i][j] = 0.0;
-            for (int k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
-        }
-    memcpy(out, r, sizeof r);
-}
-
 static void rotation(int axis, double deg, double m[4][4])
 {
     memset(m, 0, 16 * sizeof(double));
@@ -244,7 +234,7 @@ static int make_rotated(void)
     double rx[4][4], ry[4][4], m[4][4];
     rotation(0, 30.0, rx);
     rotation(1, 20.0, ry);
-    matmul(rx, ry, m);
+    leap__mat4_mul(rx, ry, m);
     const double scale[3] = {0.5, 1.0, 2.0};
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) m[i][j] *= scale[j];

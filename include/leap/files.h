@@ -50,10 +50,18 @@ void leap_publish_abort(leap_publish *p);
  * rename, so a failed or interrupted write leaves any previous file intact. */
 leap_result leap_file_publish_text(const char *path, const char *text, leap_error *err);
 
-/* mkdir -p: creates path and its missing parents (mode 0777 before the umask). An
- * existing directory is fine; a component that exists and is not a directory, or a
- * directory that cannot be created, is LEAP_ERR_IO naming it. */
-leap_result leap_make_dirs(const char *path, leap_error *err);
+/* The directories one leap_make_dirs call created, outermost first, so a failed run can
+ * remove them again (leap_made_dirs_remove: innermost first, only if empty). */
+typedef struct leap_made_dirs {
+    char path[16][4096];
+    int count;
+} leap_made_dirs;
+
+/* mkdir -p: creates path and its missing parents (mode 0777 before the umask), recording
+ * them in *made (may be NULL). An existing directory is fine; a component that exists and
+ * is not a directory, or a directory that cannot be created, is LEAP_ERR_IO naming it. */
+leap_result leap_make_dirs(const char *path, leap_made_dirs *made, leap_error *err);
+void leap_made_dirs_remove(leap_made_dirs *made); /* accepts NULL */
 
 #ifdef __cplusplus
 }

@@ -197,8 +197,9 @@ leap_result leap_file_publish_text(const char *path, const char *text, leap_erro
     return leap_publish_commit(&pub, err);
 }
 
-leap_result leap_make_dirs(const char *path, leap_error *err)
+leap_result leap_make_dirs(const char *path, leap_made_dirs *made, leap_error *err)
 {
+    if (made) made->count = 0;
     char buf[4096];
     if (!path || !path[0]) return leap_fail(err, LEAP_ERR_USAGE, "empty directory path");
     if (snprintf(buf, sizeof buf, "%s", path) >= (int)sizeof buf)
@@ -214,10 +215,20 @@ leap_result leap_make_dirs(const char *path, leap_error *err)
         if (stat(buf, &st) == 0) {
             if (!S_ISDIR(st.st_mode))
                 return leap_fail(err, LEAP_ERR_IO, "%s: '%s' exists and is not a directory", path, buf);
-        } else if (mkdir(buf, 0777) != 0 && errno != EEXIST) {
+        } else if (mkdir(buf, 0777) == 0) {
+            if (made && made->count < (int)(sizeof made->path / sizeof made->path[0]))
+                memcpy(made->path[made->count++], buf, strlen(buf) + 1);
+        } else if (errno != EEXIST) {
             return leap_fail(err, LEAP_ERR_IO, "%s: cannot create directory '%s': %s", path, buf, strerror(errno));
         }
         buf[i] = c;
     }
     return LEAP_OK;
+}
+
+void leap_made_dirs_remove(leap_made_dirs *made)
+{
+    if (!made) return;
+    for (int i = made->count - 1; i >= 0; --i) rmdir(made->path[i]);
+    made->count = 0;
 }

@@ -53,3 +53,14 @@ int leap__invert3(const double m[3][3], double inv[3][3])
         for (int c = 0; c < 3; ++c) inv[r][c] = cof[c][r] / det;
     return 1;
 }
+
+void leap__mat4_mul(const double a[4][4], const double b[4][4], double out[4][4])
+{
+    double r[4][4];
+    for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 4; ++j) {
+            r[i][j] = 0.0;
+            for (int k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
+        }
+    memcpy(out, r, sizeof r);
+}

@@ -18,4 +18,7 @@ const char *leap__base_name(const char *path);
  * (|det| not above 1e-12 times the product of the column lengths) or not finite. */
 int leap__invert3(const double m[3][3], double inv[3][3]);
 
+/* out = a * b for row-major 4x4 matrices (out may alias a or b). */
+void leap__mat4_mul(const double a[4][4], const double b[4][4], double out[4][4]);
+
 #endif

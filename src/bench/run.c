@@ -307,7 +307,7 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
     *b.outcome = (leap_bench_outcome){.failed_volume = -1};
     if (o->nvolumes < 1 || o->nvolumes > MAX_ITEMS || !o->out)
         return leap_fail(err, LEAP_ERR_USAGE, "bench: no volume or no output directory");
-    leap_result lr = leap_make_dirs(o->out, err);
+    leap_result lr = leap_make_dirs(o->out, NULL, err);
     if (lr) return lr;
     int vdb_runs = 0;
     if (o->vs_vdb) {

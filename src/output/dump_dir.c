@@ -23,8 +23,7 @@ static const char *const file_names[F_COUNT] = {
 };
 
 struct leap_dump_dir {
-    char created[16][4096]; /* directories made by this run, outermost first */
-    int n_created;
+    leap_made_dirs created; /* directories made by this run */
     char tmp[F_COUNT][4096], final[F_COUNT][4096];
     int published[F_COUNT];
     int temp_slot[F_COUNT]; /* leap_temp_track slots, so a signal removes the temporaries */
@@ -38,21 +37,8 @@ static leap_result make_dirs(const char *path, leap_dump_dir *d, leap_error *err
         return leap_fail(err, LEAP_ERR_USAGE, "%s: path too long", path);
     size_t len = strlen(buf);
     while (len > 1 && buf[len - 1] == '/') buf[--len] = '\0';
-    for (size_t i = 1; i <= len; ++i) {
-        if (buf[i] != '/' && buf[i] != '\0') continue;
-        char c = buf[i];
-        buf[i] = '\0';
-        struct stat st;
-        if (stat(buf, &st) == 0) {
-            if (!S_ISDIR(st.st_mode))
-                return leap_fail(err, LEAP_ERR_IO, "%s: '%s' exists and is not a directory", path, buf);
-        } else if (mkdir(buf, 0777) == 0) {
-            if (d->n_created < 16) snprintf(d->created[d->n_created++], sizeof d->created[0], "%s", buf);
-        } else {
-            return leap_fail(err, LEAP_ERR_IO, "%s: cannot create directory '%s' (%s)", path, buf, strerror(errno));
-        }
-        buf[i] = c;
-    }
+    leap_result r = leap_make_dirs(buf, &d->created, err);
+    if (r) return r;
     if (access(buf, W_OK | X_OK) != 0) return leap_fail(err, LEAP_ERR_IO, "%s: directory is not writable", path);
     for (int i = 0; i < F_COUNT; ++i) {
         if (snprintf(d->final[i], sizeof d->final[i], "%s/%s", buf, file_names[i]) >= (int)sizeof d->final[i] ||
@@ -71,7 +57,7 @@ static void out_dir_discard(leap_dump_dir *d)
         if (d->published[i]) remove(d->final[i]);
         if (d->tmp[i][0]) leap_temp_untrack(d->temp_slot[i]);
     }
-    for (int i = d->n_created - 1; i >= 0; --i) rmdir(d->created[i]);
+    leap_made_dirs_remove(&d->created);
 }
 
 static int out_dir_publish(leap_dump_dir *d, leap_error *err)
