@@ -1,5 +1,6 @@
 #include "util.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -63,4 +64,26 @@ void leap__mat4_mul(const double a[4][4], const double b[4][4], double out[4][4]
             for (int k = 0; k < 4; ++k) r[i][j] += a[i][k] * b[k][j];
         }
     memcpy(out, r, sizeof r);
+}
+
+int leap__parse_numbers(const char *s, double *out, int min_n, int n)
+{
+    int count = 0;
+    const char *p = s;
+    while (*p) {
+        if (count == n) return -1;
+        char *end;
+        errno = 0;
+        double v = strtod(p, &end);
+        if (end == p || errno == ERANGE || !isfinite(v)) return -1;
+        out[count++] = v;
+        p = end;
+        if (*p == ',') {
+            ++p;
+            if (!*p) return -1;
+        } else if (*p) {
+            return -1;
+        }
+    }
+    return count >= min_n ? count : -1;
 }

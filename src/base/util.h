@@ -11,6 +11,10 @@ double leap__now_ms(void);
  * doubling; returns 0 on overflow or out of memory (then *p is unchanged). */
 int leap__grow(void **p, size_t *cap, size_t need, size_t elem);
 
+/* Between min_n and n comma-separated finite numbers ("1,2.5,-3"); returns the count or -1
+ * (empty items, trailing commas, overflow and non-numbers are refused). */
+int leap__parse_numbers(const char *s, double *out, int min_n, int n);
+
 /* The part of path after its last '/'. */
 const char *leap__base_name(const char *path);
 

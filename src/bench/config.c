@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "util.h"
 #include "bench_internal.h"
 #include "leap/files.h"
 #include "leap/renderer.h"
@@ -28,30 +29,6 @@ void leap_bench_desc_release(leap_bench_desc *d)
 {
     cJSON_Delete(d->config);
     d->config = NULL;
-}
-
-/* Between min_n and n comma-separated finite numbers; returns the count or -1 (the same
- * rule as the command line's numbers). */
-static int parse_numbers(const char *s, double *out, int min_n, int n)
-{
-    int count = 0;
-    const char *p = s;
-    while (*p) {
-        if (count == n) return -1;
-        char *end;
-        errno = 0;
-        double v = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v)) return -1;
-        out[count++] = v;
-        p = end;
-        if (*p == ',') {
-            ++p;
-            if (!*p) return -1;
-        } else if (*p) {
-            return -1;
-        }
-    }
-    return count >= min_n ? count : -1;
 }
 
 static int parse_list_modes(const char *v, leap_bench_desc *o)
@@ -88,7 +65,7 @@ static int parse_list_sizes(const char *v, leap_bench_desc *o)
 static int parse_count(const char *v, int lo, int hi, int *out)
 {
     double d;
-    if (parse_numbers(v, &d, 1, 1) != 1 || d != floor(d) || d < lo || d > hi) return 0;
+    if (leap__parse_numbers(v, &d, 1, 1) != 1 || d != floor(d) || d < lo || d > hi) return 0;
     *out = (int)d;
     return 1;
 }
@@ -100,7 +77,7 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
     if (!strcmp(name, "modes")) {
         if (!parse_list_modes(v, o)) USAGE("--modes '%s': use naive, bbox, octree, sparseleap", v);
     } else if (!strcmp(name, "steps")) {
-        o->nsteps = parse_numbers(v, o->steps, 1, MAX_ITEMS);
+        o->nsteps = leap__parse_numbers(v, o->steps, 1, MAX_ITEMS);
         for (int i = 0; i < o->nsteps; ++i)
             if (!(o->steps[i] >= 1e-3 && o->steps[i] <= 1e6)) o->nsteps = -1;
         if (o->nsteps < 1) USAGE("--steps '%s' must be numbers in [0.001, 1e6]", v);
@@ -113,10 +90,10 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
     } else if (!strcmp(name, "warmup")) {
         if (!parse_count(v, 0, 100, &o->warmup)) USAGE("--warmup '%s' must be in 0..100", v);
     } else if (!strcmp(name, "ref_factor") || !strcmp(name, "ref-factor")) {
-        if (parse_numbers(v, &o->ref_factor, 1, 1) != 1 || !(o->ref_factor >= 1 && o->ref_factor <= 64))
+        if (leap__parse_numbers(v, &o->ref_factor, 1, 1) != 1 || !(o->ref_factor >= 1 && o->ref_factor <= 64))
             USAGE("--ref-factor '%s' must be in [1, 64]", v);
     } else if (!strcmp(name, "elevation")) {
-        if (parse_numbers(v, &o->elevation, 1, 1) != 1 || fabs(o->elevation) > 90)
+        if (leap__parse_numbers(v, &o->elevation, 1, 1) != 1 || fabs(o->elevation) > 90)
             USAGE("--elevation '%s' must be in [-90, 90]", v);
     } else if (!strcmp(name, "tf")) {
         o->tf = v;
@@ -125,7 +102,7 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
         else if (!strcmp(v, "false") || !strcmp(v, "0")) o->vs_vdb = 0;
         else USAGE("vs_vdb_render '%s' must be true or false", v);
     } else if (!strcmp(name, "vdb_shadow_step") || !strcmp(name, "vdb-shadow-step")) {
-        if (parse_numbers(v, &o->vdb_shadow_step, 1, 1) != 1 || !(o->vdb_shadow_step >= 1e-3 && o->vdb_shadow_step <= 1e6))
+        if (leap__parse_numbers(v, &o->vdb_shadow_step, 1, 1) != 1 || !(o->vdb_shadow_step >= 1e-3 && o->vdb_shadow_step <= 1e6))
             USAGE("--vdb-shadow-step '%s' must be in [0.001, 1e6]", v);
     } else {
         USAGE("unknown option '%s'", name);

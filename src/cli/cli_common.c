@@ -77,28 +77,6 @@ int cli_exit_code(leap_result r)
     return r == LEAP_OK ? 0 : r == LEAP_ERR_USAGE ? EXIT_USAGE : EXIT_RUNTIME;
 }
 
-int cli_parse_numbers(const char *s, double *out, int min_n, int n)
-{
-    int count = 0;
-    const char *p = s;
-    while (*p) {
-        if (count == n) return -1;
-        char *end;
-        errno = 0;
-        double v = strtod(p, &end);
-        if (end == p || errno == ERANGE || !isfinite(v)) return -1;
-        out[count++] = v;
-        p = end;
-        if (*p == ',') {
-            ++p;
-            if (!*p) return -1;
-        } else if (*p) {
-            return -1;
-        }
-    }
-    return count >= min_n ? count : -1;
-}
-
 static int parse_size(const char *s, int *w, int *h)
 {
     char *end;
@@ -225,12 +203,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     case GRID: o->scene.grid = v; break;
     case TF: o->scene.tf = v; break;
     case RANGE:
-        if (cli_parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
+        if (leap__parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
             FAIL("--range '%s' must be LO,HI with LO < HI", v);
         o->scene.has_range = 1;
         break;
     case STEP:
-        if (cli_parse_numbers(v, &n, 1, 1) != 1 || !(n > 0)) FAIL("--step '%s' must be a positive number of voxels", v);
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || !(n > 0)) FAIL("--step '%s' must be a positive number of voxels", v);
         if (n < 1e-3 || n > 1e6) FAIL("--step %g is outside [0.001, 1e6] voxels", n);
         o->scene.step = n;
         break;
@@ -239,13 +217,13 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         break;
     case MODE: o->mode_name = v; break;
     case SEGMENTS:
-        if (cli_parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > LEAP_MAX_SEGMENTS)
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > LEAP_MAX_SEGMENTS)
             FAIL("--segments '%s' must be an integer in 1..%d", v, LEAP_MAX_SEGMENTS);
         o->max_segments = (int)n;
         break;
     case DEVICE: o->device = v; break;
     case ORBIT:
-        o->orbit_n = cli_parse_numbers(v, o->orbit, 2, 3);
+        o->orbit_n = leap__parse_numbers(v, o->orbit, 2, 3);
         if (o->orbit_n < 0 || (o->orbit_n == 3 && !(o->orbit[2] > 0)))
             FAIL("--orbit '%s' must be AZ,EL[,DIST] with DIST > 0", v);
         if (o->orbit_n == 3 && o->orbit[2] > 1e6)
@@ -256,7 +234,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     case EYE:
     case TARGET: {
         double *p = which == EYE ? o->eye : o->target;
-        if (cli_parse_numbers(v, p, 3, 3) != 3) FAIL("%s '%s' must be X,Y,Z", names[which], v);
+        if (leap__parse_numbers(v, p, 3, 3) != 3) FAIL("%s '%s' must be X,Y,Z", names[which], v);
         /* Beyond this, squared distances overflow and the view direction is lost. */
         for (int k = 0; k < 3; ++k)
             if (fabs(p[k]) > 1e100) FAIL("%s '%s': coordinates must be within +-1e100", names[which], v);
@@ -264,12 +242,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         break;
     }
     case UP:
-        if (cli_parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
+        if (leap__parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
         o->has_up = 1;
         break;
     case FOV:
     default:
-        if (cli_parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))
+        if (leap__parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))
             FAIL("--fov '%s' must be in (0, 180) degrees", v);
         break;
     }

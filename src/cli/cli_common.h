@@ -26,8 +26,6 @@ int cli_input_error(const char *volume, const char *tf, leap_result r, const cha
 /* Exit code for a library error: usage errors are 2, everything else 1. */
 int cli_exit_code(leap_result r);
 
-/* Between min_n and n comma-separated finite numbers; returns the count or -1. */
-int cli_parse_numbers(const char *s, double *out, int min_n, int n);
 /* "--name value" or "--name=value": the value, or NULL (with *missing set when the value is
  * absent); advances *i past what it consumed. */
 const char *cli_option_value(int argc, char **argv, int *i, const char *name, int *missing);

@@ -155,7 +155,7 @@ int cli_info(int argc, char **argv)
             if (ntf == 16) return cli_usage_error("info", "at most 16 --tf options");
             tfs[ntf++] = v;
         } else if ((v = cli_option_value(argc, argv, &i, "--range", &missing)) || missing) {
-            if (missing || cli_parse_numbers(v, range, 2, 2) != 2 || !(range[1] > range[0]))
+            if (missing || leap__parse_numbers(v, range, 2, 2) != 2 || !(range[1] > range[0]))
                 return cli_usage_error("info", "--range must be LO,HI with LO < HI");
             has_range = 1;
         } else if (!strcmp(argv[i], "--json")) {

@@ -62,7 +62,7 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
         if ((v = cli_option_value(argc, argv, &i, "--pixel", &missing)) || missing) {
             double xy[2];
             if (missing) return cli_usage_error("segments", "option --pixel needs a value");
-            if (cli_parse_numbers(v, xy, 2, 2) != 2 || xy[0] != floor(xy[0]) || xy[1] != floor(xy[1]) ||
+            if (leap__parse_numbers(v, xy, 2, 2) != 2 || xy[0] != floor(xy[0]) || xy[1] != floor(xy[1]) ||
                 fabs(xy[0]) > 1e6 || fabs(xy[1]) > 1e6)
                 return cli_usage_error("segments", "--pixel '%s' must be X,Y (integers)", v);
             o->has_pixel = 1;

@@ -91,14 +91,14 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
         if ((v = cli_option_value(argc, argv, &i, "--frames", &missing)) || missing) {
             double n;
             if (missing) return cli_usage_error("view", "option --frames needs a value");
-            if (cli_parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > 1e6)
+            if (leap__parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > 1e6)
                 return cli_usage_error("view", "--frames '%s' must be a whole number in 1..1000000", v);
             o->frames = (long)n;
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--budget", &missing)) || missing) {
             if (missing) return cli_usage_error("view", "option --budget needs a value");
-            if (cli_parse_numbers(v, &o->budget_ms, 1, 1) != 1 || !(o->budget_ms >= 1 && o->budget_ms <= 10000))
+            if (leap__parse_numbers(v, &o->budget_ms, 1, 1) != 1 || !(o->budget_ms >= 1 && o->budget_ms <= 10000))
                 return cli_usage_error("view", "--budget '%s' must be milliseconds in 1..10000", v);
             continue;
         }
