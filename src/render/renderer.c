@@ -27,8 +27,6 @@ static const uint32_t events_frag_spv[] = {
 };
 
 
-#define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
-
 _Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 13
@@ -99,16 +97,17 @@ int leap_mode_from_name(const char *name)
     return -1;
 }
 
-static VkShaderModule make_module(VkDevice dev, const uint32_t *code, size_t bytes)
+/* *out stays VK_NULL_HANDLE on failure; the VkResult goes into the caller's message. */
+static VkResult make_module(VkDevice dev, const uint32_t *code, size_t bytes, VkShaderModule *out)
 {
     VkShaderModuleCreateInfo ci = {
         .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
         .codeSize = bytes,
         .pCode = code,
     };
-    VkShaderModule m = VK_NULL_HANDLE;
-    if (vkCreateShaderModule(dev, &ci, NULL, &m) != VK_SUCCESS) return VK_NULL_HANDLE;
-    return m;
+    VkResult vr = vkCreateShaderModule(dev, &ci, NULL, out);
+    if (vr != VK_SUCCESS) *out = VK_NULL_HANDLE;
+    return vr;
 }
 
 /* The ray-event pass: boxes as instances, back faces only (chosen in the vertex shader),
@@ -123,8 +122,9 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .pSubpasses = &subpass,
     };
     LEAP_VK_CHECK(vkCreateRenderPass(dev, &rpci, NULL, &r->render_pass));
-    VkShaderModule vs = make_module(dev, events_vert_spv, sizeof events_vert_spv);
-    VkShaderModule fs = make_module(dev, events_frag_spv, sizeof events_frag_spv);
+    VkShaderModule vs = VK_NULL_HANDLE, fs = VK_NULL_HANDLE;
+    VkResult vr = make_module(dev, events_vert_spv, sizeof events_vert_spv, &vs);
+    if (vr == VK_SUCCESS) vr = make_module(dev, events_frag_spv, sizeof events_frag_spv, &fs);
     VkPipelineShaderStageCreateInfo stages[2] = {
         {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_VERTEX_BIT,
          .module = vs, .pName = "main"},
@@ -174,8 +174,7 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .layout = r->pipeline_layout,
         .renderPass = r->render_pass,
     };
-    VkResult vr = vs && fs ? vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events)
-                           : VK_ERROR_INITIALIZATION_FAILED;
+    if (vr == VK_SUCCESS) vr = vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events);
     if (vs) vkDestroyShaderModule(dev, vs, NULL);
     if (fs) vkDestroyShaderModule(dev, fs, NULL);
     if (vr != VK_SUCCESS)
@@ -248,11 +247,12 @@ static leap_result create_pipelines(leap_renderer *r, leap_error *err)
         .pPushConstantRanges = &push,
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
-    r->composite_module = make_module(dev, composite_spv, sizeof composite_spv);
-    VkShaderModule resolve_module = make_module(dev, resolve_spv, sizeof resolve_spv);
+    VkShaderModule resolve_module = VK_NULL_HANDLE;
+    VkResult mr = make_module(dev, composite_spv, sizeof composite_spv, &r->composite_module);
+    if (mr == VK_SUCCESS) mr = make_module(dev, resolve_spv, sizeof resolve_spv, &resolve_module);
     leap_result lr = LEAP_OK;
-    if (!r->composite_module || !resolve_module)
-        lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
+    if (mr != VK_SUCCESS)
+        lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
     if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
@@ -346,7 +346,7 @@ void leap_renderer_destroy(leap_renderer *r)
     leap_gpu *gpu = r->gpu;
     if (gpu && gpu->device) {
         VkDevice dev = gpu->device;
-        vkDeviceWaitIdle(dev);
+        (void)vkDeviceWaitIdle(dev); /* tearing down: nothing to do about a failure */
         destroy_frame_buffers(r);
         leap_gpu_buffer_destroy(gpu, &r->tree);
         leap_gpu_buffer_destroy(gpu, &r->boxes);
@@ -389,7 +389,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
                          "holds the accuracy of the reference only within %.0f voxels of the box corner (use "
                          "--mode reference, or crop the grid)",
                          reach, LEAP_FLOAT_POSITION_LIMIT);
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_image_destroy(r->gpu, &r->atlas);
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     r->has_volume = 0;
@@ -448,8 +448,7 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 
 leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err)
 {
-    (void)err;
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_image_destroy(r->gpu, &r->tf);
     r->tf_raw = *tf;
     r->has_tf = 1;
@@ -461,17 +460,17 @@ leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error
 static leap_result upload_tf(leap_renderer *r, double step, leap_error *err)
 {
     if (r->tf.image && r->tf_step == step) return LEAP_OK;
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device)); /* the old table may be in use */
     size_t bytes = sizeof(float[LEAP_TF_GPU_TABLE_SIZE][4]);
     float(*table)[4] = malloc(bytes);
     if (!table) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the transfer function table");
     r->tf_precorrected = leap_tf_precorrect_ok(&r->tf_raw, step);
     leap_tf_gpu_table(&r->tf_raw, step, r->tf_precorrected, table);
-    vkDeviceWaitIdle(r->gpu->device);
     leap_gpu_image_destroy(r->gpu, &r->tf);
     uint32_t extent[3] = {LEAP_TF_GPU_TABLE_SIZE, 0, 0};
     leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, table, bytes, &r->tf, err);
     free(table);
-    r->tf_step = step;
+    if (!lr) r->tf_step = step; /* a failed upload leaves no table: the next frame retries */
     return lr;
 }
 
@@ -794,14 +793,16 @@ static void fill_frame(const leap_renderer *r, const leap_rays *view_in, const l
 static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view, leap_error *err)
 {
     size_t pixels = (size_t)view->width * view->height;
-    if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES ||
-        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > MAX_BUFFER_BYTES)
+    const uint64_t limit = r->gpu->storage_buffer_range;
+    if ((uint64_t)pixels * 16 > limit || (uint64_t)pixels * r->max_segments * 8 > limit ||
+        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > limit)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "image of %dx%d pixels exceeds the 128 MiB per-buffer limit (at most %u pixels)",
-                         view->width, view->height, (unsigned)(MAX_BUFFER_BYTES / (8 * r->max_segments)));
+                         "image of %dx%d pixels exceeds the device's %llu MiB per-buffer limit (at most %u pixels)",
+                         view->width, view->height, (unsigned long long)(limit >> 20),
+                         (unsigned)(limit / (8 * r->max_segments)));
     if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width && r->fb_height == (uint32_t)view->height)
         return LEAP_OK;
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     destroy_frame_buffers(r);
     VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
@@ -829,10 +830,11 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
 static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *err)
 {
     VkDeviceSize need = (VkDeviceSize)(count ? count : 1) * sizeof(leap_box_gpu);
-    if (need > MAX_BUFFER_BYTES)
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the 128 MiB buffer limit", count);
+    if (need > r->gpu->storage_buffer_range)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the device's %llu MiB buffer limit", count,
+                         (unsigned long long)(r->gpu->storage_buffer_range >> 20));
     if (r->boxes.size >= need) return LEAP_OK;
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_buffer_destroy(r->gpu, &r->boxes);
     return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
 }
@@ -843,10 +845,11 @@ static leap_result upload_tree(leap_renderer *r, leap_error *err)
 {
     size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &r->tree_depth);
     if (words == 0) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the occupancy tree");
-    if (words * 4 > MAX_BUFFER_BYTES)
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the 128 MiB buffer limit", words / 8);
+    if (words * 4 > r->gpu->storage_buffer_range)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the device's %llu MiB buffer limit",
+                         words / 8, (unsigned long long)(r->gpu->storage_buffer_range >> 20));
     if (r->tree.size < words * 4) {
-        vkDeviceWaitIdle(r->gpu->device);
+        LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
         leap_gpu_buffer_destroy(r->gpu, &r->tree);
         leap_result lr = leap_gpu_buffer_create(r->gpu, words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
         if (lr) return lr;
