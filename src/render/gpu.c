@@ -7,7 +7,6 @@
 #include <string.h>
 #include <sys/resource.h>
 
-
 const char *leap_vk_result_name(VkResult r)
 {
     switch (r) {
@@ -64,6 +63,7 @@ static leap_result pick_device(leap_gpu *gpu, const char *want, leap_error *err)
                          want ? " matching '" : "", want ? want : "", want ? "'" : "");
     gpu->physical = devices[best];
     vkGetPhysicalDeviceProperties(gpu->physical, &gpu->props);
+    gpu->storage_buffer_range = gpu->props.limits.maxStorageBufferRange;
     vkGetPhysicalDeviceMemoryProperties(gpu->physical, &gpu->memory);
     VkPhysicalDeviceDriverProperties driver = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_DRIVER_PROPERTIES};
     VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
@@ -87,10 +87,27 @@ static int has_layer(const char *name)
     return found;
 }
 
+/* Validation is asked for by the desc or by LEAP_VALIDATION=1; asked for and missing is an
+ * error, so that a run believed to be validated is not silently unchecked. */
+static leap_result want_validation(const leap_gpu_desc *desc, const char *layer, int *use, leap_error *err)
+{
+    const char *env = getenv("LEAP_VALIDATION");
+    if (env && *env && strcmp(env, "0") != 0 && strcmp(env, "1") != 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "LEAP_VALIDATION must be 0 or 1, not '%s'", env);
+    *use = (desc && desc->validation) || (env && strcmp(env, "1") == 0);
+    if (*use && !has_layer(layer))
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "LEAP_VALIDATION=1 but the Vulkan validation layer is not installed "
+                         "(apt-get install vulkan-validationlayers)");
+    return LEAP_OK;
+}
+
 static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap_error *err)
 {
     const char *validation = "VK_LAYER_KHRONOS_validation";
-    int use_validation = desc && desc->validation && has_layer(validation);
+    int use_validation = 0;
+    leap_result vr = want_validation(desc, validation, &use_validation, err);
+    if (vr) return vr;
     VkApplicationInfo app = {
         .sType = VK_STRUCTURE_TYPE_APPLICATION_INFO,
         .pApplicationName = "leap",
@@ -213,7 +230,8 @@ void leap_gpu_destroy(leap_gpu *gpu)
 {
     if (!gpu) return;
     if (gpu->device) {
-        vkDeviceWaitIdle(gpu->device);
+        /* Nothing to do about a failure while tearing down: destroy regardless. */
+        (void)vkDeviceWaitIdle(gpu->device);
         if (gpu->timestamps) vkDestroyQueryPool(gpu->device, gpu->timestamps, NULL);
         if (gpu->fence) vkDestroyFence(gpu->device, gpu->fence, NULL);
         if (gpu->command_pool) vkDestroyCommandPool(gpu->device, gpu->command_pool, NULL);
@@ -221,6 +239,11 @@ void leap_gpu_destroy(leap_gpu *gpu)
     }
     if (gpu->instance) vkDestroyInstance(gpu->instance, NULL);
     free(gpu);
+}
+
+static leap_result vk_fail(leap_error *err, const char *call, VkResult r)
+{
+    return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: %s failed: %s", call, leap_vk_result_name(r));
 }
 
 static leap_result allocate(leap_gpu *gpu, VkMemoryRequirements req, VkMemoryPropertyFlags want,
@@ -241,11 +264,13 @@ static leap_result allocate(leap_gpu *gpu, VkMemoryRequirements req, VkMemoryPro
         .memoryTypeIndex = type,
     };
     VkResult r = vkAllocateMemory(gpu->device, &mai, NULL, mem);
-    if (r != VK_SUCCESS)
+    if (r != VK_SUCCESS) {
+        *mem = VK_NULL_HANDLE; /* the callers' clean-up frees what is not null */
         return leap_fail(err, r == VK_ERROR_OUT_OF_DEVICE_MEMORY || r == VK_ERROR_OUT_OF_HOST_MEMORY
                                   ? LEAP_ERR_OOM : LEAP_ERR_VULKAN,
                          "Vulkan: cannot allocate %.1f MiB of device memory: %s",
                          req.size / 1048576.0, leap_vk_result_name(r));
+    }
     gpu->allocated_bytes += req.size;
     return LEAP_OK;
 }
@@ -261,19 +286,25 @@ leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsa
         .usage = usage,
         .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
     };
-    LEAP_VK_CHECK(vkCreateBuffer(gpu->device, &bci, NULL, &out->buffer));
+    VkResult vr = vkCreateBuffer(gpu->device, &bci, NULL, &out->buffer);
+    if (vr != VK_SUCCESS) {
+        out->buffer = VK_NULL_HANDLE;
+        return vk_fail(err, "vkCreateBuffer", vr);
+    }
     VkMemoryRequirements req;
     vkGetBufferMemoryRequirements(gpu->device, out->buffer, &req);
     leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
                              &out->memory, err);
-    if (r) {
-        leap_gpu_buffer_destroy(gpu, out);
-        return r;
+    if (!r) {
+        out->memory_bytes = req.size;
+        out->size = size;
+        vr = vkBindBufferMemory(gpu->device, out->buffer, out->memory, 0);
+        if (vr != VK_SUCCESS) r = vk_fail(err, "vkBindBufferMemory", vr);
+        else if ((vr = vkMapMemory(gpu->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped)) != VK_SUCCESS)
+            r = vk_fail(err, "vkMapMemory", vr);
     }
-    out->size = size;
-    LEAP_VK_CHECK(vkBindBufferMemory(gpu->device, out->buffer, out->memory, 0));
-    LEAP_VK_CHECK(vkMapMemory(gpu->device, out->memory, 0, VK_WHOLE_SIZE, 0, &out->mapped));
-    return LEAP_OK;
+    if (r) leap_gpu_buffer_destroy(gpu, out); /* nothing half-built stays */
+    return r;
 }
 
 void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf)
@@ -281,9 +312,8 @@ void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf)
     if (!gpu || !buf) return;
     if (buf->buffer) vkDestroyBuffer(gpu->device, buf->buffer, NULL);
     if (buf->memory) {
-        VkMemoryRequirements dummy = {0};
-        (void)dummy;
         vkFreeMemory(gpu->device, buf->memory, NULL);
+        gpu->allocated_bytes -= buf->memory_bytes;
     }
     memset(buf, 0, sizeof *buf);
 }
@@ -345,12 +375,23 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                          "Vulkan: a %ux%ux%u image exceeds what %s supports", ext.width, ext.height,
                          ext.depth, gpu->props.deviceName);
-    LEAP_VK_CHECK(vkCreateImage(gpu->device, &ici, NULL, &out->image));
+    VkResult vr = vkCreateImage(gpu->device, &ici, NULL, &out->image);
+    if (vr != VK_SUCCESS) {
+        out->image = VK_NULL_HANDLE;
+        return vk_fail(err, "vkCreateImage", vr);
+    }
+    /* From here on every failure destroys what was made, so that no caller keeps (and later
+     * binds) an image without memory or view. */
     VkMemoryRequirements req;
     vkGetImageMemoryRequirements(gpu->device, out->image, &req);
     leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &out->memory, err);
-    if (r) return r;
-    LEAP_VK_CHECK(vkBindImageMemory(gpu->device, out->image, out->memory, 0));
+    if (r) goto fail;
+    out->memory_bytes = req.size;
+    vr = vkBindImageMemory(gpu->device, out->image, out->memory, 0);
+    if (vr != VK_SUCCESS) {
+        r = vk_fail(err, "vkBindImageMemory", vr);
+        goto fail;
+    }
     out->format = format;
     out->extent[0] = ext.width;
     out->extent[1] = ext.height;
@@ -362,11 +403,16 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
         .format = format,
         .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
     };
-    LEAP_VK_CHECK(vkCreateImageView(gpu->device, &vci, NULL, &out->view));
+    vr = vkCreateImageView(gpu->device, &vci, NULL, &out->view);
+    if (vr != VK_SUCCESS) {
+        out->view = VK_NULL_HANDLE;
+        r = vk_fail(err, "vkCreateImageView", vr);
+        goto fail;
+    }
 
     leap_buffer staging;
     r = leap_gpu_buffer_create(gpu, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err);
-    if (r) return r;
+    if (r) goto fail;
     memcpy(staging.mapped, data, bytes);
     r = leap_gpu_begin(gpu, err);
     if (!r) {
@@ -400,7 +446,9 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
         r = leap_gpu_submit_wait(gpu, err);
     }
     leap_gpu_buffer_destroy(gpu, &staging);
-    gpu->allocated_bytes -= 0;
+    if (!r) return LEAP_OK;
+fail:
+    leap_gpu_image_destroy(gpu, out);
     return r;
 }
 
@@ -409,7 +457,10 @@ void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img)
     if (!gpu || !img) return;
     if (img->view) vkDestroyImageView(gpu->device, img->view, NULL);
     if (img->image) vkDestroyImage(gpu->device, img->image, NULL);
-    if (img->memory) vkFreeMemory(gpu->device, img->memory, NULL);
+    if (img->memory) {
+        vkFreeMemory(gpu->device, img->memory, NULL);
+        gpu->allocated_bytes -= img->memory_bytes;
+    }
     memset(img, 0, sizeof *img);
 }
 
@@ -422,43 +473,6 @@ leap_result leap_gpu_read_timestamps(leap_gpu *gpu, uint32_t count, double *ms, 
                                    sizeof ticks[0], VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT));
     for (uint32_t i = 0; i < count; ++i)
         ms[i] = (double)(ticks[i] - ticks[0]) * gpu->timestamp_ns * 1e-6;
-    return LEAP_OK;
-}
-
-leap_result leap_gpu_compute_pipeline(leap_gpu *gpu, const uint32_t *code, size_t code_bytes,
-                                      VkDescriptorSetLayout set_layout, VkPipelineLayout *layout,
-                                      VkPipeline *pipeline, leap_error *err)
-{
-    VkShaderModuleCreateInfo smci = {
-        .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
-        .codeSize = code_bytes,
-        .pCode = code,
-    };
-    VkShaderModule module;
-    LEAP_VK_CHECK(vkCreateShaderModule(gpu->device, &smci, NULL, &module));
-    VkPipelineLayoutCreateInfo plci = {
-        .sType = VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO,
-        .setLayoutCount = 1,
-        .pSetLayouts = &set_layout,
-    };
-    VkResult r = vkCreatePipelineLayout(gpu->device, &plci, NULL, layout);
-    if (r == VK_SUCCESS) {
-        VkComputePipelineCreateInfo cpci = {
-            .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
-            .stage = {
-                .sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO,
-                .stage = VK_SHADER_STAGE_COMPUTE_BIT,
-                .module = module,
-                .pName = "main",
-            },
-            .layout = *layout,
-        };
-        r = vkCreateComputePipelines(gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, pipeline);
-    }
-    vkDestroyShaderModule(gpu->device, module, NULL);
-    if (r != VK_SUCCESS)
-        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create compute pipeline: %s",
-                         leap_vk_result_name(r));
     return LEAP_OK;
 }
 

@@ -17,7 +17,8 @@ extern "C" {
 typedef struct leap_gpu_desc {
     const char *device_name; /* substring of the device name to pick; NULL = env
                                 LEAP_DEVICE, else the first hardware GPU, else lavapipe */
-    int validation;          /* 1 = enable VK_LAYER_KHRONOS_validation if installed */
+    int validation;          /* 1 = enable VK_LAYER_KHRONOS_validation; env LEAP_VALIDATION=1
+                                does the same. Creation fails if the layer is missing. */
     const char *const *instance_extensions; /* e.g. from glfwGetRequiredInstanceExtensions */
     uint32_t instance_extension_count;
     int swapchain;           /* 1 = enable VK_KHR_swapchain on the device (presenting) */
@@ -40,6 +41,7 @@ typedef struct leap_gpu {
     double timestamp_ns; /* nanoseconds per timestamp tick; 0 = no timestamps */
     VkPhysicalDeviceMemoryProperties memory;
     uint64_t allocated_bytes; /* live device memory made through this context */
+    VkDeviceSize storage_buffer_range; /* the device's maxStorageBufferRange */
 } leap_gpu;
 
 #define LEAP_GPU_MAX_TIMESTAMPS 32
@@ -49,6 +51,7 @@ typedef struct leap_buffer {
     VkDeviceMemory memory;
     VkDeviceSize size;
     void *mapped; /* host-visible buffers stay mapped */
+    VkDeviceSize memory_bytes; /* size of `memory`, counted in allocated_bytes */
 } leap_buffer;
 
 typedef struct leap_image {
@@ -57,10 +60,13 @@ typedef struct leap_image {
     VkImageView view;
     VkFormat format;
     uint32_t extent[3];
+    VkDeviceSize memory_bytes; /* size of `memory`, counted in allocated_bytes */
 } leap_image;
 
 /* Creates the context. Errors: LEAP_ERR_VULKAN naming the failing call and VkResult, or
- * LEAP_ERR_UNSUPPORTED when no device (or none matching device_name) exists. */
+ * LEAP_ERR_UNSUPPORTED when no device (or none matching device_name) exists or validation
+ * is asked for without the layer installed; LEAP_ERR_USAGE for a LEAP_VALIDATION other
+ * than 0 or 1. */
 leap_result leap_gpu_create(const leap_gpu_desc *desc, leap_gpu **out, leap_error *err);
 void leap_gpu_destroy(leap_gpu *gpu); /* accepts NULL */
 
@@ -82,7 +88,8 @@ leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsa
 void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf); /* accepts zeroed */
 
 /* Sampled image (1D or 3D by extent; 1D when extent[1] == 0) filled from `data`
- * (tightly packed, `bytes` long) through a staging buffer. */
+ * (tightly packed, `bytes` long) through a staging buffer. On failure *out is left zeroed
+ * with nothing allocated. */
 leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
                                   const void *data, size_t bytes, leap_image *out, leap_error *err);
 void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img); /* accepts zeroed */
@@ -95,12 +102,8 @@ leap_result leap_gpu_submit_wait(leap_gpu *gpu, leap_error *err);
  * the first one. Returns LEAP_ERR_UNSUPPORTED if the queue has no timestamps. */
 leap_result leap_gpu_read_timestamps(leap_gpu *gpu, uint32_t count, double *ms, leap_error *err);
 
-/* Compute pipeline from SPIR-V words with one descriptor set layout. */
-leap_result leap_gpu_compute_pipeline(leap_gpu *gpu, const uint32_t *code, size_t code_bytes,
-                                      VkDescriptorSetLayout set_layout, VkPipelineLayout *layout,
-                                      VkPipeline *pipeline, leap_error *err);
-
-/* Total bytes of device memory allocated by this context so far (for stats). */
+/* Bytes of device memory currently allocated through this context (buffers and images
+ * not yet destroyed). */
 uint64_t leap_gpu_allocated_bytes(const leap_gpu *gpu);
 
 #ifdef __cplusplus

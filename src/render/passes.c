@@ -28,14 +28,16 @@ void renderer_destroy_frame_buffers(leap_renderer *r)
 static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view, leap_error *err)
 {
     size_t pixels = (size_t)view->width * view->height;
-    if ((uint64_t)pixels * 16 > MAX_BUFFER_BYTES || (uint64_t)pixels * r->max_segments * 8 > MAX_BUFFER_BYTES ||
-        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > MAX_BUFFER_BYTES)
+    const uint64_t limit = r->gpu->storage_buffer_range;
+    if ((uint64_t)pixels * 16 > limit || (uint64_t)pixels * r->max_segments * 8 > limit ||
+        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > limit)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "image of %dx%d pixels exceeds the 128 MiB per-buffer limit (at most %u pixels)",
-                         view->width, view->height, (unsigned)(MAX_BUFFER_BYTES / (8 * r->max_segments)));
+                         "image of %dx%d pixels exceeds the device's %llu MiB per-buffer limit (at most %u pixels)",
+                         view->width, view->height, (unsigned long long)(limit >> 20),
+                         (unsigned)(limit / (8 * r->max_segments)));
     if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width && r->fb_height == (uint32_t)view->height)
         return LEAP_OK;
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     renderer_destroy_frame_buffers(r);
     VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
@@ -63,10 +65,11 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
 static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *err)
 {
     VkDeviceSize need = (VkDeviceSize)(count ? count : 1) * sizeof(leap_box_gpu);
-    if (need > MAX_BUFFER_BYTES)
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the 128 MiB buffer limit", count);
+    if (need > r->gpu->storage_buffer_range)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the device's %llu MiB buffer limit", count,
+                         (unsigned long long)(r->gpu->storage_buffer_range >> 20));
     if (r->boxes.size >= need) return LEAP_OK;
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_buffer_destroy(r->gpu, &r->boxes);
     return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
 }
@@ -77,10 +80,11 @@ static leap_result upload_tree(leap_renderer *r, leap_error *err)
 {
     size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &r->tree_depth);
     if (words == 0) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the occupancy tree");
-    if (words * 4 > MAX_BUFFER_BYTES)
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the 128 MiB buffer limit", words / 8);
+    if (words * 4 > r->gpu->storage_buffer_range)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the device's %llu MiB buffer limit",
+                         words / 8, (unsigned long long)(r->gpu->storage_buffer_range >> 20));
     if (r->tree.size < words * 4) {
-        vkDeviceWaitIdle(r->gpu->device);
+        LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
         leap_gpu_buffer_destroy(r->gpu, &r->tree);
         leap_result lr = leap_gpu_buffer_create(r->gpu, words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
         if (lr) return lr;

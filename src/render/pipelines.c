@@ -20,16 +20,17 @@ static const uint32_t events_frag_spv[] = {
 #include "events_frag.inc"
 };
 
-static VkShaderModule make_module(VkDevice dev, const uint32_t *code, size_t bytes)
+/* *out stays VK_NULL_HANDLE on failure; the VkResult goes into the caller's message. */
+static VkResult make_module(VkDevice dev, const uint32_t *code, size_t bytes, VkShaderModule *out)
 {
     VkShaderModuleCreateInfo ci = {
         .sType = VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO,
         .codeSize = bytes,
         .pCode = code,
     };
-    VkShaderModule m = VK_NULL_HANDLE;
-    if (vkCreateShaderModule(dev, &ci, NULL, &m) != VK_SUCCESS) return VK_NULL_HANDLE;
-    return m;
+    VkResult vr = vkCreateShaderModule(dev, &ci, NULL, out);
+    if (vr != VK_SUCCESS) *out = VK_NULL_HANDLE;
+    return vr;
 }
 
 /* The ray-event pass: boxes as instances, back faces only (chosen in the vertex shader),
@@ -44,8 +45,9 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .pSubpasses = &subpass,
     };
     LEAP_VK_CHECK(vkCreateRenderPass(dev, &rpci, NULL, &r->render_pass));
-    VkShaderModule vs = make_module(dev, events_vert_spv, sizeof events_vert_spv);
-    VkShaderModule fs = make_module(dev, events_frag_spv, sizeof events_frag_spv);
+    VkShaderModule vs = VK_NULL_HANDLE, fs = VK_NULL_HANDLE;
+    VkResult vr = make_module(dev, events_vert_spv, sizeof events_vert_spv, &vs);
+    if (vr == VK_SUCCESS) vr = make_module(dev, events_frag_spv, sizeof events_frag_spv, &fs);
     VkPipelineShaderStageCreateInfo stages[2] = {
         {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_VERTEX_BIT,
          .module = vs, .pName = "main"},
@@ -95,8 +97,7 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .layout = r->pipeline_layout,
         .renderPass = r->render_pass,
     };
-    VkResult vr = vs && fs ? vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events)
-                           : VK_ERROR_INITIALIZATION_FAILED;
+    if (vr == VK_SUCCESS) vr = vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events);
     if (vs) vkDestroyShaderModule(dev, vs, NULL);
     if (fs) vkDestroyShaderModule(dev, fs, NULL);
     if (vr != VK_SUCCESS)
@@ -169,11 +170,12 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
         .pPushConstantRanges = &push,
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
-    r->composite_module = make_module(dev, composite_spv, sizeof composite_spv);
-    VkShaderModule resolve_module = make_module(dev, resolve_spv, sizeof resolve_spv);
+    VkShaderModule resolve_module = VK_NULL_HANDLE;
+    VkResult mr = make_module(dev, composite_spv, sizeof composite_spv, &r->composite_module);
+    if (mr == VK_SUCCESS) mr = make_module(dev, resolve_spv, sizeof resolve_spv, &resolve_module);
     leap_result lr = LEAP_OK;
-    if (!r->composite_module || !resolve_module)
-        lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module");
+    if (mr != VK_SUCCESS)
+        lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
     if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);

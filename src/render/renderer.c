@@ -64,7 +64,7 @@ void leap_renderer_destroy(leap_renderer *r)
     leap_gpu *gpu = r->gpu;
     if (gpu && gpu->device) {
         VkDevice dev = gpu->device;
-        vkDeviceWaitIdle(dev);
+        (void)vkDeviceWaitIdle(dev); /* tearing down: nothing to do about a failure */
         renderer_destroy_frame_buffers(r);
         leap_gpu_buffer_destroy(gpu, &r->tree);
         leap_gpu_buffer_destroy(gpu, &r->boxes);
@@ -107,7 +107,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
                          "holds the accuracy of the reference only within %.0f voxels of the box corner (use "
                          "--mode reference, or crop the grid)",
                          reach, LEAP_FLOAT_POSITION_LIMIT);
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_image_destroy(r->gpu, &r->atlas);
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     r->has_volume = 0;
@@ -166,8 +166,7 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 
 leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err)
 {
-    (void)err;
-    vkDeviceWaitIdle(r->gpu->device);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_image_destroy(r->gpu, &r->tf);
     r->tf_raw = *tf;
     r->has_tf = 1;
@@ -179,17 +178,17 @@ leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error
 leap_result renderer_upload_tf(leap_renderer *r, double step, leap_error *err)
 {
     if (r->tf.image && r->tf_step == step) return LEAP_OK;
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device)); /* the old table may be in use */
     size_t bytes = sizeof(float[LEAP_TF_GPU_TABLE_SIZE][4]);
     float(*table)[4] = malloc(bytes);
     if (!table) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the transfer function table");
     r->tf_precorrected = leap_tf_precorrect_ok(&r->tf_raw, step);
     leap_tf_gpu_table(&r->tf_raw, step, r->tf_precorrected, table);
-    vkDeviceWaitIdle(r->gpu->device);
     leap_gpu_image_destroy(r->gpu, &r->tf);
     uint32_t extent[3] = {LEAP_TF_GPU_TABLE_SIZE, 0, 0};
     leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, table, bytes, &r->tf, err);
     free(table);
-    r->tf_step = step;
+    if (!lr) r->tf_step = step; /* a failed upload leaves no table: the next frame retries */
     return lr;
 }
 

@@ -8,7 +8,6 @@
 #include "gpu.h"
 #include "shared.h"
 
-#define MAX_BUFFER_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
 
 _Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");

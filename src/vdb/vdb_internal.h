@@ -1,0 +1,259 @@
+// Private to src/vdb: what the check, read, statistics and write parts of the OpenVDB
+// shim share. Not installed; the public API is include/leap/vdb.h.
+#ifndef LEAP_VDB_INTERNAL_H
+#define LEAP_VDB_INTERNAL_H
+
+#include "leap/vdb.h"
+
+#include <openvdb/openvdb.h>
+#include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <ios>
+#include <limits>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <new>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace vdb = openvdb;
+
+// A named namespace (not an anonymous one) so that the parts can call each other.
+namespace leap_vdb_detail {
+
+using FloatTree = vdb::FloatTree;
+using RootT = FloatTree::RootNodeType;
+using Node2T = RootT::ChildNodeType;   // 4096^3 internal node
+using Node1T = Node2T::ChildNodeType;  // 128^3 internal node
+using LeafT = FloatTree::LeafNodeType; // 8^3 leaf
+
+void init_openvdb();
+
+// Exception text on one line (OpenVDB messages may contain newlines).
+std::string one_line(const char *s);
+
+// Runs f (returning leap_result) and turns any exception into `code` with a message
+// that names `what` (usually the file).
+template <typename F>
+leap_result guarded(leap_error *err, leap_result code, const std::string &what, F &&f)
+{
+    try {
+        return f();
+    } catch (const std::bad_alloc &) {
+        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", what.c_str());
+    } catch (const std::ios_base::failure &) {
+        return leap_fail(err, code, "%s: data ends early or cannot be read (truncated or corrupt file)", what.c_str());
+    } catch (const vdb::Exception &e) {
+        return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
+    } catch (const std::exception &e) {
+        return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
+    } catch (...) {
+        return leap_fail(err, code, "%s: unknown error", what.c_str());
+    }
+}
+
+// Damage found by the structure checks below, before OpenVDB reads the bytes.
+struct Corrupt : std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+// A name read from a file, made safe for a one-line message.
+std::string printable(const std::string &s);
+
+// The file's bytes, mapped read-only for the checks below.
+class Mapping {
+public:
+    Mapping(const std::string &path, uint64_t size) : size_(size)
+    {
+        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd < 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
+        void *p = size ? ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0) : MAP_FAILED;
+        const int saved = errno;
+        ::close(fd);
+        if (p == MAP_FAILED) OPENVDB_THROW(vdb::IoError, "cannot map the file: " << std::strerror(saved));
+        data_ = static_cast<const unsigned char *>(p);
+    }
+    ~Mapping() { ::munmap(const_cast<unsigned char *>(data_), size_); }
+    Mapping(const Mapping &) = delete;
+    Mapping &operator=(const Mapping &) = delete;
+    const unsigned char *data() const { return data_; }
+    uint64_t size() const { return size_; }
+
+private:
+    const unsigned char *data_ = nullptr;
+    uint64_t size_;
+};
+
+// Bounded reads of the byte range [pos, limit) of a file. OpenVDB allocates and fills a
+// buffer for every string and metadata value it reads, loops over every count, and copies
+// chunks whose sizes it takes from the file, before it notices that the file is shorter or
+// that a size is wrong: one flipped byte costs gigabytes, minutes, or a write past a buffer.
+// The checks below walk the same structures first and reject what does not fit. Messages
+// are `prefix` followed by the `what` of the read that failed.
+class Walker {
+public:
+    Walker(const Mapping &m, uint64_t pos, uint64_t limit, std::string prefix = "")
+        : data_(m.data()), pos_(pos), limit_(std::min(limit, m.size())), prefix_(std::move(prefix))
+    {
+    }
+    uint64_t pos() const { return pos_; }
+    void seek(uint64_t pos) { pos_ = pos; }
+    uint64_t left() const { return pos_ < limit_ ? limit_ - pos_ : 0; }
+    [[noreturn]] void fail(const std::string &what, const std::string &problem) const
+    {
+        throw Corrupt(prefix_ + what + ": " + problem);
+    }
+    void need(uint64_t n, const char *what) const
+    {
+        if (n > left())
+            fail(what, "corrupt or truncated file (" + std::to_string(n) + " bytes needed, " + std::to_string(left()) +
+                           " left)");
+    }
+    void need(uint64_t n, const std::string &what) const { need(n, what.c_str()); }
+    template <typename W>
+    const unsigned char *bytes(uint64_t n, const W &what)
+    {
+        need(n, what);
+        const unsigned char *p = data_ + pos_;
+        pos_ += n;
+        return p;
+    }
+    template <typename W>
+    void read(void *dst, size_t n, const W &what)
+    {
+        std::memcpy(dst, bytes(n, what), n);
+    }
+    template <typename T, typename W>
+    T value(const W &what)
+    {
+        T v;
+        read(&v, sizeof v, what);
+        return v;
+    }
+    template <typename W>
+    void skip(uint64_t n, const W &what)
+    {
+        bytes(n, what);
+    }
+    // OpenVDB's string: a uint32 length, then the bytes.
+    template <typename W>
+    std::string str(const W &what)
+    {
+        const uint32_t n = value<uint32_t>(what);
+        const unsigned char *p = bytes(n, what);
+        return std::string(reinterpret_cast<const char *>(p), n);
+    }
+
+private:
+    const unsigned char *data_;
+    uint64_t pos_, limit_;
+    std::string prefix_;
+};
+
+// ---- Structure checks before OpenVDB reads the bytes (vdb_check.cpp).
+
+// The header as io::Archive::readHeader reads it. Returns whether the file has grid offsets.
+bool walk_header(Walker &w, uint32_t *version);
+// A MetaMap as MetaMap::readMeta reads it.
+void walk_metamap(Walker &w, const std::string &what);
+// What precedes a grid's tree: compression flags, metadata, and the transform's map type.
+void walk_grid_prefix(Walker &w, const std::string &label);
+// A grid descriptor as GridDescriptor::read reads it; returns the grid's label for messages.
+std::string walk_descriptor(Walker &w, int index, int64_t pos[3], bool *instance);
+
+// Bytes of one value of a tree type: in the root node (always full size) and in compressed
+// node values (half size for real types of a grid saved as half). 0 for trees this check
+// does not know.
+struct TreeFormat {
+    size_t full = 0, stored = 0;
+};
+
+TreeFormat tree_format(const std::string &type, bool half);
+
+// Walks a tree's topology and buffers from `w` (which carries the message prefix).
+void check_tree_data(Walker &w, const TreeFormat &format, uint32_t compression);
+
+// ---- Value ranges: per-brick in vdb_stats.cpp, the load-time scan in vdb_read.cpp.
+
+struct Range {
+    float lo = std::numeric_limits<float>::infinity();
+    float hi = -std::numeric_limits<float>::infinity();
+    void add(float v)
+    {
+        lo = std::min(lo, v);
+        hi = std::max(hi, v);
+    }
+    void add(const Range &r)
+    {
+        lo = std::min(lo, r.lo);
+        hi = std::max(hi, r.hi);
+    }
+    bool empty() const { return lo > hi; }
+};
+
+// Per-leaf statistics for the load-time scan.
+struct Scan {
+    uint64_t nonfinite = 0;
+    Range all;            // finite stored values
+    Range active;         // finite active values
+    bool active_nan = false, active_pinf = false, active_ninf = false;
+
+    void add(float v, bool on)
+    {
+        if (std::isfinite(v)) {
+            all.add(v);
+            if (on) active.add(v);
+            return;
+        }
+        ++nonfinite;
+        if (!on) return;
+        if (std::isnan(v)) active_nan = true;
+        else if (v > 0) active_pinf = true;
+        else active_ninf = true;
+    }
+    void merge(const Scan &o)
+    {
+        nonfinite += o.nonfinite;
+        all.add(o.all);
+        active.add(o.active);
+        active_nan |= o.active_nan;
+        active_pinf |= o.active_pinf;
+        active_ninf |= o.active_ninf;
+    }
+};
+
+struct TileRec {
+    vdb::Coord origin;
+    int level; // 0: 8^3, 1: 128^3, 2: 4096^3
+    float value;
+};
+
+} // namespace leap_vdb_detail
+
+struct leap_grid {
+    vdb::FloatGrid::Ptr grid;
+    leap_grid_info info;
+    std::vector<leap_vdb_detail::TileRec> tiles; // active tiles, in iteration order
+};
+
+#endif

@@ -1,0 +1,575 @@
+// OpenVDB behind the C API of include/leap/vdb.h: opening files and loading grids. No C++
+// exception leaves the shim: every extern "C" function catches at its boundary and reports
+// through leap_error.
+#include "vdb_internal.h"
+
+namespace leap_vdb_detail {
+
+void init_openvdb()
+{
+    static std::once_flag once;
+    std::call_once(once, [] {
+        vdb::initialize();
+        // Delayed-load metadata serves only memory-mapped delayed loading, which leap does not
+        // use, and its reader sizes buffers from counts in the file without checking them. As
+        // an unregistered type it is read as opaque bytes of a checked length (and dropped).
+        if (vdb::Metadata::isRegisteredType("__delayedload")) vdb::Metadata::unregisterType("__delayedload");
+    });
+}
+
+std::string one_line(const char *s)
+{
+    std::string out = s ? s : "unknown error";
+    std::replace(out.begin(), out.end(), '\n', ' ');
+    return out;
+}
+
+} // namespace leap_vdb_detail
+
+using namespace leap_vdb_detail;
+
+namespace {
+
+void copy_str(char *dst, size_t cap, const std::string &s)
+{
+    std::snprintf(dst, cap, "%s", s.c_str());
+}
+
+bool is_scalar_type(const std::string &t)
+{
+    return t == "float" || t == "double" || t == "int32";
+}
+
+// Row-major column-vector matrix (world = M * (i,j,k,1)) from an OpenVDB transform.
+// OpenVDB's Mat4d uses row vectors (world = (i,j,k,1) * A), so M = A^T.
+void transform_to_info(const vdb::math::Transform &xf, leap_grid_info *info)
+{
+    const vdb::math::Mat4d a = xf.baseMap()->getAffineMap()->getMat4();
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) info->index_to_world[r][c] = a(c, r);
+    for (int axis = 0; axis < 3; ++axis) {
+        double s = 0.0;
+        for (int r = 0; r < 3; ++r) s += info->index_to_world[r][axis] * info->index_to_world[r][axis];
+        info->voxel_size[axis] = std::sqrt(s);
+    }
+}
+
+void meta_to_info(const vdb::GridBase &g, const std::string &name, leap_grid_info *info)
+{
+    copy_str(info->name, sizeof info->name, name);
+    copy_str(info->value_type, sizeof info->value_type, g.valueType());
+    copy_str(info->grid_class, sizeof info->grid_class,
+             vdb::GridBase::gridClassToString(g.getGridClass()));
+    info->scalar = is_scalar_type(g.valueType());
+    info->saved_as_half = g.valueType() == "float" && g.saveFloatAsHalf();
+    transform_to_info(g.constTransform(), info);
+    info->bbox_min[0] = info->bbox_min[1] = info->bbox_min[2] = 0;
+    info->bbox_max[0] = info->bbox_max[1] = info->bbox_max[2] = -1;
+}
+
+// Background of a scalar grid as float (how every scalar type is presented).
+bool scalar_background(const vdb::GridBase &g, double *out)
+{
+    if (auto f = dynamic_cast<const vdb::FloatGrid *>(&g)) *out = f->background();
+    else if (auto d = dynamic_cast<const vdb::DoubleGrid *>(&g)) *out = float(d->background());
+    else if (auto i = dynamic_cast<const vdb::Int32Grid *>(&g)) *out = float(i->background());
+    else return false;
+    return true;
+}
+
+// A .vdb file read with OpenVDB's own readers (io::File keeps them private and sorts grids by
+// name), after the checks above, through streams that throw at the first failed read:
+// OpenVDB's tree readers do not check the stream and would go on building nodes from a
+// failed one.
+class VdbReader : public vdb::io::Archive {
+public:
+    VdbReader(const std::string &path, uint64_t size) : path_(path), size_(size) {}
+
+    // Checks the structure, then reads the descriptors in file order and, for a file without
+    // grid offsets (written to a stream), every grid.
+    void open(std::vector<vdb::io::GridDescriptor> &descs, std::vector<vdb::GridBase::Ptr> &streamed)
+    {
+        const Mapping m(path_, size_);
+        Walker w(m, 0, size_);
+        uint32_t version = 0;
+        const bool offsets = walk_header(w, &version);
+        walk_metamap(w, "file metadata");
+        const int32_t count = w.value<int32_t>("grid count");
+        if (count < 0) throw Corrupt("corrupt grid count " + std::to_string(count));
+        if (offsets) {
+            for (int i = 0; i < count; ++i) {
+                int64_t pos[3];
+                bool instance = false;
+                const std::string label = walk_descriptor(w, i, pos, &instance);
+                // grid start <= tree data start <= end (an instance stores no tree: 0 there)
+                if (pos[0] < int64_t(w.pos()) || pos[2] < pos[0] ||
+                    (!(instance && pos[1] == 0) && (pos[1] < pos[0] || pos[2] < pos[1])))
+                    throw Corrupt("corrupt grid table (" + label + ")");
+                if (uint64_t(pos[2]) > size_)
+                    throw Corrupt("truncated: " + label + " ends at byte " + std::to_string(pos[2]) +
+                                  " but the file has " + std::to_string(size_) + " bytes");
+                Walker g(m, uint64_t(pos[0]), uint64_t(pos[2]));
+                walk_grid_prefix(g, label);
+                w.seek(uint64_t(pos[2]));
+            }
+        }
+
+        Stream s;
+        start(s);
+        vdb::MetaMap file_meta;
+        file_meta.readMeta(s.is);
+        if (readGridCount(s.is) != count) throw Corrupt("grid count changed while reading");
+        for (int i = 0; i < count; ++i) {
+            const uint64_t at = uint64_t(s.is.tellg());
+            std::string label;
+            if (!offsets) {
+                // Each grid follows its descriptor; check both where they start.
+                Walker g(m, at, size_);
+                int64_t pos[3];
+                bool instance = false;
+                label = walk_descriptor(g, i, pos, &instance);
+                walk_grid_prefix(g, label);
+            }
+            vdb::io::GridDescriptor gd;
+            gd.read(s.is);
+            descs.push_back(gd);
+            if (offsets) {
+                gd.seekToEnd(s.is);
+                continue;
+            }
+            const uint64_t grid_pos = uint64_t(s.is.tellg());
+            if (!gd.isInstance()) check_tree(m, gd, grid_pos, size_, label + " tree", true);
+            vdb::GridBase::Ptr grid = new_grid(gd);
+            readGrid(grid, gd, s.is);
+            if (gd.isInstance()) {
+                const int parent = find_parent(descs, gd);
+                grid->setTree(streamed[size_t(parent)]->baseTreePtr());
+            }
+            streamed.push_back(grid);
+        }
+    }
+
+    // Grid `gd` of this file: everything, or only its metadata and transform.
+    vdb::GridBase::Ptr read(const vdb::io::GridDescriptor &gd, bool full)
+    {
+        if (full && !gd.isInstance()) {
+            const Mapping m(path_, size_);
+            check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false);
+        }
+        Stream s;
+        start(s);
+        gd.seekToGrid(s.is);
+        vdb::GridBase::Ptr grid = new_grid(gd);
+        if (full) {
+            readGrid(grid, gd, s.is);
+        } else {
+            readGridCompression(s.is);
+            grid->readMeta(s.is);
+            grid->readTransform(s.is);
+        }
+        return grid;
+    }
+
+    // Index of the instance parent of `gd` among `descs` (a grid that is no instance itself).
+    static int find_parent(const std::vector<vdb::io::GridDescriptor> &descs, const vdb::io::GridDescriptor &gd)
+    {
+        for (size_t i = 0; i < descs.size(); ++i)
+            if (descs[i].uniqueName() == gd.instanceParentName() && !descs[i].isInstance()) return int(i);
+        throw Corrupt("grid '" + printable(vdb::io::GridDescriptor::nameAsString(gd.uniqueName())) +
+                      "' is an instance of a missing grid: corrupt file");
+    }
+
+private:
+    struct Stream {
+        std::ifstream is;
+        vdb::io::StreamMetadata::Ptr meta; // the stream holds its address
+    };
+
+    // Opens the file and tags the stream as io::File::open does.
+    void start(Stream &s)
+    {
+        s.is.open(path_, std::ios_base::in | std::ios_base::binary);
+        if (!s.is) OPENVDB_THROW(vdb::IoError, "cannot open the file");
+        s.is.exceptions(std::ios_base::failbit | std::ios_base::badbit);
+        readHeader(s.is);
+        s.meta.reset(new vdb::io::StreamMetadata);
+        s.meta->setSeekable(true);
+        vdb::io::setStreamMetadataPtr(s.is, s.meta, /*transfer=*/false);
+        setFormatVersion(s.is);
+        setLibraryVersion(s.is);
+        setDataCompression(s.is);
+    }
+
+    // Checks the tree of the grid that starts at `grid_pos` (its compression flags) and must
+    // end by `limit`. The tree starts after the metadata and transform, whose extent OpenVDB
+    // finds by reading them (already checked by walk_grid_prefix). `any_type`: a tree this
+    // check does not know is an error (a file without offsets is read whole) rather than
+    // left unread.
+    void check_tree(const Mapping &m, const vdb::io::GridDescriptor &gd, uint64_t grid_pos, uint64_t limit,
+                    const std::string &label, bool any_type)
+    {
+        const TreeFormat format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
+        if (!format.full) {
+            if (any_type)
+                throw Corrupt(label + " has grid type " + printable(gd.gridType()) +
+                              ", which leap cannot check in a file without grid offsets");
+            OPENVDB_THROW(vdb::TypeError, label << " has unsupported tree type " << gd.gridType());
+        }
+        Stream s;
+        start(s);
+        s.is.seekg(std::streamoff(grid_pos));
+        readGridCompression(s.is);
+        const uint32_t compression = vdb::io::getDataCompression(s.is);
+        vdb::GridBase::Ptr meta = new_grid(gd);
+        meta->readMeta(s.is);
+        meta->readTransform(s.is);
+        Walker w(m, uint64_t(s.is.tellg()), limit, label + " ");
+        check_tree_data(w, format, compression);
+    }
+
+    static vdb::GridBase::Ptr new_grid(const vdb::io::GridDescriptor &gd)
+    {
+        vdb::GridBase::Ptr grid = vdb::GridBase::createGrid(gd.gridType());
+        grid->setSaveFloatAsHalf(gd.saveFloatAsHalf());
+        return grid;
+    }
+
+    std::string path_;
+    uint64_t size_;
+};
+
+float sanitize(float v, float bg, const Range &finite)
+{
+    if (std::isnan(v)) return bg;
+    if (std::isinf(v)) return v > 0 ? finite.hi : finite.lo;
+    return v;
+}
+
+// Converts a double/int32 grid into a float tree of the same topology, tiles and background.
+template <typename GridT>
+FloatTree::Ptr convert_tree(const vdb::GridBase &g)
+{
+    const GridT &src = static_cast<const GridT &>(g);
+    return FloatTree::Ptr(new FloatTree(src.tree()));
+}
+
+} // namespace
+
+struct leap_vdb_file {
+    std::string path;
+    std::unique_ptr<VdbReader> reader;
+    std::vector<vdb::io::GridDescriptor> descs; // in file order
+    std::vector<vdb::GridBase::Ptr> streamed;   // every grid of a file without grid offsets
+    std::vector<std::string> names; // unique names ("name[N]" for duplicates)
+    std::vector<std::string> plain; // grid names as written
+    mutable std::vector<leap_grid_info> infos; // backgrounds are filled in lazily
+    mutable std::vector<char> have_background;
+    mutable int cached_index = -1; // grid read by leap_vdb_grid_info, not yet loaded
+    mutable vdb::GridBase::Ptr cached_grid;
+    mutable std::mutex mutex;
+};
+
+struct leap_grid_reader {
+    explicit leap_grid_reader(const FloatTree &t) : acc(t) {}
+    vdb::tree::ValueAccessor<const FloatTree> acc;
+};
+
+namespace {
+
+// Grid `index` with its tree (an instance gets its parent's tree).
+vdb::GridBase::Ptr read_full_grid(const leap_vdb_file *file, size_t index)
+{
+    if (!file->streamed.empty()) return file->streamed[index]->deepCopyGrid();
+    const vdb::io::GridDescriptor &gd = file->descs[index];
+    vdb::GridBase::Ptr grid = file->reader->read(gd, true);
+    if (gd.isInstance()) {
+        const int parent = VdbReader::find_parent(file->descs, gd);
+        grid->setTree(file->reader->read(file->descs[size_t(parent)], true)->baseTreePtr());
+    }
+    return grid;
+}
+
+} // namespace
+
+extern "C" {
+
+leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!path || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_open: NULL argument");
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, std::strerror(errno));
+    if (S_ISDIR(st.st_mode)) return leap_fail(err, LEAP_ERR_IO, "'%s' is a directory, not a .vdb file", path);
+    if (!S_ISREG(st.st_mode)) return leap_fail(err, LEAP_ERR_IO, "'%s' is not a regular file", path);
+    if (FILE *f = std::fopen(path, "rb")) std::fclose(f);
+    else return leap_fail(err, LEAP_ERR_IO, "cannot read '%s': %s", path, std::strerror(errno));
+    if (st.st_size == 0) return leap_fail(err, LEAP_ERR_FORMAT, "'%s' is empty (0 bytes), not a VDB file", path);
+
+    const std::string what = std::string("'") + path + "'";
+    return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+        init_openvdb();
+        std::unique_ptr<leap_vdb_file> f(new leap_vdb_file);
+        f->path = path;
+        f->reader.reset(new VdbReader(path, uint64_t(st.st_size)));
+        // No delayed loading: a grid is read completely and checked once, at load time.
+        f->reader->open(f->descs, f->streamed);
+        for (size_t i = 0; i < f->descs.size(); ++i) {
+            const vdb::io::GridDescriptor &gd = f->descs[i];
+            const std::string name = vdb::io::GridDescriptor::nameAsString(gd.uniqueName());
+            f->names.push_back(name);
+            f->plain.push_back(gd.gridName());
+            leap_grid_info info;
+            std::memset(&info, 0, sizeof info);
+            vdb::GridBase::ConstPtr meta = f->streamed.empty() ? f->reader->read(gd, false) : f->streamed[i];
+            meta_to_info(*meta, name, &info);
+            f->infos.push_back(info);
+        }
+        if (f->names.empty())
+            return leap_fail(err, LEAP_ERR_FORMAT, "%s: no grids (an empty or truncated VDB file)", what.c_str());
+        f->have_background.assign(f->names.size(), 0);
+        *out = f.release();
+        return LEAP_OK;
+    });
+}
+
+void leap_vdb_close(leap_vdb_file *file)
+{
+    if (!file) return;
+    delete file;
+}
+
+int leap_vdb_grid_count(const leap_vdb_file *file)
+{
+    return file ? int(file->names.size()) : 0;
+}
+
+leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out, leap_error *err)
+{
+    if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_grid_info: NULL argument");
+    if (index < 0 || index >= int(file->names.size()))
+        return leap_fail(err, LEAP_ERR_USAGE, "'%s': grid index %d out of range (%d grids)", file->path.c_str(),
+                         index, int(file->names.size()));
+    const size_t i = size_t(index);
+    std::lock_guard<std::mutex> lock(file->mutex);
+    if (!file->have_background[i] && file->infos[i].scalar) {
+        // The background is stored with the tree, not with the metadata, so the grid is read
+        // here and kept for a following leap_vdb_load_grid of the same index. (Delayed
+        // loading would read less, but it trips assertions in OpenVDB on corrupt files.)
+        const std::string what = "'" + file->path + "', grid '" + file->names[i] + "'";
+        leap_result r = guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+            vdb::GridBase::Ptr g = read_full_grid(file, i);
+            double bg = 0.0;
+            if (scalar_background(*g, &bg)) file->infos[i].background = bg;
+            file->cached_index = index;
+            file->cached_grid = g;
+            return LEAP_OK;
+        });
+        if (r != LEAP_OK) return r;
+        file->have_background[i] = 1;
+    }
+    *out = file->infos[i];
+    return LEAP_OK;
+}
+
+int leap_vdb_find_grid(const leap_vdb_file *file, const char *name)
+{
+    if (!file) return -1;
+    for (size_t i = 0; i < file->infos.size(); ++i) {
+        if (name ? file->names[i] == name : file->infos[i].scalar != 0) return int(i);
+    }
+    // Grids sharing a name are listed as "name[0]", "name[1]", ...; the bare name selects the first.
+    for (size_t i = 0; name && i < file->plain.size(); ++i)
+        if (file->plain[i] == name) return int(i);
+    return -1;
+}
+
+leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_load_grid: NULL argument");
+    if (index < 0 || index >= int(file->names.size()))
+        return leap_fail(err, LEAP_ERR_USAGE, "'%s': grid index %d out of range (%d grids)", file->path.c_str(),
+                         index, int(file->names.size()));
+    const size_t gi = size_t(index);
+    const leap_grid_info &meta = file->infos[gi];
+    if (!meta.scalar)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': grid '%s' has value type %s; only float, half, double "
+                         "and int32 grids can be rendered", file->path.c_str(), meta.name, meta.value_type);
+
+    const std::string what = "'" + file->path + "', grid '" + file->names[gi] + "'";
+    return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+        vdb::GridBase::Ptr base;
+        {
+            std::lock_guard<std::mutex> lock(file->mutex);
+            if (file->cached_index == index) base = std::move(file->cached_grid);
+            else base = read_full_grid(file, gi);
+            file->cached_index = -1;
+            file->cached_grid.reset();
+        }
+        if (!base->constTransform().isLinear())
+            return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: non-linear (frustum) transform is not supported",
+                             what.c_str());
+
+        std::unique_ptr<leap_grid> g(new leap_grid);
+        g->info = meta;
+        if (base->isType<vdb::FloatGrid>()) {
+            g->grid = vdb::gridPtrCast<vdb::FloatGrid>(base);
+        } else {
+            FloatTree::Ptr tree;
+            if (base->isType<vdb::DoubleGrid>()) tree = convert_tree<vdb::DoubleGrid>(*base);
+            else if (base->isType<vdb::Int32Grid>()) tree = convert_tree<vdb::Int32Grid>(*base);
+            else return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: unsupported grid type %s", what.c_str(),
+                                  base->type().c_str());
+            g->grid = vdb::FloatGrid::create(tree);
+            g->grid->setTransform(base->constTransform().copy());
+        }
+        base.reset();
+        FloatTree &tree = g->grid->tree();
+
+        uint64_t nonfinite = 0;
+        float bg = tree.background();
+        if (!std::isfinite(bg)) {
+            // Nothing can stand in for a non-finite background; 0 is the neutral choice.
+            ++nonfinite;
+            bg = 0.0f;
+            tree.root().setBackground(bg, /*updateChildNodes=*/true);
+        }
+
+        std::vector<LeafT *> leaves;
+        leaves.reserve(tree.leafCount());
+        for (auto it = tree.beginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+
+        using Blocks = tbb::blocked_range<size_t>;
+        Scan scan = tbb::parallel_reduce(
+            Blocks(0, leaves.size(), 64), Scan(),
+            [&](const Blocks &r, Scan s) {
+                for (size_t i = r.begin(); i != r.end(); ++i) {
+                    const LeafT &leaf = *leaves[i];
+                    const float *v = leaf.buffer().data();
+                    const auto &mask = leaf.getValueMask();
+                    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+                }
+                return s;
+            },
+            [](Scan a, const Scan &b) {
+                a.merge(b);
+                return a;
+            });
+
+        // Tiles at every level (leaf depth excluded), active or not.
+        auto tile_iter = tree.beginValueAll();
+        tile_iter.setMaxDepth(tile_iter.getLeafDepth() - 1);
+        for (auto it = tile_iter; it; ++it) scan.add(*it, it.isValueOn());
+
+        nonfinite += scan.nonfinite;
+        Range finite = scan.all;
+        if (finite.empty()) finite.add(bg);
+        if (scan.nonfinite > 0) {
+            tbb::parallel_for(Blocks(0, leaves.size(), 64), [&](const Blocks &r) {
+                for (size_t i = r.begin(); i != r.end(); ++i) {
+                    float *v = leaves[i]->buffer().data();
+                    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], bg, finite);
+                }
+            });
+            for (auto it = tile_iter; it; ++it)
+                if (!std::isfinite(*it)) it.setValue(sanitize(*it, bg, finite));
+        }
+
+        Range values = scan.active;
+        if (scan.active_nan) values.add(bg);
+        if (scan.active_pinf) values.add(finite.hi);
+        if (scan.active_ninf) values.add(finite.lo);
+
+        leap_grid_info &info = g->info;
+        info.background = bg;
+        info.nonfinite_values = nonfinite;
+        info.leaf_count = leaves.size();
+        auto on_tiles = tree.cbeginValueOn();
+        on_tiles.setMaxDepth(on_tiles.getLeafDepth() - 1);
+        for (auto it = on_tiles; it; ++it) {
+            vdb::CoordBBox bb;
+            it.getBoundingBox(bb);
+            const int level = int(it.getLevel()) - 1;
+            if (level < 0 || level >= LEAP_TILE_LEVELS) continue;
+            ++info.active_tiles[level];
+            g->tiles.push_back(TileRec{bb.min(), level, *it});
+        }
+        info.active_voxels = tree.activeVoxelCount();
+        if (info.active_voxels > 0) {
+            vdb::CoordBBox bb;
+            tree.evalActiveVoxelBoundingBox(bb);
+            for (int a = 0; a < 3; ++a) {
+                info.bbox_min[a] = bb.min()[a];
+                info.bbox_max[a] = bb.max()[a];
+            }
+        } else {
+            info.bbox_min[0] = info.bbox_min[1] = info.bbox_min[2] = 0;
+            info.bbox_max[0] = info.bbox_max[1] = info.bbox_max[2] = -1;
+        }
+        info.value_min = values.empty() ? bg : values.lo;
+        info.value_max = values.empty() ? bg : values.hi;
+        info.memory_bytes = tree.memUsage();
+        *out = g.release();
+        return LEAP_OK;
+    });
+}
+
+void leap_grid_destroy(leap_grid *grid)
+{
+    delete grid;
+}
+
+const leap_grid_info *leap_grid_get_info(const leap_grid *grid)
+{
+    return grid ? &grid->info : nullptr;
+}
+
+size_t leap_grid_brick_count(const leap_grid *grid)
+{
+    return grid ? size_t(grid->info.leaf_count) + grid->tiles.size() : 0;
+}
+
+leap_result leap_grid_reader_create(const leap_grid *grid, leap_grid_reader **out, leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!grid || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_reader_create: NULL argument");
+    return guarded(err, LEAP_ERR_OOM, "leap_grid_reader_create", [&]() -> leap_result {
+        *out = new leap_grid_reader(grid->grid->constTree());
+        return LEAP_OK;
+    });
+}
+
+void leap_grid_reader_destroy(leap_grid_reader *reader)
+{
+    delete reader;
+}
+
+float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int32_t k)
+{
+    return reader->acc.getValue(vdb::Coord(i, j, k));
+}
+
+void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], float *out)
+{
+    // Rows are read in runs that stay inside one 8-voxel block: one lookup per run, then
+    // either the leaf's values or the single value of a block that has no leaf.
+    auto &acc = reader->acc;
+    size_t n = 0;
+    for (int32_t z = 0; z < dim[2]; ++z)
+        for (int32_t y = 0; y < dim[1]; ++y)
+            for (int32_t x = 0; x < dim[0];) {
+                const vdb::Coord c(min[0] + x, min[1] + y, min[2] + z);
+                const int32_t run = std::min(dim[0] - x, int32_t(LeafT::DIM) - (c.x() & int32_t(LeafT::DIM - 1)));
+                if (const LeafT *leaf = acc.probeConstLeaf(c)) {
+                    const float *v = leaf->buffer().data() + LeafT::coordToOffset(c);
+                    for (int32_t k = 0; k < run; ++k) out[n++] = v[k << (2 * LeafT::LOG2DIM)];
+                } else {
+                    const float v = acc.getValue(c);
+                    for (int32_t k = 0; k < run; ++k) out[n++] = v;
+                }
+                x += run;
+            }
+}
+
+} // extern "C"
