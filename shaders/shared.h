@@ -22,9 +22,10 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_STRUCT_END(name) name;
 #endif
 
-/* Descriptor bindings of the composite pass (set 0). */
+/* Descriptor bindings of every pass (set 0: raster, resolve and composite share one layout). */
 #define LEAP_BINDING_FRAME 0      /* uniform leap_frame_gpu */
-#define LEAP_BINDING_ATLAS 1      /* sampler3D, R16_UNORM brick atlas, linear filtering */
+#define LEAP_BINDING_ATLAS 1      /* sampler3D brick atlas, linear filtering: R32_SFLOAT or R16_UNORM
+                                     texels holding the same 16-bit values (docs/ARCHITECTURE.md) */
 #define LEAP_BINDING_TF 2         /* sampler1D, RGBA32F transfer function table */
 #define LEAP_BINDING_PAGES 3      /* storage uint[]: page table (see below) */
 #define LEAP_BINDING_OUT_RGBA 4   /* storage vec4[] per pixel: premultiplied RGBA */

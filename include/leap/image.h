@@ -1,4 +1,4 @@
-/* Image files through OpenImageIO (implemented in src/image_shim.cpp). */
+/* Image files through OpenImageIO (implemented in src/output/image_shim.cpp). */
 #ifndef LEAP_IMAGE_H
 #define LEAP_IMAGE_H
 

@@ -1,4 +1,4 @@
-/* OpenVDB input, behind a C API (implemented in src/vdb_shim.cpp; no C++ exception
+/* OpenVDB input, behind a C API (implemented in src/vdb; no C++ exception
  * crosses this boundary).
  *
  * Conventions

@@ -13,7 +13,10 @@
 
 #define SLOT_TEXELS (LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
 #define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT)
-#define MAX_PAGE_BYTES (128u << 20) /* lavapipe's maxStorageBufferRange */
+/* The page table is built before any device is chosen, so it keeps within the storage-buffer
+ * range every Vulkan device guarantees (maxStorageBufferRange >= 2^27); the renderer checks
+ * its own buffers against the device's actual limit. */
+#define MAX_PAGE_BYTES (128u << 20)
 #define LEAP_ATLAS_MAX_BYTES (2.0 * (1u << 30)) /* lavapipe's largest allocation: the 16-bit atlas */
 
 typedef struct builder {

@@ -1,4 +1,4 @@
-/* libFuzzer target: the command-line parser shared by the rendering verbs (src/cli_common.c,
+/* libFuzzer target: the command-line parser shared by the rendering verbs (src/cli/cli_common.c,
  * compiled into this target). The input is split into arguments (at NUL bytes if it has any,
  * else at newlines) and parsed as `leap render ARGS` parses them, without rendering. Either
  * the options are rejected with exit code 2 and exactly one line on stderr, or they are
