@@ -566,3 +566,37 @@ int hc_finish(void)
     printf("%d hard cases, %d frames (each in %d modes), %.1f s\n", nsections, frames, NM, now_s() - t_start);
     return check_exit_code();
 }
+
+int hc_run(void (*const cases[])(void), size_t n)
+{
+    hc_start();
+    if (!hc_gpu_start()) return hc_finish();
+    for (size_t i = 0; i < n; ++i) cases[i]();
+    return hc_finish();
+}
+
+int hc_bind(gpu *g, leap_scene *s)
+{
+    if (!s) return 0;
+    gpu_bind(g, s);
+    return 1;
+}
+
+void hc_release(gpu *g, leap_scene *s)
+{
+    gpu_unbind(g);
+    leap_scene_destroy(s);
+}
+
+leap_scene *hc_blocks(gpu *g)
+{
+    leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
+    return hc_bind(g, s) ? s : NULL;
+}
+
+shape marching_box(const leap_scene *s)
+{
+    shape sh = {0};
+    for (int i = 0; i < 3; ++i) sh.lo[i] = s->march.domain_min[i], sh.hi[i] = s->march.domain_max[i];
+    return sh;
+}

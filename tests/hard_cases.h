@@ -135,6 +135,9 @@ int hc_gpu_start(void);
 /* Frees G, prints the table of cases and returns the exit code (check_exit_code). */
 int hc_finish(void);
 
+/* A whole program of GPU cases: hc_start, hc_gpu_start, the n cases in order, hc_finish. */
+int hc_run(void (*const cases[])(void), size_t n);
+
 extern section *cur; /* the running case: frame() counts its frames */
 extern leap_tf RAMP; /* grey ramp with a transparent floor (ramp_tf) */
 extern char label_buf[256]; /* the last fmt() result */
@@ -269,6 +272,18 @@ void gpu_free(gpu *g);
 void gpu_bind(gpu *g, const leap_scene *s);
 
 void gpu_unbind(gpu *g);
+
+/* Binds s to g; 0 (nothing bound) when s is NULL (a failed load). */
+int hc_bind(gpu *g, leap_scene *s);
+
+/* Unbinds g and destroys s. */
+void hc_release(gpu *g, leap_scene *s);
+
+/* The shared "blocks" input with the ramp TF over [0, 1], bound to g; NULL if it did not load. */
+leap_scene *hc_blocks(gpu *g);
+
+/* The flat-TF shape of a constant box: the scene's marching box (relative index space). */
+shape marching_box(const leap_scene *s);
 
 /* Sparseleap coverage: every lattice sample strictly inside a NONEMPTY (or UNKNOWN) cell lies
  * in one of its pixel's segments. Returns the number of uncovered samples (first printed). */

@@ -15,6 +15,7 @@
 
 #define N LEAP_TF_TABLE_SIZE
 
+#include "occupancy_fixture.h"
 #include "test_random.h"
 
 /* ---- scenes ------------------------------------------------------------------------------ */
@@ -28,12 +29,7 @@ typedef struct scene {
 static void add_brick(scene *s, int32_t x, int32_t y, int32_t z, int32_t size, int tile, float lo,
                       float hi)
 {
-    if (s->count == s->cap) {
-        s->cap = s->cap ? 2 * s->cap : 256;
-        s->bricks = realloc(s->bricks, s->cap * sizeof *s->bricks);
-    }
-    leap_brick *b = &s->bricks[s->count++];
-    memset(b, 0, sizeof *b);
+    leap_brick *b = brick_push(&s->bricks, &s->count, &s->cap);
     b->origin[0] = x, b->origin[1] = y, b->origin[2] = z;
     b->size = size;
     b->is_tile = tile;
@@ -595,12 +591,9 @@ static void test_trivial(void)
     d.cells[0] = 5, d.cells[1] = 9, d.cells[2] = 3;
     d.background = 1.0f;
     d.value_max = 1.0;
-    leap_occupancy *occ = NULL;
-    CHECK_OK(leap_occupancy_create(&d, &occ, &err), &err);
+    single_entry_tf(&tf1, N - 1);
+    leap_occupancy *occ = occupancy_classified(&d, &tf1, 0.0, 1.0);
     if (!occ) return;
-    memset(&tf1, 0, sizeof tf1);
-    tf1.rgba[N - 1][3] = 1.0f;
-    CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 1.0, &err), &err);
     leap_boxes *bx = NULL;
     CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = occ, .merge_siblings = 1}, &bx, &err), &err);
     if (bx) {

@@ -16,7 +16,7 @@ static char out_text[8192];
 static int run(const char *args)
 {
     char cmd[4096];
-    snprintf(cmd, sizeof cmd, "%s %s 2>&1", LEAP_EXE, args);
+    if (snprintf(cmd, sizeof cmd, "%s %s 2>&1", LEAP_EXE, args) >= (int)sizeof cmd) return -1; /* too long */
     FILE *p = popen(cmd, "r");
     if (!p) return -1;
     size_t n = fread(out_text, 1, sizeof out_text - 1, p);
@@ -72,61 +72,59 @@ int main(void)
     CHECK(run("") == 2);
     CHECK(run("frobnicate") == 2 && strstr(out_text, "frobnicate"));
 
-    /* Usage errors: exit 2, no output. */
-    snprintf(args, sizeof args, "render %s -o %s --size 0x10", sphere, out);
-    EXPECT_FAIL(2, args, "--size", out);
-    snprintf(args, sizeof args, "render %s -o %s --size 100000x100000", sphere, out);
-    EXPECT_FAIL(2, args, "--size", out);
-    snprintf(args, sizeof args, "render %s -o %s --step 0", sphere, out);
-    EXPECT_FAIL(2, args, "--step", out);
-    snprintf(args, sizeof args, "render %s -o %s --step nan", sphere, out);
-    EXPECT_FAIL(2, args, "--step", out);
-    snprintf(args, sizeof args, "render %s -o %s --step -1", sphere, out);
-    EXPECT_FAIL(2, args, "--step", out);
-    snprintf(args, sizeof args, "render %s -o %s --range 5,1", sphere, out);
-    EXPECT_FAIL(2, args, "--range", out);
-    snprintf(args, sizeof args, "render %s -o %s --mode warp", sphere, out);
-    EXPECT_FAIL(2, args, "warp", out);
-    snprintf(args, sizeof args, "render %s -o %s --orbit 1,2 --eye 0,0,1 --target 0,0,0", sphere, out);
-    EXPECT_FAIL(2, args, "conflicts", out);
-    snprintf(args, sizeof args, "render %s -o %s --bogus", sphere, out);
-    EXPECT_FAIL(2, args, "--bogus", out);
+    /* Usage errors: exit 2, no output. An unknown preset is the user's own option: a usage error. */
+    static const struct {
+        const char *opts, *needle;
+    } usage_errors[] = {
+        {"--size 0x10", "--size"},
+        {"--size 100000x100000", "--size"},
+        {"--step 0", "--step"},
+        {"--step nan", "--step"},
+        {"--step -1", "--step"},
+        {"--range 5,1", "--range"},
+        {"--mode warp", "warp"},
+        {"--orbit 1,2 --eye 0,0,1 --target 0,0,0", "conflicts"},
+        {"--bogus", "--bogus"},
+        {"--eye 1,2,3 --target 1,2,3", "eye"},
+        {"--eye 0,0,10 --target 0,0,0 --up 0,0,1", "parallel"},
+        {"--tf nosuchpreset", "nosuchpreset"},
+    };
+    for (size_t i = 0; i < sizeof usage_errors / sizeof usage_errors[0]; ++i) {
+        snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, usage_errors[i].opts);
+        EXPECT_FAIL(2, args, usage_errors[i].needle, out);
+    }
     snprintf(args, sizeof args, "render %s", sphere);
     EXPECT_FAIL(2, args, "output", out);
     snprintf(path, sizeof path, "%s/out.xyz", tmp);
     snprintf(args, sizeof args, "render %s -o %s", sphere, path);
     EXPECT_FAIL(2, args, "out.xyz", path);
-    snprintf(args, sizeof args, "render %s -o %s --eye 1,2,3 --target 1,2,3", sphere, out);
-    EXPECT_FAIL(2, args, "eye", out);
-    snprintf(args, sizeof args, "render %s -o %s --eye 0,0,10 --target 0,0,0 --up 0,0,1", sphere, out);
-    EXPECT_FAIL(2, args, "parallel", out);
 
-    /* Runtime errors: exit 1, message names the file. */
-    snprintf(path, sizeof path, "%s/missing.vdb", tmp);
-    snprintf(args, sizeof args, "render %s -o %s", path, out);
-    EXPECT_FAIL(1, args, "missing.vdb", out);
+    /* Runtime errors: exit 1, message names the file. Inputs that are no volume (text: NULL,
+     * none written) and a transfer function that is no JSON. */
+    static const struct {
+        const char *file, *text, *opt;
+    } bad_inputs[] = {
+        {"missing.vdb", NULL, NULL},
+        {"empty.vdb", "", NULL},
+        {"text.vdb", "this is not a volume\n", NULL},
+        {"bad_tf.json", "{ \"RGBPoints\": [0, 1, 0", "--tf"},
+    };
+    for (size_t i = 0; i < sizeof bad_inputs / sizeof bad_inputs[0]; ++i) {
+        snprintf(path, sizeof path, "%s/%s", tmp, bad_inputs[i].file);
+        if (bad_inputs[i].text) write_file(path, bad_inputs[i].text, strlen(bad_inputs[i].text));
+        if (bad_inputs[i].opt)
+            snprintf(args, sizeof args, "render %s -o %s %s %s", sphere, out, bad_inputs[i].opt, path);
+        else
+            snprintf(args, sizeof args, "render %s -o %s", path, out);
+        EXPECT_FAIL(1, args, bad_inputs[i].file, out);
+    }
     snprintf(args, sizeof args, "render %s -o %s", tmp, out);
     EXPECT_FAIL(1, args, tmp, out);
-    snprintf(path, sizeof path, "%s/empty.vdb", tmp);
-    write_file(path, "", 0);
-    snprintf(args, sizeof args, "render %s -o %s", path, out);
-    EXPECT_FAIL(1, args, "empty.vdb", out);
-    snprintf(path, sizeof path, "%s/text.vdb", tmp);
-    write_file(path, "this is not a volume\n", 21);
-    snprintf(args, sizeof args, "render %s -o %s", path, out);
-    EXPECT_FAIL(1, args, "text.vdb", out);
     snprintf(args, sizeof args, "render %s -o %s --grid nosuchgrid", sphere, out);
     EXPECT_FAIL(1, args, "nosuchgrid", out);
     snprintf(args, sizeof args, "render %s -o %s/no/such/dir/out.png", sphere, tmp);
     snprintf(path, sizeof path, "%s/no/such/dir/out.png", tmp);
     EXPECT_FAIL(1, args, "out.png", path);
-    snprintf(path, sizeof path, "%s/bad_tf.json", tmp);
-    write_file(path, "{ \"RGBPoints\": [0, 1, 0", 23);
-    snprintf(args, sizeof args, "render %s -o %s --tf %s", sphere, out, path);
-    EXPECT_FAIL(1, args, "bad_tf.json", out);
-    /* An unknown preset is the user's own option: a usage error. */
-    snprintf(args, sizeof args, "render %s -o %s --tf nosuchpreset", sphere, out);
-    EXPECT_FAIL(2, args, "nosuchpreset", out);
 
     /* Successful renders: PNG, TIFF, EXR with extra channels, stats JSON. */
     char stats[1024];

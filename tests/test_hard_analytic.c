@@ -54,18 +54,24 @@ static void box_views(const leap_scene *s, const shape *sh, double a_tf, const c
     }
 }
 
+/* Flat colour analytic_colour and opacity a_tf above u = 0.1 (every value of the constant
+ * shapes), none below. */
+static leap_tf flat_tf(double a_tf)
+{
+    leap_tf tf;
+    step_tf(&tf, 0.1, a_tf, analytic_colour, 1);
+    return tf;
+}
+
 static void case_degenerate(void)
 {
     hc_begin("a single active voxel, an empty grid, one constant tile (8^3 and 128^3)");
-    leap_tf tf;
     const double a_tf = 0.05;
-    step_tf(&tf, 0.1, a_tf, analytic_colour, 1);
+    leap_tf tf = flat_tf(a_tf);
     /* single voxel: the marching box is the voxel's extent; values in it >= 1/8 > u0 */
     leap_scene *s = load_tmp("single", NULL, &tf, 1, 0.0, 1.0);
-    if (s) {
-        gpu_bind(&G, s);
-        shape sh = {0};
-        for (int i = 0; i < 3; ++i) sh.lo[i] = s->march.domain_min[i], sh.hi[i] = s->march.domain_max[i];
+    if (hc_bind(&G, s)) {
+        shape sh = marching_box(s);
         printf("  single voxel: marching box [%g %g %g]-[%g %g %g] (relative), %u boxes\n", sh.lo[0], sh.lo[1],
                sh.lo[2], sh.hi[0], sh.hi[1], sh.hi[2], leap_boxes_count(s->boxes));
         /* ortho +z, spacing 1/8: pixel centres on the voxel faces x, y = 4.5, 5.5 and -3.5, -2.5 */
@@ -89,16 +95,14 @@ static void case_degenerate(void)
                 analytic(&G, &v, 0.5, a_tf, analytic_colour, &sh, label_buf);
             }
         }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     /* empty grid: nothing to march, every mode transparent (also with opacity at the background) */
     for (int fog = 0; fog <= 1; ++fog) {
         leap_tf ftf;
         fog_tf(&ftf);
         s = load_tmp("empty", "grey", fog ? &ftf : NULL, 0, 0, 0);
-        if (!s) continue;
-        gpu_bind(&G, s);
+        if (!hc_bind(&G, s)) continue;
         for (int k = 0; k < 4; ++k) {
             leap_camera c = orbit(s, 30 * k, 20, k == 3 ? 0.5 : 0, 40 + 40 * k, k == 1);
             leap_rays v;
@@ -109,8 +113,7 @@ static void case_degenerate(void)
                 for (int i = 0; i < 32 * 32 * 4; ++i) sum += fabs(G.rgba[m][i]);
             CHECK_MSG(sum == 0, "empty grid: image not transparent (sum %g)", sum);
         }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     /* constant tiles */
     static const int32_t tiles[2][2] = {{8, 15}, {0, 127}};
@@ -125,11 +128,9 @@ static void case_degenerate(void)
                leap_boxes_count(s->boxes));
         CHECK(s->info->leaf_count == 0 && s->info->active_tiles[t] == 1);
         gpu_bind(&G, s);
-        shape sh = {0};
-        for (int i = 0; i < 3; ++i) sh.lo[i] = s->march.domain_min[i], sh.hi[i] = s->march.domain_max[i];
+        shape sh = marching_box(s);
         box_views(s, &sh, a_tf, name, t == 1);
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     hc_end();
 }
@@ -137,17 +138,14 @@ static void case_degenerate(void)
 static void case_analytic_box(void)
 {
     hc_begin("analytic: constant-density box, low opacity (no early termination)");
-    leap_tf tf;
     const double a_tf = 0.004;
-    step_tf(&tf, 0.1, a_tf, analytic_colour, 1);
+    leap_tf tf = flat_tf(a_tf);
     leap_scene *s = load_tmp("tile128", NULL, &tf, 1, 0.0, 1.0);
-    if (!s) {
+    if (!hc_bind(&G, s)) {
         hc_end();
         return;
     }
-    gpu_bind(&G, s);
-    shape sh = {0};
-    for (int i = 0; i < 3; ++i) sh.lo[i] = s->march.domain_min[i], sh.hi[i] = s->march.domain_max[i];
+    shape sh = marching_box(s);
     box_views(s, &sh, a_tf, "box 128, a 0.004", 0);
     /* Rays of more samples than lavapipe runs loop iterations in one shader invocation (about
      * 65k, counted over all loops): 128 voxels at step 1/1024 are 131k samples. */
@@ -159,8 +157,7 @@ static void case_analytic_box(void)
         frame(&G, s, &v, step, fmt("box 128, a 0.004: ortho +z, step 1/1024 (131k samples per ray)"));
         analytic(&G, &v, step, a_tf, analytic_colour, &sh, label_buf);
     }
-    gpu_unbind(&G);
-    leap_scene_destroy(s);
+    hc_release(&G, s);
     hc_end();
 }
 
@@ -174,8 +171,7 @@ static void case_analytic_sphere(void)
         leap_tf tf;
         shape sh;
         leap_scene *s = load_ball(name, &tf, &sh);
-        if (!s) continue;
-        gpu_bind(&G, s);
+        if (!hc_bind(&G, s)) continue;
         const double a_tf = BALL_A;
         leap_occupancy_stats os;
         leap_occupancy_get_stats(s->occupancy, &os);
@@ -214,18 +210,13 @@ static void case_analytic_sphere(void)
             frame(&G, s, &v, 0.5, fmt("sphere %s: %s", xnames[x], cams[i].name));
             analytic(&G, &v, 0.5, a_tf, analytic_colour, &sh, label_buf);
         }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     hc_end();
 }
 
 int main(void)
 {
-    hc_start();
-    if (!hc_gpu_start()) return hc_finish();
-    case_degenerate();
-    case_analytic_box();
-    case_analytic_sphere();
-    return hc_finish();
+    static void (*const cases[])(void) = {case_degenerate, case_analytic_box, case_analytic_sphere};
+    return hc_run(cases, sizeof cases / sizeof cases[0]);
 }

@@ -8,12 +8,11 @@
 static void case_camera_positions(void)
 {
     hc_begin("camera inside the volume / a non-empty box / an empty box, on a face, at a corner; near plane");
-    leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
+    leap_scene *s = hc_blocks(&G);
     if (!s) {
         hc_end();
         return;
     }
-    gpu_bind(&G, s);
     box_list bl = get_boxes(s);
     double centre[3];
     for (int i = 0; i < 3; ++i) centre[i] = 0.5 * (s->march.domain_min[i] + s->march.domain_max[i]);
@@ -81,8 +80,7 @@ static void case_camera_positions(void)
         frame_cam(&G, s, &c, 48, 48, 0.5, "ortho eye plane through block A, oblique");
     }
     free_boxes(&bl);
-    gpu_unbind(&G);
-    leap_scene_destroy(s);
+    hc_release(&G, s);
     hc_end();
 }
 
@@ -94,8 +92,7 @@ static void case_projections(void)
     static const char *names[3] = {"blocks", "sphere.vdb", "rotated.vdb"};
     for (int k = 0; k < 3; ++k) {
         leap_scene *s = scenes[k];
-        if (!s) continue;
-        gpu_bind(&G, s);
+        if (!hc_bind(&G, s)) continue;
         const double fovs[] = {170, 179, 0.5, 0.05};
         for (size_t i = 0; i < sizeof fovs / sizeof fovs[0]; ++i) {
             leap_camera c = orbit(s, 35, 25, 0, fovs[i], 0);
@@ -110,8 +107,7 @@ static void case_projections(void)
         frame_cam(&G, s, &c, 48, 48, 0.5, fmt("%s: ortho, view height 0.5 (world)", names[k]));
         c.ortho_height = 10 * s->radius;
         frame_cam(&G, s, &c, 48, 48, 0.5, fmt("%s: ortho, view height 10 radii", names[k]));
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     hc_end();
 }
@@ -122,11 +118,10 @@ static void case_far_camera(void)
     leap_tf tf;
     shape sh;
     leap_scene *s = load_ball("ball0", &tf, &sh);
-    if (!s) {
+    if (!hc_bind(&G, s)) {
         hc_end();
         return;
     }
-    gpu_bind(&G, s);
     const int llvmpipe = strstr(leap_renderer_device_name(G.r), "llvmpipe") != NULL;
     typedef struct far_case {
         double dist, step;
@@ -159,17 +154,12 @@ static void case_far_camera(void)
         frame(&G, s, &v, fc[i].step, fmt("perspective from %g voxels, step %g", fc[i].dist, fc[i].step));
         analytic(&G, &v, fc[i].step, BALL_A, analytic_colour, &sh, label_buf);
     }
-    gpu_unbind(&G);
-    leap_scene_destroy(s);
+    hc_release(&G, s);
     hc_end();
 }
 
 int main(void)
 {
-    hc_start();
-    if (!hc_gpu_start()) return hc_finish();
-    case_camera_positions();
-    case_projections();
-    case_far_camera();
-    return hc_finish();
+    static void (*const cases[])(void) = {case_camera_positions, case_projections, case_far_camera};
+    return hc_run(cases, sizeof cases / sizeof cases[0]);
 }

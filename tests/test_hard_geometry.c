@@ -8,12 +8,11 @@
 static void case_axis_parallel(void)
 {
     hc_begin("axis-parallel rays: zero direction components, ray origins on box planes (0 * inf)");
-    leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
+    leap_scene *s = hc_blocks(&G);
     if (!s) {
         hc_end();
         return;
     }
-    gpu_bind(&G, s);
     static const char *axn = "xyz";
     for (int a = 0; a < 3; ++a)
         for (int sgn = -1; sgn <= 1; sgn += 2) {
@@ -68,8 +67,7 @@ static void case_axis_parallel(void)
             frame_cam(&G, s, &c, 48, 48, 0.5, fmt("orbit az %.0f el %.0f %s", az, el, ortho ? "ortho" : "perspective"));
         }
     }
-    gpu_unbind(&G);
-    leap_scene_destroy(s);
+    hc_release(&G, s);
     hc_end();
 }
 
@@ -163,17 +161,13 @@ static void case_grazing(void)
             leap_rays v = axis_persp(s, 0, 1, eye, 48, 48);
             frame(&G, s, &v, 0.5, fmt("%s: perspective +x, eye in the plate's plane", mn));
         }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     hc_end();
 }
 
 int main(void)
 {
-    hc_start();
-    if (!hc_gpu_start()) return hc_finish();
-    case_axis_parallel();
-    case_grazing();
-    return hc_finish();
+    static void (*const cases[])(void) = {case_axis_parallel, case_grazing};
+    return hc_run(cases, sizeof cases / sizeof cases[0]);
 }

@@ -15,63 +15,66 @@
 #endif
 #endif
 
-static void case_overflow(gpu *g, const char *what)
+/* Renders v in every mode (all checks); returns the sparseleap frame's overflowed pixels. */
+static uint64_t overflow_frame(gpu *g, const leap_scene *s, const leap_rays *v, const char *label)
 {
-    hc_begin(what);
+    frame(g, s, v, 0.5, label);
+    return g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+}
+
+/* Default capacities: the comb's exact boxes overflow the events a pixel can sort and its
+ * segments (the cost-model cut merges the comb's teeth into fewer boxes). */
+static uint64_t overflow_comb(gpu *g)
+{
+    leap_scene *c = load_tmp_exact("comb", &RAMP, 0.0, 1.0);
+    uint64_t ovf = 0;
+    if (!hc_bind(g, c)) return 0;
+    printf("  comb: %u boxes\n", leap_boxes_count(c->boxes));
+    leap_rays v = axis_ortho(c, 0, 1, 2, 2, 0.25, -40, 16, 16);
+    ovf += overflow_frame(g, c, &v, "comb: ortho along the line of voxels");
+    printf("  comb: events per pixel max %u, segments per pixel max %u\n",
+           g->st[LEAP_RENDER_SPARSELEAP].events_max, g->st[LEAP_RENDER_SPARSELEAP].segments_max);
+    double eye[3] = {-30, 4, 4};
+    v = axis_persp(c, 0, 1, eye, 32, 32);
+    ovf += overflow_frame(g, c, &v, "comb: perspective along the line of voxels");
+    double eye2[3] = {500, 4.25, 4.125};
+    v = axis_persp(c, 0, -1, eye2, 32, 32);
+    ovf += overflow_frame(g, c, &v, "comb: perspective back along the line, eye inside");
+    hc_release(g, c);
+    return ovf;
+}
+
+/* Small capacities: the blocks' shared views and the shipped blobs overflow. */
+static uint64_t overflow_blocks(gpu *g)
+{
     static const double zero[3] = {0, 0, 0};
-    if (g == &G) {
-        /* default capacities: the comb's exact boxes overflow the events a pixel can sort and
-         * its segments (the cost-model cut merges the comb's teeth into fewer boxes) */
-        leap_scene *c = load_tmp_exact("comb", &RAMP, 0.0, 1.0);
-        uint64_t ovf = 0;
-        if (c) {
-            gpu_bind(g, c);
-            printf("  comb: %u boxes\n", leap_boxes_count(c->boxes));
-            leap_rays v = axis_ortho(c, 0, 1, 2, 2, 0.25, -40, 16, 16);
-            frame(g, c, &v, 0.5, "comb: ortho along the line of voxels");
-            ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
-            printf("  comb: events per pixel max %u, segments per pixel max %u\n",
-                   g->st[LEAP_RENDER_SPARSELEAP].events_max, g->st[LEAP_RENDER_SPARSELEAP].segments_max);
-            double eye[3] = {-30, 4, 4};
-            v = axis_persp(c, 0, 1, eye, 32, 32);
-            frame(g, c, &v, 0.5, "comb: perspective along the line of voxels");
-            ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
-            double eye2[3] = {500, 4.25, 4.125};
-            v = axis_persp(c, 0, -1, eye2, 32, 32);
-            frame(g, c, &v, 0.5, "comb: perspective back along the line, eye inside");
-            ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
-            gpu_unbind(g);
-            leap_scene_destroy(c);
-        }
-        printf("  %llu pixels overflowed\n", (unsigned long long)ovf);
-        CHECK_MSG(ovf > 0, "%s: no pixel overflowed", what);
-        hc_end();
-        return;
-    }
-    leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
-    uint64_t overflow = 0;
+    uint64_t ovf = 0;
+    leap_scene *s = hc_blocks(g);
     if (s) {
-        gpu_bind(g, s);
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
             leap_rays v;
             if (!shared_view(s, k, zero, &v)) continue;
-            frame(g, s, &v, 0.5, fmt("blocks: %s", shared_view_names[k]));
-            overflow += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+            ovf += overflow_frame(g, s, &v, fmt("blocks: %s", shared_view_names[k]));
         }
-        gpu_unbind(g);
-        leap_scene_destroy(s);
+        hc_release(g, s);
     }
     s = load_shipped("blobs.vdb", NULL, NULL);
-    if (s) {
-        gpu_bind(g, s);
+    if (hc_bind(g, s)) {
         leap_camera c = orbit(s, 35, 25, 0, 40, 0);
         frame_cam(g, s, &c, 48, 48, 2.0, "blobs.vdb: orbit");
-        overflow += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
-        gpu_unbind(g);
-        leap_scene_destroy(s);
+        ovf += g->st[LEAP_RENDER_SPARSELEAP].overflow_pixels;
+        hc_release(g, s);
     }
-    printf("  %llu pixels overflowed in total\n", (unsigned long long)overflow);
-    CHECK_MSG(overflow > 0, "%s: no pixel overflowed", what);
+    return ovf;
+}
+
+static void case_overflow(gpu *g, const char *what)
+{
+    hc_begin(what);
+    const int comb = g == &G;
+    const uint64_t ovf = comb ? overflow_comb(g) : overflow_blocks(g);
+    printf("  %llu pixels overflowed%s\n", (unsigned long long)ovf, comb ? "" : " in total");
+    CHECK_MSG(ovf > 0, "%s: no pixel overflowed", what);
     hc_end();
 }
 

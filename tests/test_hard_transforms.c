@@ -10,12 +10,11 @@ static void case_far(void)
     hc_begin("grids far from the origin: index coordinates 2^20, 2^24, 2^30, -2^30, 2^31 - 2^12; far world translation");
     static float base[N_SHARED_VIEWS][MAXPX * 4];
     static const double zero[3] = {0, 0, 0};
-    leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
+    leap_scene *s = hc_blocks(&G);
     if (!s) {
         hc_end();
         return;
     }
-    gpu_bind(&G, s);
     for (int k = 0; k < N_SHARED_VIEWS; ++k) {
         leap_rays v;
         if (!shared_view(s, k, zero, &v)) continue;
@@ -23,8 +22,7 @@ static void case_far(void)
         memcpy(base[k], G.rgba[0], (size_t)v.width * v.height * 4 * sizeof(float));
         CHECK_MSG(image_alpha(&G, (size_t)v.width * v.height) > 1, "%s: empty image", shared_view_names[k]);
     }
-    gpu_unbind(&G);
-    leap_scene_destroy(s);
+    hc_release(&G, s);
     static const int32_t offsets[][3] = {{1 << 20, 1 << 20, 1 << 20},
                                          {(1 << 24) + 4096, -(1 << 24), 1 << 24},
                                          {1 << 30, 1 << 30, 1 << 30},
@@ -36,8 +34,7 @@ static void case_far(void)
         xform id = identity();
         if (!write_blocks(name, &id, offsets[i], 0)) continue;
         s = load_tmp(name, NULL, &RAMP, 1, 0.0, 1.0);
-        if (!s) continue;
-        gpu_bind(&G, s);
+        if (!hc_bind(&G, s)) continue;
         double off[3] = {offsets[i][0], offsets[i][1], offsets[i][2]};
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
             leap_rays v;
@@ -51,8 +48,7 @@ static void case_far(void)
             printf("  %-58s vs the grid at the origin: max diff %.2e\n", label, d);
             CHECK_MSG(d <= TOL, "%s: image differs from the grid at the origin by %g at pixel %zu", label, d, where);
         }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     /* world space far away: voxel size 0.25, translated by ~1.5e7 world units */
     {
@@ -62,8 +58,7 @@ static void case_far(void)
             float *ref = malloc(MAXPX * 4 * sizeof(float));
             for (int which = 0; which < 2; ++which) {
                 s = load_tmp(which ? "blocks_qfar" : "blocks_q", NULL, &RAMP, 1, 0.0, 1.0);
-                if (!s) break;
-                gpu_bind(&G, s);
+                if (!hc_bind(&G, s)) break;
                 for (int k = 2; k < N_SHARED_VIEWS; ++k) {
                     leap_rays v;
                     if (!shared_view(s, k, zero, &v)) continue;
@@ -83,8 +78,7 @@ static void case_far(void)
                     CHECK_MSG(d <= 1e-4, "%s: image differs from the untranslated grid by %g at pixel %zu", label, d,
                               where);
                 }
-                gpu_unbind(&G);
-                leap_scene_destroy(s);
+                hc_release(&G, s);
             }
             free(ref);
         }
@@ -117,8 +111,7 @@ static void case_transforms(void)
         snprintf(name, sizeof name, "blocks_x%zu", i);
         if (!write_blocks(name, &x, NULL, 0)) continue;
         leap_scene *s = load_tmp(name, NULL, &RAMP, 1, 0.0, 1.0);
-        if (!s) continue;
-        gpu_bind(&G, s);
+        if (!hc_bind(&G, s)) continue;
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
             leap_rays v;
             if (shared_view(s, k, zero, &v)) frame(&G, s, &v, 0.5, fmt("%s: %s", xs[i].name, shared_view_names[k]));
@@ -127,8 +120,7 @@ static void case_transforms(void)
         frame_cam(&G, s, &c, 48, 48, 0.5, fmt("%s: orbit perspective", xs[i].name));
         c = orbit(s, 100, -30, 0, 40, 1);
         frame_cam(&G, s, &c, 48, 48, 0.5, fmt("%s: orbit ortho", xs[i].name));
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
 
     /* Mirror invariance: the same world content stored mirrored (index x negated, transform
@@ -177,9 +169,6 @@ static void case_transforms(void)
 
 int main(void)
 {
-    hc_start();
-    if (!hc_gpu_start()) return hc_finish();
-    case_far();
-    case_transforms();
-    return hc_finish();
+    static void (*const cases[])(void) = {case_far, case_transforms};
+    return hc_run(cases, sizeof cases / sizeof cases[0]);
 }

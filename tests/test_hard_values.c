@@ -102,8 +102,7 @@ static void case_tfs(void)
     static const double zero[3] = {0, 0, 0};
     for (int t = 0; t < 3; ++t) {
         leap_scene *s = load_tmp("blocks", NULL, &tfs[t], 1, 0.0, 1.0);
-        if (!s) continue;
-        gpu_bind(&G, s);
+        if (!hc_bind(&G, s)) continue;
         printf("  blocks with tf %s: %u boxes\n", tfs[t].name, leap_boxes_count(s->boxes));
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
             leap_rays v;
@@ -116,14 +115,12 @@ static void case_tfs(void)
         }
         leap_camera c = orbit(s, 35, 25, 0.4, 90, 0);
         frame_cam(&G, s, &c, 48, 48, 0.5, fmt("tf %s: camera inside, fov 90", tfs[t].name));
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     /* a hollow: under the inverted TF the constant 128^3 tile is EMPTY inside and NONEMPTY in a
      * one-cell shell and outside: a large EMPTY box nested in a NONEMPTY root */
     leap_scene *h = load_tmp("tile128", NULL, &tfs[1], 1, 0.0, 1.0);
-    if (h) {
-        gpu_bind(&G, h);
+    if (hc_bind(&G, h)) {
         printf("  tile128 with tf inverted: %u boxes\n", leap_boxes_count(h->boxes));
         leap_camera c = orbit(h, 35, 25, 0, 40, 0);
         frame_cam(&G, h, &c, 48, 48, 0.5, "hollow tile: orbit");
@@ -134,8 +131,7 @@ static void case_tfs(void)
         double eye[3] = {64, 64, 64};
         v = axis_persp(h, 1, -1, eye, 48, 48);
         frame(&G, h, &v, 0.5, "hollow tile: perspective -y from the centre");
-        gpu_unbind(&G);
-        leap_scene_destroy(h);
+        hc_release(&G, h);
     }
     /* shipped volumes with opacity at the background */
     static const char *files[2][2] = {{"labels.vdb", NULL}, {"shell.vdb", NULL}};
@@ -151,8 +147,7 @@ static void case_tfs(void)
         set_tf(s, &tfs[1]);
         gpu_bind(&G, s);
         frame_cam(&G, s, &c, 48, 48, 0.5, fmt("%s, tf inverted: ortho along -z", files[f][0]));
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     hc_end();
 }
@@ -163,8 +158,7 @@ static void case_steps(void)
     const double steps[] = {0.01, 0.1, 0.7, 3.3, 50, 200};
     static const double zero[3] = {0, 0, 0};
     leap_scene *s = load_tmp("blocks", NULL, &RAMP, 1, 0.0, 1.0);
-    if (s) {
-        gpu_bind(&G, s);
+    if (hc_bind(&G, s)) {
         for (size_t i = 0; i < sizeof steps / sizeof steps[0]; ++i)
             for (int k = 0; k < N_SHARED_VIEWS; k += 1) {
                 leap_rays v;
@@ -172,28 +166,21 @@ static void case_steps(void)
                 if (shared_view(s, k, zero, &v))
                     frame(&G, s, &v, steps[i], fmt("blocks, step %g: %s", steps[i], shared_view_names[k]));
             }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     s = load_shipped("sphere.vdb", NULL, NULL);
-    if (s) {
-        gpu_bind(&G, s);
+    if (hc_bind(&G, s)) {
         for (size_t i = 0; i < sizeof steps / sizeof steps[0]; ++i) {
             leap_camera c = orbit(s, 35, 25, 0, 40, 0);
             frame_cam(&G, s, &c, 32, 32, steps[i], fmt("sphere.vdb, step %g: orbit", steps[i]));
         }
-        gpu_unbind(&G);
-        leap_scene_destroy(s);
+        hc_release(&G, s);
     }
     hc_end();
 }
 
 int main(void)
 {
-    hc_start();
-    if (!hc_gpu_start()) return hc_finish();
-    case_nonfinite();
-    case_tfs();
-    case_steps();
-    return hc_finish();
+    static void (*const cases[])(void) = {case_nonfinite, case_tfs, case_steps};
+    return hc_run(cases, sizeof cases / sizeof cases[0]);
 }

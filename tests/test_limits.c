@@ -98,6 +98,16 @@ static int writer_done(leap_vdb_writer *w, const char *path)
     return r == LEAP_OK;
 }
 
+/* A grid of voxel size 1 holding 1.0 at (x, 0, 0) and (-x, 0, 0): the two ends of a long
+ * span along x (the caller adds voxels and saves it with writer_done). */
+static leap_vdb_writer *writer_span(int *grid, int32_t x)
+{
+    leap_vdb_writer *w = writer_new(grid, 1.0);
+    leap_vdb_writer_set(w, *grid, x, 0, 0, 1.0);
+    leap_vdb_writer_set(w, *grid, -x, 0, 0, 1.0);
+    return w;
+}
+
 static const char *const gpu_modes[] = {"naive", "bbox", "octree", "sparseleap"};
 
 /* A ball of radius 12 voxels with a soft edge, at voxel size `voxel`. */
@@ -125,10 +135,8 @@ static void test_huge_span(void)
 {
     const char *vdb = path_in_tmp("span.vdb");
     int g;
-    leap_vdb_writer *w = writer_new(&g, 1.0);
     /* Near +-2^31, within the reference renderer's index range (|i| <= 2147483000). */
-    leap_vdb_writer_set(w, g, 2147482000, 0, 0, 1.0);
-    leap_vdb_writer_set(w, g, -2147482000, 0, 0, 1.0);
+    leap_vdb_writer *w = writer_span(&g, 2147482000);
     leap_vdb_writer_set(w, g, -2147481990, 3, 2, 0.5);
     if (!writer_done(w, vdb)) return;
 
@@ -161,9 +169,7 @@ static void test_long_ray(void)
     /* Within the float position limit (131072 voxels from the box corner). */
     const char *vdb = path_in_tmp("needle.vdb");
     int g;
-    leap_vdb_writer *w = writer_new(&g, 1.0);
-    leap_vdb_writer_set(w, g, 60000, 0, 0, 1.0);
-    leap_vdb_writer_set(w, g, -60000, 0, 0, 1.0);
+    leap_vdb_writer *w = writer_span(&g, 60000);
     for (int i = -4; i <= 4; ++i) leap_vdb_writer_set(w, g, i, 0, 0, 0.8);
     if (!writer_done(w, vdb)) return;
     const char *ref = path_in_tmp("needle_reference.exr");

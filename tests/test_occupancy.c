@@ -17,6 +17,7 @@
 
 /* ---- random numbers ------------------------------------------------------------------ */
 
+#include "occupancy_fixture.h"
 #include "test_random.h"
 
 /* ---- scenes ---------------------------------------------------------------------------- */
@@ -33,12 +34,7 @@ typedef struct scene {
 static void add_brick(scene *s, const int32_t o[3], int32_t size, int tile, float lo, float hi,
                       float tv)
 {
-    if (s->count == s->cap) {
-        s->cap = s->cap ? 2 * s->cap : 256;
-        s->bricks = realloc(s->bricks, s->cap * sizeof *s->bricks);
-    }
-    leap_brick *b = &s->bricks[s->count++];
-    memset(b, 0, sizeof *b);
+    leap_brick *b = brick_push(&s->bricks, &s->count, &s->cap);
     memcpy(b->origin, o, sizeof b->origin);
     b->size = size;
     b->is_tile = tile;
@@ -616,8 +612,7 @@ static void test_hand_case(void)
     CHECK(leap_occupancy_cell_class(occ, c) == LEAP_CLASS_NONEMPTY);
 
     /* background with opacity: everything outside the grid is non-empty too */
-    memset(&tf1, 0, sizeof tf1);
-    tf1.rgba[0][3] = 1.0f;
+    single_entry_tf(&tf1, 0);
     CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 100.0, &err), &err);
     c[0] = -5, c[1] = 2, c[2] = 2;
     CHECK(leap_occupancy_cell_class(occ, c) == LEAP_CLASS_NONEMPTY);
@@ -667,12 +662,9 @@ static void test_huge_tile(void)
     d.origin[0] = d.origin[1] = d.origin[2] = 4096 - 8;
     d.cells[0] = d.cells[1] = d.cells[2] = 514;
     d.value_max = 1.0;
-    leap_occupancy *occ = NULL;
-    CHECK_OK(leap_occupancy_create(&d, &occ, &err), &err);
+    single_entry_tf(&tf1, N - 1);
+    leap_occupancy *occ = occupancy_classified(&d, &tf1, 0.0, 1.0);
     if (!occ) return;
-    memset(&tf1, 0, sizeof tf1);
-    tf1.rgba[N - 1][3] = 1.0f;
-    CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 1.0, &err), &err);
     leap_occupancy_stats st;
     leap_occupancy_get_stats(occ, &st);
     CHECK(st.depth == 10);
@@ -684,8 +676,7 @@ static void test_huge_tile(void)
     c[0] = c[1] = c[2] = 300;
     CHECK(leap_occupancy_cell_class(occ, c) == LEAP_CLASS_NONEMPTY);
     /* classes follow the tile value; the shell range [0, 1] touches u = 1 as well */
-    memset(&tf1, 0, sizeof tf1);
-    tf1.rgba[0][3] = 1.0f;
+    single_entry_tf(&tf1, 0);
     CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 1.0, &err), &err);
     CHECK(leap_occupancy_cell_class(occ, c) == LEAP_CLASS_EMPTY);
     c[0] = 0;

@@ -14,10 +14,6 @@
 #include <sys/stat.h>
 #include <time.h>
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 /* Corrupt size fields make OpenVDB request absurd allocations. A normal build turns them
  * into std::bad_alloc, which the shim reports; AddressSanitizer aborts on them instead, so
  * the random-corruption trials are skipped in sanitizer builds. */
@@ -43,24 +39,6 @@ static double now_seconds(void)
     struct timespec ts;
     clock_gettime(CLOCK_MONOTONIC, &ts);
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void identity(double m[4][4])
-{
-    memset(m, 0, 16 * sizeof(double));
-    for (int i = 0; i < 4; ++i) m[i][i] = 1.0;
-}
-
-/* Rotation by `deg` degrees about axis 0/1/2. */
-static void rotation(int axis, double deg, double m[4][4])
-{
-    identity(m);
-    const double c = cos(deg * M_PI / 180.0), s = sin(deg * M_PI / 180.0);
-    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
-    m[a][a] = c;
-    m[a][b] = -s;
-    m[b][a] = s;
-    m[b][b] = c;
 }
 
 /* Opens `path`, loads the grid called `name` (NULL: first scalar) and closes the file,
@@ -90,6 +68,20 @@ static int save(leap_vdb_writer *w, const char *path)
     CHECK_MSG(r == LEAP_OK, "save %s: %s", path, err.msg);
     leap_vdb_writer_destroy(w);
     return r == LEAP_OK;
+}
+
+/* save, then load the grid `name` (NULL: the first scalar); NULL when either fails. */
+static leap_grid *save_load(leap_vdb_writer *w, const char *path, const char *name)
+{
+    return save(w, path) ? load(path, name) : NULL;
+}
+
+/* Opens path (a checked call); NULL when that fails. */
+static leap_vdb_file *open_file(const char *path, leap_error *err)
+{
+    leap_vdb_file *f = NULL;
+    CHECK_OK(leap_vdb_open(path, &f, err), err);
+    return f;
 }
 
 static leap_vdb_writer *new_writer(void)
@@ -130,6 +122,21 @@ static leap_brick *get_bricks(leap_grid *g, size_t *n)
     return b;
 }
 
+/* A brick's value range (exact). */
+static void check_range(const leap_brick *b, double lo, double hi)
+{
+    CHECK_MSG(fabs(b->value_min - lo) <= 0, "brick (%d %d %d): value_min %.9g, want %.9g", b->origin[0], b->origin[1],
+              b->origin[2], b->value_min, lo);
+    CHECK_MSG(fabs(b->value_max - hi) <= 0, "brick (%d %d %d): value_max %.9g, want %.9g", b->origin[0], b->origin[1],
+              b->origin[2], b->value_max, hi);
+}
+
+/* 1 if brick origin p comes before q in the brick order: by z, then y, then x. */
+static int origin_before(const int32_t *p, const int32_t *q)
+{
+    return p[2] < q[2] || (p[2] == q[2] && (p[1] < q[1] || (p[1] == q[1] && p[0] < q[0])));
+}
+
 static const leap_brick *find_brick(const leap_brick *b, size_t n, int x, int y, int z)
 {
     for (size_t i = 0; i < n; ++i)
@@ -158,8 +165,7 @@ static void test_value_types(void)
     if (!save(w, path)) return;
 
     leap_error err = {{0}};
-    leap_vdb_file *f = NULL;
-    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    leap_vdb_file *f = open_file(path, &err);
     if (!f) return;
     CHECK(leap_vdb_grid_count(f) == 4);
     struct { const char *name, *type; int half; double bg; } want[4] = {
@@ -233,8 +239,7 @@ static void test_grid_selection(void)
     if (!save(w, path)) return;
 
     leap_error err = {{0}};
-    leap_vdb_file *f = NULL;
-    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    leap_vdb_file *f = open_file(path, &err);
     if (!f) return;
     CHECK(leap_vdb_grid_count(f) == 4);
     const int iv = leap_vdb_find_grid(f, "velocity");
@@ -280,7 +285,7 @@ static void test_grid_selection(void)
     if (!w) return;
     leap_vdb_writer_set(w, add_grid(w, "v", LEAP_VDB_VEC3F, 0.0, NULL, 0), 0, 0, 0, 1.0);
     if (!save(w, path)) return;
-    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    f = open_file(path, &err);
     if (f) {
         CHECK(leap_vdb_find_grid(f, NULL) == -1);
         CHECK(leap_vdb_find_grid(f, "v") == 0);
@@ -293,9 +298,9 @@ static void test_grid_selection(void)
 static void test_transforms(void)
 {
     double rx[4][4], rz[4][4], scale[4][4], m[4][4];
-    rotation(2, 30.0, rz);
-    rotation(0, 20.0, rx);
-    identity(scale);
+    leap__mat4_rotation(2, 30.0, rz);
+    leap__mat4_rotation(0, 20.0, rx);
+    leap__mat4_identity(scale);
     scale[0][0] = 0.5;
     scale[1][1] = 1.0;
     scale[2][2] = 2.0;
@@ -306,14 +311,14 @@ static void test_transforms(void)
     m[2][3] = 5.5;
 
     double aniso[4][4];
-    identity(aniso);
+    leap__mat4_identity(aniso);
     aniso[0][0] = 0.25;
     aniso[1][1] = 0.5;
     aniso[2][2] = 3.0;
     aniso[0][3] = -1.0;
 
     double uniform[4][4];
-    identity(uniform);
+    leap__mat4_identity(uniform);
     for (int i = 0; i < 3; ++i) uniform[i][i] = 0.1;
     uniform[2][3] = 1e4;
 
@@ -328,8 +333,7 @@ static void test_transforms(void)
     if (!save(w, path)) return;
 
     leap_error err = {{0}};
-    leap_vdb_file *f = NULL;
-    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    leap_vdb_file *f = open_file(path, &err);
     if (!f) return;
     for (int c = 0; c < 4; ++c) {
         leap_grid_info info;
@@ -337,7 +341,7 @@ static void test_transforms(void)
         CHECK_OK(leap_vdb_grid_info(f, index, &info, &err), &err);
         double want[4][4];
         if (c < 3) memcpy(want, cases[c].m, sizeof want);
-        else identity(want);
+        else leap__mat4_identity(want);
         for (int i = 0; i < 4; ++i)
             for (int j = 0; j < 4; ++j)
                 CHECK_MSG(fabs(info.index_to_world[i][j] - want[i][j]) <= 1e-9, "%s [%d][%d] = %.12g, want %.12g",
@@ -358,12 +362,12 @@ static void test_transforms(void)
     w = new_writer();
     if (!w) return;
     double bad[4][4];
-    identity(bad);
+    leap__mat4_identity(bad);
     bad[3][0] = 0.5;
     CHECK(leap_vdb_writer_add_grid(w, "bad", LEAP_VDB_FLOAT, 0, bad, 0, &err) == -1);
     CHECK(strlen(err.msg) > 0);
     /* So is a singular one. */
-    identity(bad);
+    leap__mat4_identity(bad);
     bad[1][1] = 0.0;
     err.msg[0] = 0;
     CHECK(leap_vdb_writer_add_grid(w, "singular", LEAP_VDB_FLOAT, 0, bad, 0, &err) == -1);
@@ -389,9 +393,7 @@ static void test_tiles(void)
     /* Inactive fill: not a brick, not an active voxel. */
     const int32_t d0[3] = {-64, 0, 0}, d1[3] = {-57, 7, 7};
     leap_vdb_writer_fill(w, g0, d0, d1, 0.0, 0);
-    if (!save(w, path)) return;
-
-    leap_grid *g = load(path, "density");
+    leap_grid *g = save_load(w, path, "density");
     if (!g) return;
     const leap_grid_info *info = leap_grid_get_info(g);
     CHECK(info->leaf_count == 1);
@@ -468,17 +470,11 @@ static void test_tile_apron(void)
         leap_brick *b = get_bricks(g, &n);
         const leap_brick *t = find_brick(b, n, 0, 0, 0);
         CHECK(t && t->is_tile == 1 && t->size == 128);
-        if (t && t->is_tile) {
-            CHECK_NEAR(t->value_min, -4.0, 0);
-            CHECK_NEAR(t->value_max, 9.0, 0);
-        }
+        if (t && t->is_tile) check_range(t, -4.0, 9.0);
         /* The leaf next to the tile reads the tile's face, the 9, the 50 and background. */
         const leap_brick *l = find_brick(b, n, 128, 0, 0);
         CHECK(l && l->is_tile == 0);
-        if (l) {
-            CHECK_NEAR(l->value_min, 0.0, 0);
-            CHECK_NEAR(l->value_max, 50.0, 0);
-        }
+        if (l) check_range(l, 0.0, 50.0);
         free(b);
         leap_grid_destroy(g);
     }
@@ -493,16 +489,11 @@ static void test_tile_apron(void)
         printf("root tile apron: %zu bricks in %.3f s\n", n, now_seconds() - t0);
         const leap_brick *t = find_brick(b, n, -4096, 0, -4096);
         CHECK(t && t->is_tile == 1 && t->size == 4096);
-        if (t && t->is_tile) {
-            CHECK_NEAR(t->value_min, -3.0, 0);
-            CHECK_NEAR(t->value_max, 7.0, 0);
-        }
+        if (t && t->is_tile) check_range(t, -3.0, 7.0);
         const leap_brick *s = find_brick(b, n, -4096, -4096, -4096);
         CHECK(s && s->is_tile == 1 && s->size == 4096);
-        if (s && s->is_tile) {
-            CHECK_NEAR(s->value_min, 0.25, 0); /* background on five sides, the 1.0 tile on +y */
-            CHECK_NEAR(s->value_max, 1.5, 0);
-        }
+        /* background on five sides, the 1.0 tile on +y */
+        if (s && s->is_tile) check_range(s, 0.25, 1.5);
         free(b);
         leap_grid_destroy(g);
     }
@@ -528,8 +519,7 @@ static void test_leaf_apron(void)
     if (!save(w, path)) return;
 
     leap_error err = {{0}};
-    leap_vdb_file *f = NULL;
-    CHECK_OK(leap_vdb_open(path, &f, &err), &err);
+    leap_vdb_file *f = open_file(path, &err);
     if (f) {
         leap_grid_info info;
         CHECK_OK(leap_vdb_grid_info(f, 0, &info, &err), &err);
@@ -553,24 +543,16 @@ static void test_leaf_apron(void)
         CHECK_NEAR(l->value_max, 5.0, 0);
     }
     l = find_brick(b, n, 8, 0, 0);
-    if (l) {
-        CHECK_NEAR(l->value_min, 0.25, 0);
-        CHECK_NEAR(l->value_max, 100.0, 0);
-    }
+    if (l) check_range(l, 0.25, 100.0);
     l = find_brick(b, n, -8, -8, -8);
-    if (l) {
-        CHECK_NEAR(l->value_min, -50.0, 0);
-        CHECK_NEAR(l->value_max, 0.25, 0); /* the (0,0,0) corner is an inactive voxel */
-    }
+    /* the (0,0,0) corner is an inactive voxel */
+    if (l) check_range(l, -50.0, 0.25);
     l = find_brick(b, n, 1000 & ~7, 1000 & ~7, 1000 & ~7);
-    if (l) {
-        CHECK_NEAR(l->value_min, 0.25, 0);
-        CHECK_NEAR(l->value_max, 0.5, 0);
-    }
+    if (l) check_range(l, 0.25, 0.5);
     /* Ordering: leaves sorted by z, then y, then x. */
     for (size_t i = 1; i < n; ++i) {
         const int32_t *p = b[i - 1].origin, *q = b[i].origin;
-        const int ordered = p[2] < q[2] || (p[2] == q[2] && (p[1] < q[1] || (p[1] == q[1] && p[0] < q[0])));
+        const int ordered = origin_before(p, q);
         CHECK_MSG(ordered, "brick %zu (%d %d %d) after (%d %d %d)", i, q[0], q[1], q[2], p[0], p[1], p[2]);
     }
     for (size_t i = 0; i < n; ++i)
@@ -618,8 +600,7 @@ static void test_ordering(void)
         const int32_t lo[3] = {1024 + 16 * (5 - t), 8 * t, -512}, hi[3] = {lo[0] + 7, lo[1] + 7, lo[2] + 7};
         leap_vdb_writer_fill(w, g0, lo, hi, 0.5, 1);
     }
-    if (!save(w, path)) return;
-    leap_grid *g = load(path, "density");
+    leap_grid *g = save_load(w, path, "density");
     if (!g) return;
     size_t n = 0;
     leap_brick *b = get_bricks(g, &n);
@@ -631,7 +612,7 @@ static void test_ordering(void)
         if (b[i].is_tile != (i >= info->leaf_count)) ++bad;
         if (i == 0 || i == info->leaf_count) continue;
         const int32_t *p = b[i - 1].origin, *q = b[i].origin;
-        if (!(p[2] < q[2] || (p[2] == q[2] && (p[1] < q[1] || (p[1] == q[1] && p[0] < q[0]))))) ++bad;
+        if (!origin_before(p, q)) ++bad;
     }
     CHECK_MSG(bad == 0, "%d bricks out of order", bad);
     free(b);
@@ -685,10 +666,7 @@ static void test_nonfinite(void)
             CHECK_NEAR(t->value_max, 3.0, 0); /* the +Inf at (15,3,3) */
         }
         const leap_brick *l = find_brick(b, n, 0, 0, 0);
-        if (l) {
-            CHECK_NEAR(l->value_min, -2.0, 0);
-            CHECK_NEAR(l->value_max, 3.0, 0);
-        }
+        if (l) check_range(l, -2.0, 3.0);
         free(b);
         leap_grid_destroy(g);
     }
@@ -711,8 +689,7 @@ static void test_empty(void)
     leap_vdb_writer *w = new_writer();
     if (!w) return;
     add_grid(w, "nothing", LEAP_VDB_FLOAT, 0.125, NULL, 1);
-    if (!save(w, path)) return;
-    leap_grid *g = load(path, "nothing");
+    leap_grid *g = save_load(w, path, "nothing");
     if (!g) return;
     const leap_grid_info *info = leap_grid_get_info(g);
     CHECK(info->active_voxels == 0 && info->leaf_count == 0);
@@ -739,8 +716,7 @@ static void test_extreme_coordinates(void)
      * INT32_MAX: its fill loop overflows, so the writer refuses such boxes.) */
     const int32_t lo[3] = {INT32_MIN, INT32_MIN, INT32_MIN}, hi[3] = {INT32_MIN + 4095, INT32_MIN + 4095, INT32_MIN + 4095};
     leap_vdb_writer_fill(w, g0, lo, hi, 5.0, 1);
-    if (!save(w, path)) return;
-    leap_grid *g = load(path, NULL);
+    leap_grid *g = save_load(w, path, NULL);
     if (!g) return;
     const leap_grid_info *info = leap_grid_get_info(g);
     CHECK(info->leaf_count == 3);
@@ -754,16 +730,11 @@ static void test_extreme_coordinates(void)
     CHECK(n == 4);
     const leap_brick *l = find_brick(b, n, INT32_MAX - 7, INT32_MIN, 1000000000 & ~7);
     CHECK(l != NULL);
-    if (l) {
-        CHECK_NEAR(l->value_min, 0.0, 0);
-        CHECK_NEAR(l->value_max, 3.0, 0); /* the neighbour at INT32_MAX - 8 is in the apron */
-    }
+    /* the neighbour at INT32_MAX - 8 is in the apron */
+    if (l) check_range(l, 0.0, 3.0);
     const leap_brick *t = find_brick(b, n, lo[0], lo[1], lo[2]);
     CHECK(t && t->is_tile && t->size == 4096);
-    if (t) {
-        CHECK_NEAR(t->value_min, 0.0, 0);
-        CHECK_NEAR(t->value_max, 5.0, 0);
-    }
+    if (t) check_range(t, 0.0, 5.0);
     free(b);
     leap_grid_destroy(g);
 

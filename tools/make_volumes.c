@@ -10,10 +10,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 static const char usage[] =
     "usage: leap_make_volumes DIR\n"
     "Writes the demo volumes into DIR (created if missing):\n"
@@ -75,17 +71,26 @@ static int add_grid(leap_vdb_writer *w, const char *name, leap_vdb_type type, co
     return g;
 }
 
+/* A writer with one untransformed grid (index *g); NULL (reported) when either fails. */
+static leap_vdb_writer *new_grid_writer(const char *name, leap_vdb_type type, int fog, int *g)
+{
+    leap_vdb_writer *w = new_writer();
+    if (!w) return NULL;
+    *g = add_grid(w, name, type, NULL, fog);
+    if (*g < 0) {
+        leap_vdb_writer_destroy(w);
+        return NULL;
+    }
+    return w;
+}
+
 /* Fog sphere of radius 40: density 1 inside radius 26, falling smoothly to 0 at 40. The
  * 8^3 blocks that lie wholly inside the constant core are filled as active tiles. */
 static int make_sphere(void)
 {
-    leap_vdb_writer *w = new_writer();
+    int g;
+    leap_vdb_writer *w = new_grid_writer("density", LEAP_VDB_FLOAT, 1, &g);
     if (!w) return 0;
-    const int g = add_grid(w, "density", LEAP_VDB_FLOAT, NULL, 1);
-    if (g < 0) {
-        leap_vdb_writer_destroy(w);
-        return 0;
-    }
     const double radius = 40.0, core = 26.0;
     for (int bz = -48; bz < 48; bz += 8)
         for (int by = -48; by < 48; by += 8)
@@ -113,13 +118,9 @@ static int make_sphere(void)
  * many small leaves far apart, the fragmented case. */
 static int make_blobs(void)
 {
-    leap_vdb_writer *w = new_writer();
+    int g;
+    leap_vdb_writer *w = new_grid_writer("density", LEAP_VDB_FLOAT, 1, &g);
     if (!w) return 0;
-    const int g = add_grid(w, "density", LEAP_VDB_FLOAT, NULL, 1);
-    if (g < 0) {
-        leap_vdb_writer_destroy(w);
-        return 0;
-    }
     rng r = {0x9E3779B97F4A7C15ull};
     enum { N = 60 };
     double c[N][3], rad[N];
@@ -159,13 +160,9 @@ static int make_blobs(void)
 /* Hollow sphere: radius 50, density peaking at the mid-surface and 0 two voxels either side. */
 static int make_shell(void)
 {
-    leap_vdb_writer *w = new_writer();
+    int g;
+    leap_vdb_writer *w = new_grid_writer("density", LEAP_VDB_FLOAT, 1, &g);
     if (!w) return 0;
-    const int g = add_grid(w, "density", LEAP_VDB_FLOAT, NULL, 1);
-    if (g < 0) {
-        leap_vdb_writer_destroy(w);
-        return 0;
-    }
     const double radius = 50.0, half = 2.0;
     for (int z = -53; z <= 53; ++z)
         for (int y = -53; y <= 53; ++y)
@@ -181,13 +178,9 @@ static int make_shell(void)
  * their aligned 8^3 blocks become tiles; spheres and ellipsoids are voxelised. */
 static int make_labels(void)
 {
-    leap_vdb_writer *w = new_writer();
+    int g;
+    leap_vdb_writer *w = new_grid_writer("labels", LEAP_VDB_INT32, 0, &g);
     if (!w) return 0;
-    const int g = add_grid(w, "labels", LEAP_VDB_INT32, NULL, 0);
-    if (g < 0) {
-        leap_vdb_writer_destroy(w);
-        return 0;
-    }
     static const int32_t boxes[3][6] = {
         {4, 4, 4, 35, 27, 19},     /* label 1 */
         {60, 56, 4, 95, 95, 15},   /* label 4 */
@@ -215,25 +208,13 @@ static int make_labels(void)
     return save(w, "labels.vdb");
 }
 
-static void rotation(int axis, double deg, double m[4][4])
-{
-    memset(m, 0, 16 * sizeof(double));
-    for (int i = 0; i < 4; ++i) m[i][i] = 1.0;
-    const double c = cos(deg * M_PI / 180.0), s = sin(deg * M_PI / 180.0);
-    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
-    m[a][a] = c;
-    m[a][b] = -s;
-    m[b][a] = s;
-    m[b][b] = c;
-}
-
 /* A torus in index space, shown through world = T * Rx(30) * Ry(20) * S(0.5, 1, 2). Three
  * grids share the transform: 'density' (float), 'temperature' (double), 'velocity' (vec3). */
 static int make_rotated(void)
 {
     double rx[4][4], ry[4][4], m[4][4];
-    rotation(0, 30.0, rx);
-    rotation(1, 20.0, ry);
+    leap__mat4_rotation(0, 30.0, rx);
+    leap__mat4_rotation(1, 20.0, ry);
     leap__mat4_mul(rx, ry, m);
     const double scale[3] = {0.5, 1.0, 2.0};
     for (int i = 0; i < 3; ++i)

@@ -87,3 +87,21 @@ int leap__parse_numbers(const char *s, double *out, int min_n, int n)
     }
     return count >= min_n ? count : -1;
 }
+
+void leap__mat4_identity(double m[4][4])
+{
+    memset(m, 0, 16 * sizeof(double));
+    for (int i = 0; i < 4; ++i) m[i][i] = 1.0;
+}
+
+void leap__mat4_rotation(int axis, double deg, double m[4][4])
+{
+    leap__mat4_identity(m);
+    const double pi = 3.14159265358979323846;
+    const double c = cos(deg * pi / 180.0), s = sin(deg * pi / 180.0);
+    const int a = (axis + 1) % 3, b = (axis + 2) % 3;
+    m[a][a] = c;
+    m[a][b] = -s;
+    m[b][a] = s;
+    m[b][b] = c;
+}

@@ -25,4 +25,10 @@ int leap__invert3(const double m[3][3], double inv[3][3]);
 /* out = a * b for row-major 4x4 matrices (out may alias a or b). */
 void leap__mat4_mul(const double a[4][4], const double b[4][4], double out[4][4]);
 
+/* The 4x4 identity. */
+void leap__mat4_identity(double m[4][4]);
+
+/* Rotation by deg degrees about axis 0/1/2 (x/y/z), right-handed, as a 4x4 matrix. */
+void leap__mat4_rotation(int axis, double deg, double m[4][4]);
+
 #endif

@@ -11,60 +11,39 @@
 
 #include "leap/tf.h"
 
-static char input_path[512];
-
-static void remove_input(void)
-{
-    if (input_path[0]) unlink(input_path);
-}
-
-static void fail(const char *msg)
-{
-    fprintf(stderr, "fuzz_tf: %s\n", msg);
-    abort();
-}
-
-int LLVMFuzzerInitialize(int *argc, char ***argv);
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+#include "fuzz_common.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc;
     (void)argv;
-    const char *tmp = getenv("TMPDIR");
-    snprintf(input_path, sizeof input_path, "%s/leap_fuzz_tf_%d.json", tmp && tmp[0] ? tmp : "/tmp", (int)getpid());
-    atexit(remove_input);
+    input_file_init("fuzz_tf", ".json");
     return 0;
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
-    FILE *f = fopen(input_path, "wb");
-    if (!f) return 0;
-    int ok = fwrite(data, 1, size, f) == size;
-    if (fclose(f) != 0 || !ok) return 0;
+    if (!write_input(data, size)) return 0;
 
     static leap_tf tf;
     leap_error err = {{0}};
     leap_result r = leap_tf_load_json(input_path, &tf, &err);
     if (r != LEAP_OK) {
-        if (r != LEAP_ERR_FORMAT && r != LEAP_ERR_IO && r != LEAP_ERR_OOM) fail("unexpected error code");
-        if (!err.msg[0] || strchr(err.msg, '\n')) fail("error without a one-line message");
-        if (!strstr(err.msg, input_path)) fail("error message does not name the file");
+        check_load_error(r, &err);
         return 0;
     }
-    if (!memchr(tf.name, '\0', sizeof tf.name)) fail("unterminated name");
+    if (!memchr(tf.name, '\0', sizeof tf.name)) fuzz_fail("unterminated name");
     for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i)
         for (int c = 0; c < 4; ++c)
-            if (!(tf.rgba[i][c] >= 0.0f && tf.rgba[i][c] <= 1.0f)) fail("table entry outside [0, 1] or NaN");
+            if (!(tf.rgba[i][c] >= 0.0f && tf.rgba[i][c] <= 1.0f)) fuzz_fail("table entry outside [0, 1] or NaN");
     const double us[] = {-1.0, 0.0, 0.3, 0.5, 1.0, 2.0, NAN, INFINITY};
     for (size_t k = 0; k < sizeof us / sizeof us[0]; ++k) {
         double rgba[4];
         leap_tf_eval(&tf, us[k], rgba);
         for (int c = 0; c < 4; ++c)
-            if (!(rgba[c] >= 0.0 && rgba[c] <= 1.0)) fail("evaluation outside [0, 1] or NaN");
+            if (!(rgba[c] >= 0.0 && rgba[c] <= 1.0)) fuzz_fail("evaluation outside [0, 1] or NaN");
         double a = leap_tf_alpha_for_step(rgba[3], 0.37);
-        if (!(a >= 0.0 && a <= 1.0)) fail("step-corrected opacity outside [0, 1]");
+        if (!(a >= 0.0 && a <= 1.0)) fuzz_fail("step-corrected opacity outside [0, 1]");
     }
     return 0;
 }

@@ -16,12 +16,7 @@
 #include "leap/scene.h"
 #include "leap/vdb.h"
 
-static char input_path[512];
-
-static void remove_input(void)
-{
-    if (input_path[0]) unlink(input_path);
-}
+#include "fuzz_common.h"
 
 /* A broken promise of the API: stop with a report libFuzzer records as a crash. */
 static void fail(const char *what, const char *msg)
@@ -36,15 +31,6 @@ static void check_error(leap_result r, const leap_error *err, const char *what)
 {
     if (r == LEAP_OK) return;
     if (!err->msg[0]) fail(what, "error without a message");
-}
-
-static int write_input(const uint8_t *data, size_t size)
-{
-    FILE *f = fopen(input_path, "wb");
-    if (!f) return 0;
-    int ok = fwrite(data, 1, size, f) == size;
-    ok = fclose(f) == 0 && ok;
-    return ok;
 }
 
 static void exercise_grid(leap_grid *grid)
@@ -83,9 +69,6 @@ static void exercise_grid(leap_grid *grid)
     free(bricks);
 }
 
-int LLVMFuzzerInitialize(int *argc, char ***argv);
-int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
 static void write_seeds(const char *dir);
 
 int LLVMFuzzerInitialize(int *argc, char ***argv)
@@ -97,9 +80,7 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
         write_seeds(seeds);
         exit(0);
     }
-    const char *tmp = getenv("TMPDIR");
-    snprintf(input_path, sizeof input_path, "%s/leap_fuzz_vdb_%d.vdb", tmp && tmp[0] ? tmp : "/tmp", (int)getpid());
-    atexit(remove_input);
+    input_file_init("fuzz_vdb", ".vdb");
     return 0;
 }
 
