@@ -316,6 +316,19 @@ static const int box_faces[6][4] = {
     {0, 4, 6, 2}, {1, 3, 7, 5}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 2, 3, 1}, {4, 5, 7, 6},
 };
 
+/* The six quads of the box whose first vertex is number `base`, each line led by `lead`
+ * ("f" in OBJ, the vertex count "4" in PLY); reversed when the transform mirrors. */
+static void write_box_faces(FILE *f, const char *lead, long base, int flip)
+{
+    for (int q = 0; q < 6; ++q) {
+        const int *fc = box_faces[q];
+        if (flip)
+            fprintf(f, "%s %ld %ld %ld %ld\n", lead, base + fc[3], base + fc[2], base + fc[1], base + fc[0]);
+        else
+            fprintf(f, "%s %ld %ld %ld %ld\n", lead, base + fc[0], base + fc[1], base + fc[2], base + fc[3]);
+    }
+}
+
 static int mirrored(const double m[4][4])
 {
     double d = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
@@ -373,14 +386,7 @@ leap_result leap_dump_write_obj(const char *path, const char *mtl_name, const le
             box_corner(b, k, m, origin, v);
             fprintf(f, "v %.9g %.9g %.9g %.4f %.4f %.4f\n", v[0], v[1], v[2], c[0], c[1], c[2]);
         }
-        for (int q = 0; q < 6; ++q) {
-            long base = (long)i * 8 + 1;
-            const int *fc = box_faces[q];
-            if (flip)
-                fprintf(f, "f %ld %ld %ld %ld\n", base + fc[3], base + fc[2], base + fc[1], base + fc[0]);
-            else
-                fprintf(f, "f %ld %ld %ld %ld\n", base + fc[0], base + fc[1], base + fc[2], base + fc[3]);
-        }
+        write_box_faces(f, "f", (long)i * 8 + 1, flip);
     }
     return close_text(f, path, err);
 }
@@ -409,15 +415,6 @@ leap_result leap_dump_write_ply(const char *path, const leap_dump_box *boxes, ui
                     (int)lroundf(c[1] * 255), (int)lroundf(c[2] * 255));
         }
     }
-    for (uint32_t i = 0; i < count; ++i) {
-        for (int q = 0; q < 6; ++q) {
-            long base = (long)i * 8;
-            const int *fc = box_faces[q];
-            if (flip)
-                fprintf(f, "4 %ld %ld %ld %ld\n", base + fc[3], base + fc[2], base + fc[1], base + fc[0]);
-            else
-                fprintf(f, "4 %ld %ld %ld %ld\n", base + fc[0], base + fc[1], base + fc[2], base + fc[3]);
-        }
-    }
+    for (uint32_t i = 0; i < count; ++i) write_box_faces(f, "4", (long)i * 8, flip);
     return close_text(f, path, err);
 }

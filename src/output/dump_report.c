@@ -50,6 +50,17 @@ static const char *samples_note(const leap_dump_pixel *p)
 
 static cJSON *vec3_json(const double v[3]) { return cJSON_CreateDoubleArray(v, 3); }
 
+/* Appends {t0, t1, class} to array and returns it (for more fields). */
+static cJSON *span_json(cJSON *array, double t0, double t1, uint32_t cls)
+{
+    cJSON *j = cJSON_CreateObject();
+    cJSON_AddNumberToObject(j, "t0", t0);
+    cJSON_AddNumberToObject(j, "t1", t1);
+    cJSON_AddStringToObject(j, "class", leap_dump_class_name(cls));
+    cJSON_AddItemToArray(array, j);
+    return j;
+}
+
 static char *pixel_json(const leap_dump_source *src, const leap_dump_frame *f, const leap_dump_pixel *p,
                         const resolved *res)
 {
@@ -103,22 +114,12 @@ static char *pixel_json(const leap_dump_source *src, const leap_dump_frame *f, c
         cJSON_AddItemToArray(events, j);
     }
     cJSON *rs = cJSON_AddArrayToObject(root, "resolved");
-    for (size_t i = 0; i < res->count; ++i) {
-        cJSON *j = cJSON_CreateObject();
-        cJSON_AddNumberToObject(j, "t0", res->seg[i].t0);
-        cJSON_AddNumberToObject(j, "t1", res->seg[i].t1);
-        cJSON_AddStringToObject(j, "class", leap_dump_class_name(res->seg[i].cls));
-        cJSON_AddItemToArray(rs, j);
-    }
+    for (size_t i = 0; i < res->count; ++i) span_json(rs, res->seg[i].t0, res->seg[i].t1, res->seg[i].cls);
     cJSON_AddBoolToObject(root, "resolved_matches_gpu", res->gpu_match);
     cJSON *segs = cJSON_AddArrayToObject(root, "segments");
     for (uint32_t i = 0; i < p->segment_count; ++i) {
-        cJSON *j = cJSON_CreateObject();
-        cJSON_AddNumberToObject(j, "t0", p->segments[i].t0);
-        cJSON_AddNumberToObject(j, "t1", p->segments[i].t1);
-        cJSON_AddStringToObject(j, "class", leap_dump_class_name(p->segments[i].cls));
+        cJSON *j = span_json(segs, p->segments[i].t0, p->segments[i].t1, p->segments[i].cls);
         cJSON_AddNumberToObject(j, "samples", p->segments[i].samples);
-        cJSON_AddItemToArray(segs, j);
     }
     cJSON *sm = cJSON_AddObjectToObject(root, "samples");
     cJSON_AddNumberToObject(sm, "segments", p->lattice_samples);
