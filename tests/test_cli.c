@@ -93,6 +93,59 @@ int main(void)
         snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, usage_errors[i].opts);
         EXPECT_FAIL(2, args, usage_errors[i].needle, out);
     }
+    /* A typo gets the closest name; a word far from every name gets none. */
+    static const struct {
+        const char *opts, *suggestion;
+    } typos[] = {
+        {"--orbti 1,2", "did you mean '--orbit'?"},
+        {"--sise 64x64", "did you mean '--size'?"},
+        {"--tf viridi", "did you mean 'viridis'?"},
+        {"--mode sparseleaf", "did you mean 'sparseleap'?"},
+        {"--frobnicate 1", NULL},
+    };
+    for (size_t i = 0; i < sizeof typos / sizeof typos[0]; ++i) {
+        snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, typos[i].opts);
+        EXPECT_FAIL(2, args, typos[i].suggestion ? typos[i].suggestion : "unknown option", out);
+        CHECK_MSG(typos[i].suggestion || !strstr(out_text, "did you mean"), "%s: %s", args, out_text);
+    }
+    CHECK_MSG(run("rendr") == 2 && strstr(out_text, "did you mean 'render'?"), "%s", out_text);
+    CHECK_MSG(run("bench x --repeat 3 -o x") == 2 && strstr(out_text, "did you mean '--repeats'?"), "%s", out_text);
+    CHECK_MSG(run("view x --scrip s.txt") == 2 && strstr(out_text, "did you mean '--script'?"), "%s", out_text);
+    CHECK_MSG(run("info --jsno x") == 2 && strstr(out_text, "did you mean '--json'?"), "%s", out_text);
+
+    /* Every verb's help lists each option once (the viewer's --size is its window size). */
+    static const char *const verbs[] = {"render", "info", "segments", "bench", "view"};
+    for (size_t v = 0; v < sizeof verbs / sizeof verbs[0]; ++v) {
+        snprintf(args, sizeof args, "%s --help", verbs[v]);
+        CHECK_MSG(run(args) == 0, "%s: %s", args, out_text);
+        int repeated = 0;
+        for (const char *line = out_text; *line; line = strchr(line, '\n') ? strchr(line, '\n') + 1 : "") {
+            const char *p = line + strspn(line, " ");
+            if (strncmp(p, "--", 2) != 0) continue;
+            size_t n = strcspn(p, " \n");
+            for (const char *other = strchr(line, '\n'); other && *++other;) {
+                const char *q = other + strspn(other, " ");
+                repeated += !strncmp(q, p, n) && (q[n] == ' ' || q[n] == '\n');
+                other = strchr(other, '\n');
+                if (!other) break;
+            }
+        }
+        CHECK_MSG(repeated == 0, "leap %s --help lists an option %d time(s) more than once", verbs[v], repeated);
+    }
+
+    /* cmake --install puts a working leap into PREFIX/bin. */
+    snprintf(path, sizeof path, "%s/prefix", tmp);
+    snprintf(args, sizeof args, "'%s' --install '%s' --prefix '%s' > /dev/null 2>&1", LEAP_CMAKE, LEAP_BUILD_DIR, path);
+    CHECK_MSG(system(args) == 0, "%s failed", args);
+    snprintf(args, sizeof args, "'%s/bin/leap' --version", path);
+    FILE *installed = popen(args, "r");
+    char version[64] = "";
+    if (installed) {
+        if (!fgets(version, sizeof version, installed)) version[0] = '\0';
+        pclose(installed);
+    }
+    CHECK_MSG(!strncmp(version, "leap ", 5), "installed leap --version printed '%s'", version);
+
     snprintf(args, sizeof args, "render %s", sphere);
     EXPECT_FAIL(2, args, "output", out);
     snprintf(path, sizeof path, "%s/out.xyz", tmp);

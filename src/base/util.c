@@ -1,6 +1,7 @@
 #include "util.h"
 
 #include <errno.h>
+#include <ctype.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -104,4 +105,47 @@ void leap__mat4_rotation(int axis, double deg, double m[4][4])
     m[a][b] = -s;
     m[b][a] = s;
     m[b][b] = c;
+}
+
+/* Optimal-string-alignment distance, case ignored; gives up above `limit` (returns limit + 1). */
+static size_t typo_distance(const char *a, const char *b, size_t limit)
+{
+    enum { MAX = 64 };
+    size_t n = strlen(a), m = strlen(b);
+    if (n >= MAX || m >= MAX) return limit + 1;
+    if ((n > m ? n - m : m - n) > limit) return limit + 1;
+    size_t d[MAX][MAX];
+    for (size_t i = 0; i <= n; ++i) d[i][0] = i;
+    for (size_t j = 0; j <= m; ++j) d[0][j] = j;
+    for (size_t i = 1; i <= n; ++i)
+        for (size_t j = 1; j <= m; ++j) {
+            const int same = tolower((unsigned char)a[i - 1]) == tolower((unsigned char)b[j - 1]);
+            size_t best = d[i - 1][j - 1] + !same;
+            if (d[i - 1][j] + 1 < best) best = d[i - 1][j] + 1;
+            if (d[i][j - 1] + 1 < best) best = d[i][j - 1] + 1;
+            if (i > 1 && j > 1 && tolower((unsigned char)a[i - 1]) == tolower((unsigned char)b[j - 2]) &&
+                tolower((unsigned char)a[i - 2]) == tolower((unsigned char)b[j - 1]) && d[i - 2][j - 2] + 1 < best)
+                best = d[i - 2][j - 2] + 1;
+            d[i][j] = best;
+        }
+    return d[n][m];
+}
+
+const char *leap__closest(const char *word, const char *const *candidates, size_t count)
+{
+    const char *core = word;
+    while (*core == '-') ++core;
+    const size_t len = strlen(core);
+    const size_t limit = len <= 4 ? 1 : 2;
+    if (len <= limit) return NULL;
+    const char *best = NULL;
+    size_t best_d = limit + 1;
+    for (size_t i = 0; i < count; ++i) {
+        const size_t d = typo_distance(word, candidates[i], limit);
+        if (d < best_d) {
+            best_d = d;
+            best = candidates[i];
+        }
+    }
+    return best;
 }

@@ -15,6 +15,12 @@ int leap__grow(void **p, size_t *cap, size_t need, size_t elem);
  * (empty items, trailing commas, overflow and non-numbers are refused). */
 int leap__parse_numbers(const char *s, double *out, int min_n, int n);
 
+/* The candidate closest to word by edit distance (insertions, deletions, substitutions and
+ * swaps of neighbours; case ignored), if it is close enough to be a likely typo: at most 1
+ * edit for words of up to 4 characters, 2 for longer ones, and never the whole word.
+ * NULL when none is. */
+const char *leap__closest(const char *word, const char *const *candidates, size_t count);
+
 /* The part of path after its last '/'. */
 const char *leap__base_name(const char *path);
 

@@ -47,5 +47,8 @@ int leap_cli_main(int argc, char **argv)
     if (!strcmp(verb, "segments")) return cli_segments(argc, argv);
     if (!strcmp(verb, "bench")) return cli_bench(argc, argv);
     if (!strcmp(verb, "view")) return cli_view(argc, argv);
+    static const char *const verbs[] = {"render", "info", "segments", "bench", "view"};
+    const char *near = leap__closest(verb, verbs, sizeof verbs / sizeof verbs[0]);
+    if (near) return cli_usage_error(NULL, "unknown command '%s' (did you mean '%s'?)", verb, near);
     return cli_usage_error(NULL, "unknown command '%s'", verb);
 }

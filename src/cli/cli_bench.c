@@ -137,10 +137,17 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
                 snprintf(key, sizeof key, "%s", name);
                 v = i + 1 < argc ? argv[++i] : NULL;
             }
-            if (!v) rc = cli_usage_error("bench", "option %s needs a value", a);
-            else lr = leap_bench_set_option(o, key, v, &err);
+            if (!v) {
+                rc = cli_usage_error("bench", "option %s needs a value", a);
+            } else if ((lr = leap_bench_set_option(o, key, v, &err)) == LEAP_ERR_USAGE &&
+                       !strncmp(err.msg, "unknown option", 14)) {
+                char dashed[72];
+                snprintf(dashed, sizeof dashed, "--%s", key);
+                rc = cli_unknown_option("bench", dashed, &bench_help, 1);
+                lr = LEAP_OK;
+            }
         } else if (a[0] == '-') {
-            rc = cli_usage_error("bench", "unknown option '%s'", a);
+            rc = cli_unknown_option("bench", a, &bench_help, 1);
         } else if (o->nvolumes == LEAP_BENCH_MAX_ITEMS) {
             rc = cli_usage_error("bench", "at most %d volumes", LEAP_BENCH_MAX_ITEMS);
         } else {

@@ -1,6 +1,7 @@
 #include "cli_common.h"
 #include "leap/files.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdarg.h>
@@ -279,9 +280,14 @@ int cli_camera_options_check(const char *verb, const cli_camera_options *o, int 
                                    err.msg);
     }
     int reference = allow_reference && strcmp(o->mode_name, "reference") == 0;
-    if (!reference && leap_mode_from_name(o->mode_name) < 0)
-        return cli_usage_error(verb, "unknown --mode '%s' (sparseleap, octree, bbox, naive%s)", o->mode_name,
+    if (!reference && leap_mode_from_name(o->mode_name) < 0) {
+        static const char *const modes[] = {"sparseleap", "octree", "bbox", "naive", "reference"};
+        const char *near = leap__closest(o->mode_name, modes, allow_reference ? 5 : 4);
+        char hint[64] = "";
+        if (near) snprintf(hint, sizeof hint, "did you mean '%s'? ", near);
+        return cli_usage_error(verb, "unknown --mode '%s' (%ssparseleap, octree, bbox, naive%s)", o->mode_name, hint,
                                allow_reference ? ", reference" : "");
+    }
     return 0;
 }
 
@@ -297,4 +303,70 @@ leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_ca
     double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
     double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
     return leap_camera_orbit(s->center, s->radius, az, el, dist, o->fov, o->ortho, cam, err);
+}
+
+/* The option names a help text lists: "-x" and "--name" tokens on lines that start with an
+ * option. Writes at most cap; returns the count. */
+static size_t help_options(const char *help, char names[][32], size_t count, size_t cap)
+{
+    for (const char *line = help; line && *line;) {
+        const char *end = strchr(line, '\n');
+        const char *p = line;
+        while (*p == ' ') ++p;
+        if (*p == '-') {
+            for (const char *q = p; q < (end ? end : q + strlen(q));) {
+                if (q[0] == '-' && (q == p || q[-1] == ' ' || q[-1] == '[') && isalpha((unsigned char)q[q[1] == '-' ? 2 : 1])) {
+                    size_t n = 0;
+                    while (n < 31 && (isalnum((unsigned char)q[n]) || q[n] == '-')) ++n;
+                    if (count < cap && (n > 2 || q[1] != '-')) {
+                        memcpy(names[count], q, n);
+                        names[count++][n] = '\0';
+                    }
+                    q += n;
+                } else {
+                    ++q;
+                }
+            }
+        }
+        line = end ? end + 1 : NULL;
+    }
+    return count;
+}
+
+int cli_unknown_option(const char *verb, const char *arg, const char *const *helps, int help_count)
+{
+    enum { CAP = 96 };
+    char names[CAP][32];
+    const char *list[CAP];
+    size_t n = 0;
+    for (int h = 0; h < help_count; ++h) n = help_options(helps[h], names, n, CAP);
+    for (size_t i = 0; i < n; ++i) list[i] = names[i];
+    const char *near = arg[0] == '-' ? leap__closest(arg, list, n) : NULL;
+    if (near) return cli_usage_error(verb, "unknown option '%s' (did you mean '%s'?)", arg, near);
+    return cli_usage_error(verb, "unknown option '%s'", arg);
+}
+
+void cli_print_help(const char *head, const char *tail)
+{
+    fputs(head, stdout);
+    /* A shared option the verb describes itself (the viewer's window --size) is listed once,
+     * in the verb's own words. */
+    char own[CLI_MAX_HELP_OPTIONS][32];
+    size_t n_own = help_options(tail, own, 0, CLI_MAX_HELP_OPTIONS);
+    int skipping = 0; /* inside a skipped option's lines (its continuations are indented) */
+    for (const char *line = cli_camera_options_help; *line;) {
+        const char *end = strchr(line, '\n');
+        size_t len = end ? (size_t)(end - line + 1) : strlen(line);
+        const char *p = line;
+        while (*p == ' ') ++p;
+        int skip = 0;
+        for (size_t i = 0; i < n_own && *p == '-'; ++i) {
+            size_t k = strlen(own[i]);
+            skip |= !strncmp(p, own[i], k) && (p[k] == ' ' || p[k] == '\n');
+        }
+        if (*p == '-') skipping = skip;
+        if (!skipping) fwrite(line, 1, len, stdout);
+        line += len;
+    }
+    fputs(tail, stdout);
 }

@@ -13,6 +13,13 @@
 
 /* Prints "leap VERB: reason (see 'leap VERB --help')" and returns EXIT_USAGE. */
 int cli_usage_error(const char *verb, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+/* Usage error (exit 2) for an unknown option, naming the closest option listed in the
+ * verb's help texts when it looks like a typo ("did you mean '--orbit'?"). */
+int cli_unknown_option(const char *verb, const char *arg, const char *const *helps, int help_count);
+/* Prints a verb's help to stdout: head, the shared camera options, tail. A shared option
+ * that tail lists too is printed only there. */
+#define CLI_MAX_HELP_OPTIONS 32
+void cli_print_help(const char *head, const char *tail);
 /* Prints "leap: message" and returns EXIT_RUNTIME. */
 int cli_runtime_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 /* A copy of s in buf with control characters replaced by '?' (as in messages), for

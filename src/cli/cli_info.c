@@ -161,7 +161,7 @@ int cli_info(int argc, char **argv)
         } else if (!strcmp(argv[i], "--json")) {
             json = 1;
         } else if (argv[i][0] == '-' && argv[i][1]) {
-            return cli_usage_error("info", "unknown option '%s'", argv[i]);
+            return cli_unknown_option("info", argv[i], &info_help, 1);
         } else if (!input) {
             input = argv[i];
         } else {

@@ -143,9 +143,7 @@ int cli_render(int argc, char **argv)
         const char *a = argv[i], *v;
         int missing = 0;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(render_help_head, stdout);
-            fputs(cli_camera_options_help, stdout);
-            fputs(render_help_tail, stdout);
+            cli_print_help(render_help_head, render_help_tail);
             return 0;
         }
         if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
@@ -167,7 +165,10 @@ int cli_render(int argc, char **argv)
         }
         int c = cli_camera_option(argc, argv, &i, "render", &o);
         if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
-        if (c == 0) return cli_usage_error("render", "unknown option '%s'", a);
+        if (c == 0) {
+            const char *const helps[] = {render_help_head, cli_camera_options_help, render_help_tail};
+            return cli_unknown_option("render", a, helps, 3);
+        }
     }
     int rc = cli_camera_options_check("render", &o, 1);
     if (rc) return rc;

@@ -45,9 +45,7 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
         const char *a = argv[i], *v;
         int missing = 0;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(segments_help_head, stdout);
-            fputs(cli_camera_options_help, stdout);
-            fputs(segments_help_tail, stdout);
+            cli_print_help(segments_help_head, segments_help_tail);
             *done = 1;
             return 0;
         }
@@ -79,7 +77,10 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
         }
         int c = cli_camera_option(argc, argv, &i, "segments", &o->view);
         if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
-        if (c == 0) return cli_usage_error("segments", "unknown option '%s'", a);
+        if (c == 0) {
+            const char *const helps[] = {segments_help_head, cli_camera_options_help, segments_help_tail};
+            return cli_unknown_option("segments", a, helps, 3);
+        }
     }
     int rc = cli_camera_options_check("segments", &o->view, 0);
     if (rc) return rc;

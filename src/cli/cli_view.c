@@ -57,9 +57,7 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
         const char *a = argv[i], *v;
         int missing = 0;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(view_help_head, stdout);
-            fputs(cli_camera_options_help, stdout);
-            fputs(view_help_tail, stdout);
+            cli_print_help(view_help_head, view_help_tail);
             *done = 1;
             return 0;
         }
@@ -104,7 +102,10 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
         }
         int c = cli_camera_option(argc, argv, &i, "view", &o->view);
         if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
-        if (c == 0) return cli_usage_error("view", "unknown option '%s'", a);
+        if (c == 0) {
+            const char *const helps[] = {view_help_head, cli_camera_options_help, view_help_tail};
+            return cli_unknown_option("view", a, helps, 3);
+        }
     }
     int rc = cli_camera_options_check("view", &o->view, 0);
     if (rc) return rc;

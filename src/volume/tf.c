@@ -201,6 +201,12 @@ leap_result leap_tf_preset(const char *name, int label_count, leap_tf *out, leap
                 break;
             len += (size_t)w;
         }
+        size_t n = 0;
+        while (preset_names[n]) ++n;
+        const char *near = leap__closest(name, preset_names, n);
+        if (near)
+            return leap_fail(err, LEAP_ERR_USAGE, "unknown transfer function '%s' (did you mean '%s'? presets: %s; or a .json file)",
+                             name, near, list);
         return leap_fail(err, LEAP_ERR_USAGE,
                          "unknown transfer function '%s' (presets: %s; or a .json file)", name,
                          list);
