@@ -436,8 +436,67 @@ static void test_errors(void)
     CHECK(leap_camera_orbit(zero3, 1.0, 0, 0, 0, 180, 0, &oc, &err) == LEAP_ERR_USAGE);
 }
 
+/* Orbits about an up axis: +Y reproduces leap_camera_orbit bit for bit; for other axes the
+ * eye's elevation above the plane normal to up is el, azimuth 90 lies on the side of +X made
+ * normal to up, and the camera's up is orthogonal to the view and points along the axis. */
+static void test_orbit_about(void)
+{
+    const double c[3] = {3, -2, 7}, y_up[3] = {0, 1, 0};
+    leap_error err = {{0}};
+    for (int az = -180; az <= 180; az += 15)
+        for (int el = -90; el <= 90; el += 15) {
+            leap_camera a, b;
+            CHECK_OK(leap_camera_orbit(c, 5.0, az, el, 0, 40, 0, &a, &err), &err);
+            CHECK_OK(leap_camera_orbit_about(c, 5.0, y_up, az, el, 0, 40, 0, &b, &err), &err);
+            CHECK_MSG(!memcmp(a.eye, b.eye, sizeof a.eye) && !memcmp(a.up, b.up, sizeof a.up),
+                      "az %d el %d: the +Y orbit differs from leap_camera_orbit", az, el);
+        }
+    const double axes[][3] = {{0, 0, 1}, {0, 0, -3}, {1, 0, 0}, {1, 2, 3}, {0, -1, 0}};
+    for (size_t k = 0; k < sizeof axes / sizeof axes[0]; ++k) {
+        double u[3];
+        const double len = sqrt(dot(axes[k], axes[k]));
+        for (int i = 0; i < 3; ++i) u[i] = axes[k][i] / len;
+        for (int az = -180; az <= 180; az += 30)
+            for (int el = -80; el <= 80; el += 20) {
+                leap_camera cam;
+                CHECK_OK(leap_camera_orbit_about(c, 5.0, axes[k], az, el, 2.0, 40, 0, &cam, &err), &err);
+                double d[3], f[3];
+                for (int i = 0; i < 3; ++i) d[i] = (cam.eye[i] - c[i]) / 10.0; /* unit: 2 radii */
+                CHECK_MSG(fabs(dot(d, d) - 1) < 1e-12, "axis %zu: eye distance", k);
+                CHECK_MSG(fabs(asin(dot(d, u)) * 180 / PI - el) < 1e-9, "axis %zu az %d el %d: elevation %g", k, az,
+                          el, asin(dot(d, u)) * 180 / PI);
+                for (int i = 0; i < 3; ++i) f[i] = -d[i];
+                CHECK_MSG(fabs(dot(cam.up, f)) < 1e-12 && dot(cam.up, u) > 0,
+                          "axis %zu az %d el %d: camera up not level", k, az, el);
+            }
+        /* az 90 faces the +X side of the axis (or +Z when the axis is along X). */
+        leap_camera cam;
+        CHECK_OK(leap_camera_orbit_about(c, 5.0, axes[k], 90, 0, 2.0, 40, 0, &cam, &err), &err);
+        double ref[3] = {fabs(u[0]) > 0.9 ? 0 : 1, 0, fabs(u[0]) > 0.9 ? 1 : 0};
+        CHECK_MSG(dot(ref, cam.eye) - dot(ref, c) > 0, "axis %zu: az 90 is not on the reference side", k);
+    }
+    leap_camera cam;
+    CHECK(leap_camera_orbit_about(c, 5.0, zero3, 0, 0, 0, 40, 0, &cam, &err) == LEAP_ERR_USAGE);
+}
+
+/* The world box of a rotated, scaled index box holds every corner and touches one per face. */
+static void test_world_box(void)
+{
+    const double m[4][4] = {{0, -2, 0, 10}, {0.5, 0, 0, -4}, {0, 0, 3, 1}, {0, 0, 0, 1}};
+    const int32_t lo_i[3] = {-3, 0, 2}, hi_i[3] = {4, 9, 2};
+    double lo[3], hi[3];
+    leap_camera_world_box(m, lo_i, hi_i, lo, hi);
+    /* x = -2 y + 10 over y in [-0.5, 9.5]; y = 0.5 x - 4 over x in [-3.5, 4.5]; z = 3 z + 1 over [1.5, 2.5] */
+    const double want_lo[3] = {-9, -5.75, 5.5}, want_hi[3] = {11, -1.75, 8.5};
+    for (int i = 0; i < 3; ++i)
+        CHECK_MSG(lo[i] == want_lo[i] && hi[i] == want_hi[i], "axis %d: %g..%g, expected %g..%g", i, lo[i], hi[i],
+                  want_lo[i], want_hi[i]);
+}
+
 int main(void)
 {
+    test_orbit_about();
+    test_world_box();
     test_orbit_framing();
     test_orientation();
     test_ortho();

@@ -133,6 +133,13 @@ int main(void)
         CHECK_MSG(repeated == 0, "leap %s --help lists an option %d time(s) more than once", verbs[v], repeated);
     }
 
+    /* Z-up data: the orbit turns about --up; info gives the world box and centre. */
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32 --orbit 90,10 --up 0,0,1 -q", sphere, out);
+    CHECK_MSG(run(args) == 0 && exists(out), "%s: %s", args, out_text);
+    snprintf(args, sizeof args, "info %s", sphere);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "world box") && strstr(out_text, "world centre"), "%s: %s", args,
+              out_text);
+
     /* cmake --install puts a working leap into PREFIX/bin. */
     snprintf(path, sizeof path, "%s/prefix", tmp);
     snprintf(args, sizeof args, "'%s' --install '%s' --prefix '%s' > /dev/null 2>&1", LEAP_CMAKE, LEAP_BUILD_DIR, path);

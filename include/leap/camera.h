@@ -27,6 +27,21 @@ leap_result leap_camera_orbit(const double center[3], double radius, double az_d
                               double el_deg, double dist_radii, double fov_deg, int ortho,
                               leap_camera *out, leap_error *err);
 
+/* The same orbit about any world up axis `up` (any length): elevation is measured from the
+ * plane normal to up, towards up; azimuth turns about up. With x' = +X made normal to up
+ * (+Z instead when up is within 26 degrees of X), az = 90 puts the eye on the x' side and
+ * az = 0 on the side x' x up. up = 0,1,0 gives leap_camera_orbit exactly; up = 0,0,1 (Z-up
+ * data) puts az = 0 on the -Y side. The camera's up is up's direction at el = 0, so the
+ * horizon stays level. Errors: as leap_camera_orbit, and a zero or non-finite up. */
+leap_result leap_camera_orbit_about(const double center[3], double radius, const double up[3], double az_deg,
+                                    double el_deg, double dist_radii, double fov_deg, int ortho,
+                                    leap_camera *out, leap_error *err);
+
+/* World-space axis-aligned box of the index box [bbox_min - 0.5, bbox_max + 0.5] under the
+ * row-major affine index_to_world (lo = hi = the image of the origin for an empty box). */
+void leap_camera_world_box(const double index_to_world[4][4], const int32_t bbox_min[3], const int32_t bbox_max[3],
+                           double lo[3], double hi[3]);
+
 /* World-space bounding sphere of the index box [bbox_min - 0.5, bbox_max + 0.5] (voxel
  * extents) under the row-major affine index_to_world; radius 1 for an empty box. */
 void leap_camera_bounds(const double index_to_world[4][4], const int32_t bbox_min[3],

@@ -154,9 +154,12 @@ const char *cli_camera_options_help =
     "                      are counted as overflowed\n"
     "  --device NAME       Vulkan device whose name contains NAME (env LEAP_DEVICE)\n"
     "camera (world space):\n"
-    "  --orbit AZ,EL[,DIST]  azimuth and elevation in degrees, distance in bounding-sphere\n"
-    "                      radii (default 35,25 at the distance that frames the volume)\n"
-    "  --eye X,Y,Z --target X,Y,Z [--up X,Y,Z]   explicit camera (up default 0,1,0)\n"
+    "  --orbit AZ,EL[,DIST]  azimuth and elevation in degrees about the --up axis, distance\n"
+    "                      in bounding-sphere radii (default 35,25 at the distance that\n"
+    "                      frames the volume)\n"
+    "  --eye X,Y,Z --target X,Y,Z   explicit camera\n"
+    "  --up X,Y,Z          the world's up direction (default 0,1,0; 0,0,1 for Z-up data):\n"
+    "                      the orbit turns about it and the picture keeps it upright\n"
     "  --fov DEG           vertical field of view (default 40)\n"
     "  --ortho             orthographic projection (framing the bounding sphere)\n";
 
@@ -262,7 +265,8 @@ int cli_camera_options_check(const char *verb, const cli_camera_options *o, int 
     if (!o->input) return cli_usage_error(verb, "no input volume given");
     if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
     if (o->has_eye != o->has_target) return cli_usage_error(verb, "--eye and --target go together");
-    if (o->has_up && !o->has_eye) return cli_usage_error(verb, "--up needs --eye and --target");
+    if (o->has_up && !(o->up[0] * o->up[0] + o->up[1] * o->up[1] + o->up[2] * o->up[2] > 0))
+        return cli_usage_error(verb, "--up %g,%g,%g: the up direction must not be zero", o->up[0], o->up[1], o->up[2]);
     if (o->has_eye) {
         /* The camera's own checks (eye == target, zero up, up along the view), in world space
          * like at render time, but reported here against the options. */
@@ -302,7 +306,7 @@ leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_ca
     }
     double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
     double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
-    return leap_camera_orbit(s->center, s->radius, az, el, dist, o->fov, o->ortho, cam, err);
+    return leap_camera_orbit_about(s->center, s->radius, o->up, az, el, dist, o->fov, o->ortho, cam, err);
 }
 
 /* The option names a help text lists: "-x" and "--name" tokens on lines that start with an

@@ -33,6 +33,15 @@ static cJSON *info_json(const leap_grid_info *gi, int loaded)
     if (!loaded) return g;
     cJSON_AddItemToObject(g, "bbox_min", cJSON_CreateIntArray(gi->bbox_min, 3));
     cJSON_AddItemToObject(g, "bbox_max", cJSON_CreateIntArray(gi->bbox_max, 3));
+    if (gi->bbox_min[0] <= gi->bbox_max[0]) {
+        double lo[3], hi[3], centre[3], radius;
+        leap_camera_world_box(gi->index_to_world, gi->bbox_min, gi->bbox_max, lo, hi);
+        leap_camera_bounds(gi->index_to_world, gi->bbox_min, gi->bbox_max, centre, &radius);
+        cJSON_AddItemToObject(g, "world_min", cJSON_CreateDoubleArray(lo, 3));
+        cJSON_AddItemToObject(g, "world_max", cJSON_CreateDoubleArray(hi, 3));
+        cJSON_AddItemToObject(g, "world_center", cJSON_CreateDoubleArray(centre, 3));
+        cJSON_AddNumberToObject(g, "world_radius", radius);
+    }
     cJSON_AddNumberToObject(g, "active_voxels", (double)gi->active_voxels);
     cJSON_AddNumberToObject(g, "leaf_count", (double)gi->leaf_count);
     double tiles[LEAP_TILE_LEVELS];
@@ -65,6 +74,14 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
                gi->bbox_min[2], gi->bbox_max[0], gi->bbox_max[1], gi->bbox_max[2],
                (long long)gi->bbox_max[0] - gi->bbox_min[0] + 1, (long long)gi->bbox_max[1] - gi->bbox_min[1] + 1,
                (long long)gi->bbox_max[2] - gi->bbox_min[2] + 1);
+    if (gi->bbox_min[0] <= gi->bbox_max[0]) {
+        double lo[3], hi[3], centre[3], radius;
+        leap_camera_world_box(gi->index_to_world, gi->bbox_min, gi->bbox_max, lo, hi);
+        leap_camera_bounds(gi->index_to_world, gi->bbox_min, gi->bbox_max, centre, &radius);
+        printf("  world box      [%g %g %g] .. [%g %g %g] (voxel extents, world units)\n", lo[0], lo[1], lo[2], hi[0],
+               hi[1], hi[2]);
+        printf("  world centre   %g,%g,%g (bounding radius %g)\n", centre[0], centre[1], centre[2], radius);
+    }
     printf("  active voxels  %llu\n", (unsigned long long)gi->active_voxels);
     printf("  leaves         %llu\n", (unsigned long long)gi->leaf_count);
     printf("  active tiles   %llu (8^3), %llu (128^3), %llu (4096^3)\n", (unsigned long long)gi->active_tiles[0],

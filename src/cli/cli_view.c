@@ -109,6 +109,10 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
     }
     int rc = cli_camera_options_check("view", &o->view, 0);
     if (rc) return rc;
+    /* The viewer's mouse orbit still turns about +Y. */
+    if (o->view.has_up && !o->view.has_eye && (o->view.up[0] != 0 || o->view.up[2] != 0 || !(o->view.up[1] > 0)))
+        return cli_usage_error("view", "--up other than +Y needs --eye and --target in the viewer (its orbit turns "
+                               "about +Y)");
     if (o->script && (o->frames || o->screenshot))
         return cli_usage_error("view", "--script cannot be combined with --frames or --screenshot");
     const char *inputs[] = {o->view.input, o->view.scene.tf, o->script};

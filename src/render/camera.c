@@ -38,10 +38,12 @@ static int finite3(const double a[3])
  * "up = +Y" gives, and at the poles it turns continuously into -Z (el = 90, az = 0) or
  * the matching horizontal direction for other azimuths. It is always a unit vector
  * orthogonal to the view direction, so it is never parallel to it. */
-leap_result leap_camera_orbit(const double center[3], double radius, double az_deg,
-                              double el_deg, double dist_radii, double fov_deg, int ortho,
-                              leap_camera *out, leap_error *err)
+leap_result leap_camera_orbit_about(const double center[3], double radius, const double up[3], double az_deg,
+                                    double el_deg, double dist_radii, double fov_deg, int ortho,
+                                    leap_camera *out, leap_error *err)
 {
+    if (!up || !finite3(up) || !(up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 0.0))
+        return leap_fail(err, LEAP_ERR_USAGE, "camera: the orbit's up axis must be a non-zero finite vector");
     if (!center || !out)
         return leap_fail(err, LEAP_ERR_USAGE, "camera: missing centre or output");
     if (!finite3(center) || !isfinite(radius) || !isfinite(az_deg) || !isfinite(el_deg) ||
@@ -58,7 +60,24 @@ leap_result leap_camera_orbit(const double center[3], double radius, double az_d
 
     const double az = az_deg * DEG2RAD, el = el_deg * DEG2RAD;
     const double ce = cos(el), se = sin(el), ca = cos(az), sa = sin(az);
-    const double dir[3] = {ce * sa, se, ce * ca};
+    /* The orbit's frame (ex, ey = up, ez = ex x ey); for up = +Y it is the identity, and
+     * the sums below add exact zeros, so the result equals the +Y formula bit for bit. */
+    double ey[3], ex[3], ez[3];
+    const double up_len = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
+    for (int c = 0; c < 3; ++c) ey[c] = up[c] / up_len;
+    const double x_ref[3] = {fabs(ey[0]) > 0.9 ? 0.0 : 1.0, 0.0, fabs(ey[0]) > 0.9 ? 1.0 : 0.0};
+    const double along = x_ref[0] * ey[0] + x_ref[1] * ey[1] + x_ref[2] * ey[2];
+    for (int c = 0; c < 3; ++c) ex[c] = x_ref[c] - along * ey[c];
+    const double ex_len = sqrt(ex[0] * ex[0] + ex[1] * ex[1] + ex[2] * ex[2]);
+    for (int c = 0; c < 3; ++c) ex[c] /= ex_len;
+    ez[0] = ex[1] * ey[2] - ex[2] * ey[1];
+    ez[1] = ex[2] * ey[0] - ex[0] * ey[2];
+    ez[2] = ex[0] * ey[1] - ex[1] * ey[0];
+    double dir[3], cam_up[3];
+    for (int c = 0; c < 3; ++c) {
+        dir[c] = ce * sa * ex[c] + se * ey[c] + ce * ca * ez[c];
+        cam_up[c] = -se * sa * ex[c] + ce * ey[c] - se * ca * ez[c];
+    }
     const double dist =
         dist_radii > 0.0 ? dist_radii * radius : radius / sin(0.5 * fov_deg * DEG2RAD);
 
@@ -67,15 +86,20 @@ leap_result leap_camera_orbit(const double center[3], double radius, double az_d
         out->target[c] = center[c];
         out->eye[c] = center[c] + dist * dir[c];
     }
-    out->up[0] = -se * sa;
-    out->up[1] = ce;
-    out->up[2] = -se * ca;
+    for (int c = 0; c < 3; ++c) out->up[c] = cam_up[c];
     out->fov_deg = fov_deg;
     out->ortho = ortho ? 1 : 0;
     out->ortho_height = 2.0 * radius;
     if (!finite3(out->eye))
         return leap_fail(err, LEAP_ERR_USAGE, "camera: orbit distance overflows");
     return LEAP_OK;
+}
+
+leap_result leap_camera_orbit(const double center[3], double radius, double az_deg, double el_deg, double dist_radii,
+                              double fov_deg, int ortho, leap_camera *out, leap_error *err)
+{
+    static const double y_up[3] = {0.0, 1.0, 0.0};
+    return leap_camera_orbit_about(center, radius, y_up, az_deg, el_deg, dist_radii, fov_deg, ortho, out, err);
 }
 
 static void mat_vec(const double m[3][3], const double v[3], double out[3])
@@ -241,8 +265,9 @@ double leap_rays_world_distance(const leap_rays *view, const double dir[3], doub
     return norm3(w) * t;
 }
 
-void leap_camera_bounds(const double index_to_world[4][4], const int32_t bbox_min[3],
-                        const int32_t bbox_max[3], double center[3], double *radius)
+/* The eight world-space corners of the index box [bbox_min - 0.5, bbox_max + 0.5]. */
+static void world_corners(const double index_to_world[4][4], const int32_t bbox_min[3], const int32_t bbox_max[3],
+                          double corners[8][3])
 {
     double lo[3], hi[3];
     for (int i = 0; i < 3; ++i) {
@@ -250,13 +275,33 @@ void leap_camera_bounds(const double index_to_world[4][4], const int32_t bbox_mi
         hi[i] = bbox_max[i] + 0.5;
         if (bbox_min[i] > bbox_max[i]) lo[i] = hi[i] = 0;
     }
-    double corners[8][3];
     for (int c = 0; c < 8; ++c)
         for (int r = 0; r < 3; ++r) {
             double p[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]};
             corners[c][r] = index_to_world[r][0] * p[0] + index_to_world[r][1] * p[1] +
                             index_to_world[r][2] * p[2] + index_to_world[r][3];
         }
+}
+
+void leap_camera_world_box(const double index_to_world[4][4], const int32_t bbox_min[3], const int32_t bbox_max[3],
+                           double lo[3], double hi[3])
+{
+    double corners[8][3];
+    world_corners(index_to_world, bbox_min, bbox_max, corners);
+    for (int r = 0; r < 3; ++r) {
+        lo[r] = hi[r] = corners[0][r];
+        for (int c = 1; c < 8; ++c) {
+            lo[r] = fmin(lo[r], corners[c][r]);
+            hi[r] = fmax(hi[r], corners[c][r]);
+        }
+    }
+}
+
+void leap_camera_bounds(const double index_to_world[4][4], const int32_t bbox_min[3],
+                        const int32_t bbox_max[3], double center[3], double *radius)
+{
+    double corners[8][3];
+    world_corners(index_to_world, bbox_min, bbox_max, corners);
     for (int r = 0; r < 3; ++r) {
         center[r] = 0;
         for (int c = 0; c < 8; ++c) center[r] += corners[c][r] / 8.0;
