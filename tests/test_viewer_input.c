@@ -465,8 +465,52 @@ static void test_script_parse(void)
     CHECK(strstr(err.msg, "missing.txt") != NULL);
 }
 
+/* A Z-up orbit: any sequence of drags keeps the horizon level (the camera's right vector has
+ * no component along the axis, its up points along it) and the eye's elevation above the
+ * plane normal to the axis is the viewer's elevation. The default (no axis) is +Y, exactly
+ * leap_camera_orbit. */
+static void test_up_axis(void)
+{
+    leap_viewer_desc d = orbit_desc();
+    leap_viewer v;
+    init(&v, &d);
+    leap_camera plain, c = cam_of(&v);
+    leap_error err = {{0}};
+    leap_viewer_rotate(&v, 30, -10);
+    c = cam_of(&v);
+    CHECK_OK(leap_camera_orbit(v.target, v.radius, v.az, v.el, v.dist_radii, v.fov, v.ortho, &plain, &err), &err);
+    CHECK(same_camera(&c, &plain));
+
+    const double z[3] = {0, 0, 1};
+    memcpy(d.up, z, sizeof d.up);
+    CHECK_OK(leap_camera_orbit_about(center, radius, z, d.az, d.el, 0, 40, 0, &d.camera, &err), &err);
+    init(&v, &d);
+    const double moves[][2] = {{180, 0}, {180, 0}, {45, 30}, {-200, -70}, {90, 80}, {13, -5}};
+    for (size_t m = 0; m < sizeof moves / sizeof moves[0]; ++m) {
+        leap_viewer_rotate(&v, moves[m][0], moves[m][1]);
+        c = cam_of(&v);
+        double f[3], right[3], n = 0;
+        for (int i = 0; i < 3; ++i) f[i] = c.target[i] - c.eye[i];
+        right[0] = f[1] * c.up[2] - f[2] * c.up[1];
+        right[1] = f[2] * c.up[0] - f[0] * c.up[2];
+        right[2] = f[0] * c.up[1] - f[1] * c.up[0];
+        for (int i = 0; i < 3; ++i) n += right[i] * right[i];
+        CHECK_MSG(fabs(right[2]) <= 1e-12 * sqrt(n) && c.up[2] > 0, "move %zu: the horizon rolled (right.z %g, up.z %g)",
+                  m, right[2], c.up[2]);
+        const double el = asin(-f[2] / dist3(c.eye, c.target)) * 180 / 3.14159265358979323846;
+        CHECK_MSG(fabs(el - v.el) < 1e-9, "move %zu: elevation %g, viewer says %g", m, el, v.el);
+    }
+    /* An explicit Z-up camera turns about Z too once it moves. */
+    d.camera_is_orbit = 0;
+    init(&v, &d);
+    leap_viewer_rotate(&v, 90, 0);
+    c = cam_of(&v);
+    CHECK_MSG(fabs(c.eye[2] - d.camera.eye[2]) < 1e-9, "an azimuth drag changed the height above the Z plane");
+}
+
 int main(void)
 {
+    test_up_axis();
     test_camera_events();
     test_ortho_and_explicit();
     test_look_keys();

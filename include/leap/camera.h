@@ -37,6 +37,11 @@ leap_result leap_camera_orbit_about(const double center[3], double radius, const
                                     double el_deg, double dist_radii, double fov_deg, int ortho,
                                     leap_camera *out, leap_error *err);
 
+/* The frame leap_camera_orbit_about turns in: ey = up normalised, ex = the reference axis
+ * made normal to it, ez = ex x ey (for up = +Y: the world axes). Returns 0 for a zero or
+ * non-finite up. An eye direction d has elevation asin(d.ey) and azimuth atan2(d.ex, d.ez). */
+int leap_camera_orbit_frame(const double up[3], double ex[3], double ey[3], double ez[3]);
+
 /* World-space axis-aligned box of the index box [bbox_min - 0.5, bbox_max + 0.5] under the
  * row-major affine index_to_world (lo = hi = the image of the origin for an empty box). */
 void leap_camera_world_box(const double index_to_world[4][4], const int32_t bbox_min[3], const int32_t bbox_max[3],

@@ -103,6 +103,7 @@ typedef struct leap_viewer_desc {
                                     dist_radii, ...); 0: explicit eye/target, orbit parameters
                                     are derived from it */
     double az, el, dist_radii;   /* orbit parameters when camera_is_orbit (dist 0 = framing) */
+    double up[3];                /* the axis the orbit turns about (0,0,0 = +Y) */
     double center[3], radius;    /* world-space bounding sphere of the volume */
     leap_mode mode;
     double step;
@@ -113,10 +114,12 @@ typedef struct leap_viewer_desc {
 } leap_viewer_desc;
 
 typedef struct leap_viewer {
-    /* camera: eye = target + distance * (cos el sin az, sin el, cos el cos az) */
+    /* camera: eye = target + distance * (cos el sin az, sin el, cos el cos az) in the orbit
+     * frame of `up` (leap_camera_orbit_frame; the world axes for +Y) */
     double center[3], radius;
     double target[3];
-    double az, el;               /* degrees */
+    double az, el;               /* degrees, in the frame of `up` (leap_camera_orbit_frame) */
+    double up[3];                /* the axis the orbit turns about */
     double dist_radii;           /* 0 = the framing distance of leap_camera_orbit */
     double ortho_zoom;           /* orthographic view height = 2 * radius * ortho_zoom */
     double fov;

@@ -109,10 +109,6 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
     }
     int rc = cli_camera_options_check("view", &o->view, 0);
     if (rc) return rc;
-    /* The viewer's mouse orbit still turns about +Y. */
-    if (o->view.has_up && !o->view.has_eye && (o->view.up[0] != 0 || o->view.up[2] != 0 || !(o->view.up[1] > 0)))
-        return cli_usage_error("view", "--up other than +Y needs --eye and --target in the viewer (its orbit turns "
-                               "about +Y)");
     if (o->script && (o->frames || o->screenshot))
         return cli_usage_error("view", "--script cannot be combined with --frames or --screenshot");
     const char *inputs[] = {o->view.input, o->view.scene.tf, o->script};
@@ -130,6 +126,7 @@ static leap_result viewer_from_options(const view_options *vo, leap_scene *s, le
     leap_result r = cli_camera(o, s, &d.camera, err);
     if (r) return r;
     d.camera_is_orbit = !o->has_eye;
+    memcpy(d.up, o->up, sizeof d.up);
     d.az = o->has_orbit ? o->orbit[0] : 35; /* the defaults cli_camera uses */
     d.el = o->has_orbit ? o->orbit[1] : 25;
     d.dist_radii = o->orbit_n == 3 ? o->orbit[2] : 0;

@@ -38,11 +38,29 @@ static int finite3(const double a[3])
  * "up = +Y" gives, and at the poles it turns continuously into -Z (el = 90, az = 0) or
  * the matching horizontal direction for other azimuths. It is always a unit vector
  * orthogonal to the view direction, so it is never parallel to it. */
+int leap_camera_orbit_frame(const double up[3], double ex[3], double ey[3], double ez[3])
+{
+    if (!finite3(up)) return 0;
+    const double up_len = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
+    if (!(up_len > 0.0) || !isfinite(up_len)) return 0;
+    for (int c = 0; c < 3; ++c) ey[c] = up[c] / up_len;
+    const double x_ref[3] = {fabs(ey[0]) > 0.9 ? 0.0 : 1.0, 0.0, fabs(ey[0]) > 0.9 ? 1.0 : 0.0};
+    const double along = x_ref[0] * ey[0] + x_ref[1] * ey[1] + x_ref[2] * ey[2];
+    for (int c = 0; c < 3; ++c) ex[c] = x_ref[c] - along * ey[c];
+    const double ex_len = sqrt(ex[0] * ex[0] + ex[1] * ex[1] + ex[2] * ex[2]);
+    for (int c = 0; c < 3; ++c) ex[c] /= ex_len;
+    ez[0] = ex[1] * ey[2] - ex[2] * ey[1];
+    ez[1] = ex[2] * ey[0] - ex[0] * ey[2];
+    ez[2] = ex[0] * ey[1] - ex[1] * ey[0];
+    return 1;
+}
+
 leap_result leap_camera_orbit_about(const double center[3], double radius, const double up[3], double az_deg,
                                     double el_deg, double dist_radii, double fov_deg, int ortho,
                                     leap_camera *out, leap_error *err)
 {
-    if (!up || !finite3(up) || !(up[0] * up[0] + up[1] * up[1] + up[2] * up[2] > 0.0))
+    double ex[3], ey[3], ez[3];
+    if (!up || !leap_camera_orbit_frame(up, ex, ey, ez))
         return leap_fail(err, LEAP_ERR_USAGE, "camera: the orbit's up axis must be a non-zero finite vector");
     if (!center || !out)
         return leap_fail(err, LEAP_ERR_USAGE, "camera: missing centre or output");
@@ -60,19 +78,8 @@ leap_result leap_camera_orbit_about(const double center[3], double radius, const
 
     const double az = az_deg * DEG2RAD, el = el_deg * DEG2RAD;
     const double ce = cos(el), se = sin(el), ca = cos(az), sa = sin(az);
-    /* The orbit's frame (ex, ey = up, ez = ex x ey); for up = +Y it is the identity, and
-     * the sums below add exact zeros, so the result equals the +Y formula bit for bit. */
-    double ey[3], ex[3], ez[3];
-    const double up_len = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
-    for (int c = 0; c < 3; ++c) ey[c] = up[c] / up_len;
-    const double x_ref[3] = {fabs(ey[0]) > 0.9 ? 0.0 : 1.0, 0.0, fabs(ey[0]) > 0.9 ? 1.0 : 0.0};
-    const double along = x_ref[0] * ey[0] + x_ref[1] * ey[1] + x_ref[2] * ey[2];
-    for (int c = 0; c < 3; ++c) ex[c] = x_ref[c] - along * ey[c];
-    const double ex_len = sqrt(ex[0] * ex[0] + ex[1] * ex[1] + ex[2] * ex[2]);
-    for (int c = 0; c < 3; ++c) ex[c] /= ex_len;
-    ez[0] = ex[1] * ey[2] - ex[2] * ey[1];
-    ez[1] = ex[2] * ey[0] - ex[0] * ey[2];
-    ez[2] = ex[0] * ey[1] - ex[1] * ey[0];
+    /* For up = +Y the frame is the identity and the sums below add exact zeros, so the result
+     * equals the +Y formula bit for bit. */
     double dir[3], cam_up[3];
     for (int c = 0; c < 3; ++c) {
         dir[c] = ce * sa * ex[c] + se * ey[c] + ce * ca * ez[c];

@@ -72,13 +72,19 @@ static void orbit_from_camera(leap_viewer *v, const leap_camera *cam)
         len += d[i] * d[i];
     }
     len = sqrt(len);
-    double y = len > 0 ? d[1] / len : 0;
+    /* Azimuth and elevation in the orbit's frame (the world axes for +Y up). */
+    double ex[3], ey[3], ez[3];
+    if (!leap_camera_orbit_frame(v->up, ex, ey, ez)) return;
+    const double dx = d[0] * ex[0] + d[1] * ex[1] + d[2] * ex[2];
+    const double dy = d[0] * ey[0] + d[1] * ey[1] + d[2] * ey[2];
+    const double dz = d[0] * ez[0] + d[1] * ez[1] + d[2] * ez[2];
+    double y = len > 0 ? dy / len : 0;
     if (y > 1) y = 1;
     if (y < -1) y = -1;
     v->el = asin(y) * RAD2DEG;
     if (v->el > LEAP_VIEWER_MAX_ELEVATION) v->el = LEAP_VIEWER_MAX_ELEVATION;
     if (v->el < -LEAP_VIEWER_MAX_ELEVATION) v->el = -LEAP_VIEWER_MAX_ELEVATION;
-    v->az = (d[0] == 0 && d[2] == 0) ? 0 : atan2(d[0], d[2]) * RAD2DEG;
+    v->az = (dx == 0 && dz == 0) ? 0 : atan2(dx, dz) * RAD2DEG;
     v->dist_radii = len / v->radius;
 }
 
@@ -118,6 +124,11 @@ leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_
     if (!(desc->camera.fov_deg > 0 && desc->camera.fov_deg < 180))
         return leap_fail(err, LEAP_ERR_USAGE, "viewer: field of view must be in (0, 180) degrees");
     v->home = *desc;
+    if (desc->up[0] == 0 && desc->up[1] == 0 && desc->up[2] == 0) v->home.up[1] = 1; /* default +Y */
+    double ex[3], ey[3], ez[3];
+    if (!leap_camera_orbit_frame(v->home.up, ex, ey, ez))
+        return leap_fail(err, LEAP_ERR_USAGE, "viewer: the up axis must be a finite direction");
+    memcpy(v->up, v->home.up, sizeof v->up);
     snprintf(v->initial_tf, sizeof v->initial_tf, "%s", desc->tf ? desc->tf : "viridis");
     v->home.tf = v->initial_tf;
     memcpy(v->center, desc->center, sizeof v->center);
@@ -143,7 +154,8 @@ leap_result leap_viewer_camera(const leap_viewer *v, leap_camera *out, leap_erro
         *out = v->initial;
         return LEAP_OK;
     }
-    leap_result r = leap_camera_orbit(v->target, v->radius, v->az, v->el, v->dist_radii, v->fov, v->ortho, out, err);
+    leap_result r =
+        leap_camera_orbit_about(v->target, v->radius, v->up, v->az, v->el, v->dist_radii, v->fov, v->ortho, out, err);
     if (r) return r;
     if (v->ortho && v->ortho_zoom != 1.0) out->ortho_height = 2.0 * v->radius * v->ortho_zoom;
     return LEAP_OK;
