@@ -278,7 +278,7 @@ int cli_camera_options_check(const char *verb, const cli_camera_options *o, int 
         memcpy(cam.up, o->up, sizeof cam.up);
         leap_rays view;
         leap_error err = {{0}};
-        if (leap_rays_make(&cam, 1, 1, identity, origin, &view, &err) != LEAP_OK)
+        if (leap_rays_make(&cam, o->width, o->height, identity, origin, &view, &err) != LEAP_OK)
             return cli_usage_error(verb, "--eye %g,%g,%g --target %g,%g,%g --up %g,%g,%g: %s", o->eye[0], o->eye[1],
                                    o->eye[2], o->target[0], o->target[1], o->target[2], o->up[0], o->up[1], o->up[2],
                                    err.msg);
