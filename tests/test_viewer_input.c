@@ -500,6 +500,19 @@ static void test_up_axis(void)
         const double el = asin(-f[2] / dist3(c.eye, c.target)) * 180 / 3.14159265358979323846;
         CHECK_MSG(fabs(el - v.el) < 1e-9, "move %zu: elevation %g, viewer says %g", m, el, v.el);
     }
+    /* Key u: +Z -> +X -> +Y -> +Z, the eye staying put and the camera upright about each. */
+    const double eye0[3] = {c.eye[0], c.eye[1], c.eye[2]};
+    const int order[3] = {0, 1, 2};
+    for (int k = 0; k < 3; ++k) {
+        CHECK(leap_viewer_next_up(&v) == LEAP_VIEWER_CAMERA);
+        leap_camera u = cam_of(&v);
+        CHECK_MSG(v.up[order[k]] == 1 && dist3(u.eye, eye0) < 1e-9 * radius, "u press %d: axis or eye changed wrongly", k);
+        CHECK_MSG(u.up[order[k]] > 0, "u press %d: the camera is not upright about the new axis", k);
+    }
+    leap_viewer_next_up(&v);
+    leap_viewer_reset(&v);
+    CHECK_MSG(v.up[2] == 1 && v.up[0] == 0 && v.up[1] == 0, "reset did not restore the home up axis");
+
     /* An explicit Z-up camera turns about Z too once it moves. */
     d.camera_is_orbit = 0;
     init(&v, &d);

@@ -156,6 +156,9 @@ unsigned leap_viewer_cursor(leap_viewer *v, double x, double y);
 unsigned leap_viewer_scroll(leap_viewer *v, double clicks);
 void leap_viewer_resize(leap_viewer *v, int width, int height);
 
+/* Next up axis, +Y -> +Z -> +X -> +Y, keeping the eye where it is (key u). */
+unsigned leap_viewer_next_up(leap_viewer *v);
+
 /* Direct camera changes (script commands and the event functions use them). */
 unsigned leap_viewer_orbit(leap_viewer *v, double az, double el, double dist_radii); /* dist < 0: keep */
 unsigned leap_viewer_rotate(leap_viewer *v, double daz, double del);

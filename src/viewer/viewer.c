@@ -27,6 +27,7 @@ static const char *help_text =
     "  b                    boxes overlay (wireframe coloured by class)\n"
     "  h                    heat-map overlay (segments per pixel; samples in other modes)\n"
     "  s                    screenshot to PNG\n"
+    "  u                    up axis: +Y -> +Z -> +X (the orbit turns about it)\n"
     "  r                    reset the camera\n"
     "  ?                    this list\n"
     "  q, Esc               quit\n";
@@ -92,6 +93,7 @@ static void camera_home(leap_viewer *v)
 {
     const leap_viewer_desc *d = &v->home;
     v->initial = d->camera;
+    memcpy(v->up, d->up, sizeof v->up);
     v->fov = d->camera.fov_deg;
     v->ortho = d->camera.ortho;
     v->ortho_zoom = d->camera.ortho && d->camera.ortho_height > 0 ? d->camera.ortho_height / (2 * d->radius) : 1;
@@ -240,6 +242,23 @@ unsigned leap_viewer_pan(leap_viewer *v, double dx, double dy)
     return LEAP_VIEWER_CAMERA;
 }
 
+unsigned leap_viewer_next_up(leap_viewer *v)
+{
+    leap_camera cam;
+    leap_error ignore;
+    if (leap_viewer_camera(v, &cam, &ignore)) return 0;
+    /* The axis after the one up is closest to, in the order +Y, +Z, +X. */
+    int axis = 1;
+    for (int i = 0; i < 3; ++i)
+        if (fabs(v->up[i]) > fabs(v->up[axis])) axis = i;
+    static const int next[3] = {1, 2, 0}; /* X -> Y, Y -> Z, Z -> X */
+    memset(v->up, 0, sizeof v->up);
+    v->up[next[axis]] = 1.0;
+    orbit_from_camera(v, &cam); /* the eye stays; azimuth and elevation now about the new axis */
+    v->use_initial = 0;
+    return LEAP_VIEWER_CAMERA;
+}
+
 unsigned leap_viewer_reset(leap_viewer *v)
 {
     camera_home(v);
@@ -329,6 +348,7 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 'h': case 'H': v->show_heat = !v->show_heat; return LEAP_VIEWER_OVERLAY;
     case 's': case 'S': ++v->screenshots; return LEAP_VIEWER_SCREENSHOT;
     case 'r': case 'R': return leap_viewer_reset(v);
+    case 'u': case 'U': return leap_viewer_next_up(v);
     case 'q': case 'Q': v->quit = 1; return LEAP_VIEWER_QUIT;
     case '?': v->show_help = !v->show_help; return LEAP_VIEWER_HELP;
     default: return 0;
