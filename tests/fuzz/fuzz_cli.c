@@ -1,6 +1,6 @@
-/* libFuzzer target: the command-line parser shared by the rendering verbs (src/cli/cli_common.c,
- * compiled into this target). The input is split into arguments (at NUL bytes if it has any,
- * else at newlines) and parsed as `leap render ARGS` parses them, without rendering. Either
+/* libFuzzer target: the command-line parser shared by the rendering verbs (src/cli/cli_camera.c
+ * and cli_common.c, compiled into this target). The input is split into arguments (at NUL
+ * bytes if it has any, else at newlines) and parsed as `leap render ARGS` parses them, without rendering. Either
  * the options are rejected with exit code 2 and exactly one line on stderr, or they are
  * accepted and within their documented ranges, and the camera they describe gives finite rays
  * (or, for an orbit the options cannot check alone, a one-line usage error). */

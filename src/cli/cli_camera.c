@@ -1,0 +1,200 @@
+/* The options every rendering verb shares (volume, look, camera): parsing, checks, help
+ * text, and the camera they describe. */
+#include "cli_common.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int parse_size(const char *s, int *w, int *h)
+{
+    char *end;
+    errno = 0;
+    long a = strtol(s, &end, 10);
+    if (end == s || (*end != 'x' && *end != 'X')) return 0;
+    const char *q = end + 1;
+    long b = strtol(q, &end, 10);
+    if (end == q || *end || errno) return 0;
+    if (a <= 0 || b <= 0 || a > 16384 || b > 16384) return 0;
+    *w = (int)a;
+    *h = (int)b;
+    return 1;
+}
+
+const char *cli_camera_options_help =
+    "volume and look:\n"
+    "  --grid NAME         grid to render (default: the first scalar grid)\n"
+    "  --tf PRESET|FILE    transfer function: grey, viridis, labels, hot, cloud, or a\n"
+    "                      ParaView JSON colour map (default: viridis; labels for int grids)\n"
+    "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
+    "  --step S            sample spacing in voxels (default 0.5)\n"
+    "  --size WxH          image size in pixels (default 512x512)\n"
+    "  --mode MODE         sparseleap (default: march only each pixel's non-empty ray\n"
+    "                      segments), bbox (skip outside the non-empty bounding box),\n"
+    "                      octree (per-ray traversal of the occupancy tree), naive\n"
+    "                      (march the whole volume box)\n"
+    "  --no-merge          do not merge same-class sibling boxes\n"
+    "  --exact-boxes       one box per class change of the occupancy tree (default: a cut\n"
+    "                      chosen by a cost model, which may march some empty space where\n"
+    "                      skipping it costs more than it saves; same image)\n"
+    "  --segments N        ray segments stored per pixel (1..12, default 12); pixels with\n"
+    "                      more walk the occupancy tree instead (as --mode octree) and\n"
+    "                      are counted as overflowed\n"
+    "  --device NAME       Vulkan device whose name contains NAME (env LEAP_DEVICE)\n"
+    "camera (world space):\n"
+    "  --orbit AZ,EL[,DIST]  azimuth and elevation in degrees about the --up axis, distance\n"
+    "                      in bounding-sphere radii (default 35,25 at the distance that\n"
+    "                      frames the volume)\n"
+    "  --eye X,Y,Z --target X,Y,Z   explicit camera\n"
+    "  --up X,Y,Z          the world's up direction (default 0,1,0; 0,0,1 for Z-up data):\n"
+    "                      the orbit turns about it and the picture keeps it upright\n"
+    "  --fov DEG           vertical field of view (default 40)\n"
+    "  --ortho             orthographic projection (framing the bounding sphere)\n";
+
+void cli_camera_options_init(cli_camera_options *o)
+{
+    *o = (cli_camera_options){.width = 512, .height = 512, .fov = 40.0, .mode_name = "sparseleap", .up = {0, 1, 0}};
+    o->scene.step = 0.5;
+}
+
+int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o)
+{
+    const char *a = argv[*i], *v;
+    int missing = 0;
+#define OPT(name) ((v = cli_option_value(argc, argv, i, name, &missing)) != NULL || missing)
+#define FAIL(...) return CLI_OPTION_ERROR + cli_usage_error(verb, __VA_ARGS__)
+    if (!strcmp(a, "--ortho")) {
+        o->ortho = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--no-merge")) {
+        o->scene.no_merge = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--exact-boxes")) {
+        o->scene.exact_boxes = 1;
+        return 1;
+    }
+    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, FOV, COUNT };
+    static const char *const names[COUNT] = {
+        [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
+        [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
+        [TARGET] = "--target", [UP] = "--up",    [FOV] = "--fov"};
+    int which = -1;
+    for (int k = 0; k < COUNT && which < 0; ++k)
+        if (OPT(names[k])) which = k;
+    if (which < 0) {
+        if (a[0] == '-' && a[1] != '\0') return 0;
+        if (o->input) FAIL("unexpected argument '%s' (one volume at a time)", a);
+        o->input = o->scene.path = a;
+        return 1;
+    }
+    if (missing) FAIL("option %s needs a value", names[which]);
+    double n;
+    switch (which) {
+    case GRID: o->scene.grid = v; break;
+    case TF: o->scene.tf = v; break;
+    case RANGE:
+        if (leap__parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
+            FAIL("--range '%s' must be LO,HI with LO < HI", v);
+        o->scene.has_range = 1;
+        break;
+    case STEP:
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || !(n > 0)) FAIL("--step '%s' must be a positive number of voxels", v);
+        if (n < 1e-3 || n > 1e6) FAIL("--step %g is outside [0.001, 1e6] voxels", n);
+        o->scene.step = n;
+        break;
+    case SIZE:
+        if (!parse_size(v, &o->width, &o->height)) FAIL("--size '%s' is not WxH with 1 <= W, H <= 16384", v);
+        break;
+    case MODE: o->mode_name = v; break;
+    case SEGMENTS:
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || n != floor(n) || n < 1 || n > LEAP_MAX_SEGMENTS)
+            FAIL("--segments '%s' must be an integer in 1..%d", v, LEAP_MAX_SEGMENTS);
+        o->max_segments = (int)n;
+        break;
+    case DEVICE: o->device = v; break;
+    case ORBIT:
+        o->orbit_n = leap__parse_numbers(v, o->orbit, 2, 3);
+        if (o->orbit_n < 0 || (o->orbit_n == 3 && !(o->orbit[2] > 0)))
+            FAIL("--orbit '%s' must be AZ,EL[,DIST] with DIST > 0", v);
+        if (o->orbit_n == 3 && o->orbit[2] > 1e6)
+            FAIL("--orbit distance %g is more than 1e6 bounding-sphere radii (the volume would be below a pixel)",
+                 o->orbit[2]);
+        o->has_orbit = 1;
+        break;
+    case EYE:
+    case TARGET: {
+        double *p = which == EYE ? o->eye : o->target;
+        if (leap__parse_numbers(v, p, 3, 3) != 3) FAIL("%s '%s' must be X,Y,Z", names[which], v);
+        /* Beyond this, squared distances overflow and the view direction is lost. */
+        for (int k = 0; k < 3; ++k)
+            if (fabs(p[k]) > 1e100) FAIL("%s '%s': coordinates must be within +-1e100", names[which], v);
+        *(which == EYE ? &o->has_eye : &o->has_target) = 1;
+        break;
+    }
+    case UP:
+        if (leap__parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
+        o->has_up = 1;
+        break;
+    case FOV:
+    default:
+        if (leap__parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))
+            FAIL("--fov '%s' must be in (0, 180) degrees", v);
+        break;
+    }
+    return 1;
+#undef OPT
+#undef FAIL
+}
+
+int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
+{
+    if (!o->input) return cli_usage_error(verb, "no input volume given");
+    if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
+    if (o->has_eye != o->has_target) return cli_usage_error(verb, "--eye and --target go together");
+    if (o->has_up && !(o->up[0] * o->up[0] + o->up[1] * o->up[1] + o->up[2] * o->up[2] > 0))
+        return cli_usage_error(verb, "--up %g,%g,%g: the up direction must not be zero", o->up[0], o->up[1], o->up[2]);
+    if (o->has_eye) {
+        /* The camera's own checks (eye == target, zero up, up along the view), in world space
+         * like at render time, but reported here against the options. */
+        static const double identity[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+        const double origin[3] = {0, 0, 0};
+        leap_camera cam = {.fov_deg = o->fov, .ortho = o->ortho, .ortho_height = 1};
+        memcpy(cam.eye, o->eye, sizeof cam.eye);
+        memcpy(cam.target, o->target, sizeof cam.target);
+        memcpy(cam.up, o->up, sizeof cam.up);
+        leap_rays view;
+        leap_error err = {{0}};
+        if (leap_rays_make(&cam, o->width, o->height, identity, origin, &view, &err) != LEAP_OK)
+            return cli_usage_error(verb, "--eye %g,%g,%g --target %g,%g,%g --up %g,%g,%g: %s", o->eye[0], o->eye[1],
+                                   o->eye[2], o->target[0], o->target[1], o->target[2], o->up[0], o->up[1], o->up[2],
+                                   err.msg);
+    }
+    int reference = allow_reference && strcmp(o->mode_name, "reference") == 0;
+    if (!reference && leap_mode_from_name(o->mode_name) < 0) {
+        static const char *const modes[] = {"sparseleap", "octree", "bbox", "naive", "reference"};
+        const char *near = leap__closest(o->mode_name, modes, allow_reference ? 5 : 4);
+        char hint[64] = "";
+        if (near) snprintf(hint, sizeof hint, "did you mean '%s'? ", near);
+        return cli_usage_error(verb, "unknown --mode '%s' (%ssparseleap, octree, bbox, naive%s)", o->mode_name, hint,
+                               allow_reference ? ", reference" : "");
+    }
+    return 0;
+}
+
+leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_camera *cam, leap_error *err)
+{
+    if (o->has_eye) {
+        *cam = (leap_camera){.fov_deg = o->fov, .ortho = o->ortho, .ortho_height = 2 * s->radius};
+        memcpy(cam->eye, o->eye, sizeof cam->eye);
+        memcpy(cam->target, o->target, sizeof cam->target);
+        memcpy(cam->up, o->up, sizeof cam->up);
+        return LEAP_OK;
+    }
+    double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
+    double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
+    return leap_camera_orbit_about(s->center, s->radius, o->up, az, el, dist, o->fov, o->ortho, cam, err);
+}
