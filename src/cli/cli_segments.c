@@ -191,8 +191,8 @@ int cli_segments(int argc, char **argv)
             cli_runtime_error("%s", err.msg);
             goto done;
         }
-        if (leap_dump_pixel_report(stdout, o.json, &source, frame, &p, &err)) {
-            cli_runtime_error("%s", strstr(err.msg, "cannot write") ? "cannot write to standard output" : err.msg);
+        if ((r = leap_dump_pixel_report(stdout, o.json, &source, frame, &p, &err))) {
+            cli_runtime_error("%s", r == LEAP_ERR_IO ? "cannot write to standard output" : err.msg);
             goto done;
         }
     }
