@@ -15,5 +15,6 @@ layout(std430, set = 0, binding = LEAP_BINDING_EVENT_KEY) buffer EventKey { uint
 layout(std430, set = 0, binding = LEAP_BINDING_SEGMENTS) buffer Segments { vec2 segments[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_PIXELS) buffer Pixels { uvec4 pixel_lists[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint tree[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_OBJECTS) readonly buffer Objects { vec4 objects[]; };
 
 #endif

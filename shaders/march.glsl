@@ -3,6 +3,19 @@
 #ifndef LEAP_MARCH_GLSL
 #define LEAP_MARCH_GLSL
 
+// Specialisation constants: the renderer builds one composite pipeline per mode and opacity
+// correction, so lavapipe compiles out the code a pipeline never runs (it executes every
+// side of a branch that any lane takes, even when the condition is uniform).
+// leap_tf_precorrected: the host corrected the table's opacities for the step
+// (leap_tf_gpu_table), so no sample raises its opacity to a power, and the depth threshold
+// is corrected likewise; false: each sample is corrected, for tables where the host's
+// correction would be off (leap_tf_precorrect_ok).
+layout(constant_id = 0) const bool leap_tf_precorrected = false;
+layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
+// leap_labels: a label volume (object indices, nearest voxel; the object table's opacities are
+// corrected for the step, so leap_tf_precorrected is set too).
+layout(constant_id = 2) const bool leap_labels = false;
+
 struct leap_ray {
     vec3 origin;
     vec3 dir;      // unit length in index space
@@ -53,6 +66,8 @@ struct leap_cell_cursor {
     bool constant;
     float value;     // constant cells
     vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q
+    uint object;     // label volumes, constant cells: the object index
+    uint record;     // label volumes, other cells: the record's first word in pages[]
 };
 
 leap_cell_cursor leap_cursor_init()
@@ -64,6 +79,8 @@ leap_cell_cursor leap_cursor_init()
     c.constant = true;
     c.value = 0.0;
     c.texel_base = vec3(0.0);
+    c.object = 0u;
+    c.record = 0u;
     return c;
 }
 
@@ -82,7 +99,10 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
         entry = pages[frame.top_dims.w + (entry << (3 * shift)) + uint(c.x | (c.y << shift) | (c.z << (2 * shift)))];
     }
     cur.constant = (entry & LEAP_PAGE_CONST) != 0u;
-    if (cur.constant) {
+    if (leap_labels) {
+        cur.object = entry & LEAP_LABEL_INDEX_MASK;
+        cur.record = frame.labels.x + entry;
+    } else if (cur.constant) {
         cur.value = float(entry & 0xffffu) * (1.0 / 65535.0);
     } else {
         uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
@@ -159,15 +179,20 @@ vec4 leap_tf_lookup(leap_tf_map m, float s)
     return textureLod(tf_table, clamp(s * m.scale + m.offset, m.lo, m.hi), 0.0);
 }
 
-// Specialisation constants: the renderer builds one composite pipeline per mode and opacity
-// correction, so lavapipe compiles out the code a pipeline never runs (it executes every
-// side of a branch that any lane takes, even when the condition is uniform).
-// leap_tf_precorrected: the host corrected the table's opacities for the step
-// (leap_tf_gpu_table), so no sample raises its opacity to a power, and the depth threshold
-// is corrected likewise; false: each sample is corrected, for tables where the host's
-// correction would be off (leap_tf_precorrect_ok).
-layout(constant_id = 0) const bool leap_tf_precorrected = false;
-layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
+
+// The object index of the voxel nearest to q (floor(q + 0.5)) in the cursor's record cell: one
+// of the voxels 8c .. 8c + 8 per axis, all in the record (LEAP_LABEL_HEADER in shared.h).
+uint leap_label_at(leap_cell_cursor cur, vec3 q)
+{
+    ivec3 v = ivec3(floor(q + 0.5)) - cur.cell * LEAP_CELL;
+    uint index = uint(v.x + LEAP_SLOT * (v.y + LEAP_SLOT * v.z));
+    uint header = pages[cur.record];
+    uint bits = header & 0xffu, palette = cur.record + uint(LEAP_LABEL_HEADER);
+    uint bit = index * bits;
+    uint word = pages[palette + (header >> 8) + (bit >> 5)];
+    uint slot = (word >> (bit & 31u)) & ((1u << bits) - 1u);
+    return pages[palette + slot];
+}
 
 // Opacity of one sample of TF colour c, corrected for the step. A zero opacity gives 0
 // exactly (pow(1, x) == 1), leaving the sums untouched.
@@ -213,7 +238,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
         leap_cursor_seek(cur, cell);
         bool constant = cur.constant;
-        vec4 c = leap_tf_lookup(tf, cur.value);
+        vec4 c = leap_labels ? objects[cur.object] : leap_tf_lookup(tf, cur.value);
         float alpha = leap_sample_alpha(c);
         bool opaque = c.a > frame.limits.y;
         // Two inner loops rather than one with a branch per sample: see above.
@@ -228,8 +253,12 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
             }
         } else {
             for (;;) {
-                float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-                leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
+                if (leap_labels) {
+                    leap_composite_tf(acc, objects[leap_label_at(cur, q)], t);
+                } else {
+                    float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+                    leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
+                }
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;
                 if (leap_accum_done(acc) || t > tb) { more = false; break; }

@@ -38,6 +38,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel max_segments (t0, t1) */
 #define LEAP_BINDING_PIXELS 11    /* storage uvec4[] per pixel: see LEAP_PIXEL_* */
 #define LEAP_BINDING_TREE 12      /* storage uint[]: occupancy tree, 8 words per node */
+#define LEAP_BINDING_OBJECTS 13   /* storage vec4[] per object of a label volume: display RGB and
+                                     opacity corrected for the step */
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 
@@ -65,6 +67,18 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_PAGE_CONST 0x80000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
+
+/* Label atlases (segmentations). A constant cell's entry is LEAP_PAGE_CONST | object index
+ * (31 bits); any other cell's entry is the offset of its record among the label words, which
+ * follow the page table in the same buffer (from word frame.labels.x):
+ *   word 0: bits per voxel (1, 2, 4, 8 or 16) | palette size << 8
+ *   word 1: the record's number (the cell's label set, for the occupancy)
+ *   then the palette (object indices, ascending), then one palette index per voxel of the
+ *   cell's LEAP_SLOT^3 footprint (x fastest), packed from the low bits of each word up.
+ * A sample at q takes the label of voxel floor(q + 0.5): within a cell c that is one of the
+ * voxels 8c .. 8c + 8, all in the record. */
+#define LEAP_LABEL_HEADER 2
+#define LEAP_LABEL_INDEX_MASK 0x7fffffffu
 
 /* Render modes (the same renderer, the same samples; modes only skip). */
 #define LEAP_MODE_NAIVE 0      /* every lattice sample in the domain box */
@@ -149,7 +163,8 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 bbox_max;       /* 368 */
     LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,
                                  w = occupancy tree depth (root edge = 2^w cells) */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 400 bytes */
+    LEAP_UVEC4 labels;        /* 400: label volumes: x = first label word in pages[], y = objects */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 416 bytes */
 
 
 #endif

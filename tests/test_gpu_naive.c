@@ -150,7 +150,7 @@ static void scattered_box(leap_renderer *renderer)
     leap_rays view;
     CHECK_OK(leap_rays_make(&cam, SW, SH, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
     CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
-    leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
+    leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march, .labels = s->labels};
     CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
     image_diff d = compare_rgba(gpu, ref, SW * SH);
     double alpha_sum = 0;
@@ -190,7 +190,7 @@ int main(void)
             leap_frame_stats st;
             CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, gpu_samples, &st, &err),
                      &err);
-            leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
+            leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march, .labels = s->labels};
             CHECK_OK(leap_reference_render(&rd, ref, NULL, ref_samples, &err), &err);
             image_diff d = compare_rgba(gpu, ref, W * H);
             double alpha_sum = 0;

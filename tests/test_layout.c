@@ -33,7 +33,8 @@ int main(void)
     CHECK(offsetof(leap_frame_gpu, bbox_min) == 352);
     CHECK(offsetof(leap_frame_gpu, bbox_max) == 368);
     CHECK(offsetof(leap_frame_gpu, lists) == 384);
-    CHECK(sizeof(leap_frame_gpu) == 400);
+    CHECK(offsetof(leap_frame_gpu, labels) == 400);
+    CHECK(sizeof(leap_frame_gpu) == 416);
     CHECK(sizeof(leap_push_gpu) == 16 && offsetof(leap_push_gpu, chunk) == 0);
     CHECK(offsetof(leap_box_gpu, lo) == 0);
     CHECK(offsetof(leap_box_gpu, hi) == 16);

@@ -161,7 +161,7 @@ static int render(const leap_grid *grid, const leap_tf *tf, const leap_rays *vie
                   const leap_march *m, int threads, float *c, float *dp, float *s)
 {
     leap_error err = {{0}};
-    const leap_reference_desc desc = {grid, tf, view, m, threads};
+    const leap_reference_desc desc = {grid, tf, view, m, threads, NULL};
     leap_result r = leap_reference_render(&desc, c, dp, s, &err);
     CHECK_OK(r, &err);
     return r == LEAP_OK;
@@ -431,7 +431,7 @@ static void test_errors(const leap_grid *box)
     fill_tf(&tf_const, 1, 1, 1, 0.5);
     float out[64];
     CHECK(leap_reference_render(NULL, out, NULL, NULL, &err) == LEAP_ERR_USAGE);
-    leap_reference_desc d = {box, &tf_const, &view, &good, 1};
+    leap_reference_desc d = {box, &tf_const, &view, &good, 1, NULL};
     CHECK_OK(leap_reference_render(&d, out, NULL, NULL, &err), &err);
     d.grid = NULL;
     CHECK(leap_reference_render(&d, out, NULL, NULL, &err) == LEAP_ERR_USAGE);

@@ -10,6 +10,7 @@
 #include <stdint.h>
 
 #include "leap/error.h"
+#include "leap/labels.h"
 #include "leap/march.h"
 #include "leap/vdb.h"
 
@@ -22,6 +23,8 @@ typedef struct leap_atlas_desc {
     int dense;            /* 1 = every cell next to data gets a slot, even where its footprint
                              is one constant (a second brick layout for tests); default 0 */
     uint32_t shuffle_seed; /* != 0: slots placed in a pseudo-random order (tests); default 0 */
+    const leap_labels *labels; /* a label grid's objects: build a label atlas (exact object
+                                  indices per voxel, see LEAP_LABEL_HEADER in shaders/shared.h) */
 } leap_atlas_desc;
 
 /* Read-only for other modules. */
@@ -41,6 +44,15 @@ typedef struct leap_atlas {
     uint16_t *texels;          /* texel_dims product, x fastest */
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
     double domain_min[3], domain_max[3]; /* marching box, relative index space */
+    /* Label atlases: a constant cell's entry holds an object index; any other cell's entry is
+     * the offset of its record in label_words (palette + packed indices). No texels are used. */
+    int labels;
+    uint32_t *label_words;
+    size_t label_word_count;
+    uint32_t *record_offsets;  /* record number -> offset in label_words */
+    uint32_t record_count;
+    uint32_t object_count;
+    uint32_t background_object; /* object index of the background label */
     double build_ms;
     uint64_t serial;           /* unique per atlas created in this process (renderers tell
                                   a bound atlas from a new one at the same address) */
@@ -54,7 +66,15 @@ void leap_atlas_destroy(leap_atlas *atlas); /* accepts NULL */
 /* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);
 
-/* Bytes of the atlas as built: 16-bit texels + page table. (The renderer may upload the
+/* The object indices a label cell's record holds (its label set): *count of them at the
+ * returned pointer, ascending. */
+const uint32_t *leap_atlas_record_objects(const leap_atlas *atlas, uint32_t record, uint32_t *count);
+
+/* Label atlases: the class of every label set (object_count + record_count of them) under the
+ * objects' current looks: NONEMPTY when any object of the set is drawn, else EMPTY. */
+void leap_atlas_label_classes(const leap_atlas *atlas, const leap_labels *labels, uint8_t *out);
+
+/* Bytes of the atlas as built: 16-bit texels + page table (+ label words). (The renderer may upload the
  * texels as 32-bit float: leap_renderer_volume_bytes.) */
 uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas);
 

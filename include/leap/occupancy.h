@@ -28,6 +28,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "leap/atlas.h"
 #include "leap/error.h"
 #include "leap/tf.h"
 #include "leap/vdb.h"
@@ -45,6 +46,11 @@ typedef struct leap_occupancy_desc {
                                  a multiple of 8 (use leap_atlas.origin) */
     uint32_t cells[3];        /* cells per axis (use leap_atlas.cells) */
     double value_min, value_max; /* the quantisation range of the GPU volume (leap_atlas) */
+    const leap_atlas *label_atlas; /* a label atlas: the tree is built from its cells instead of
+                                      the bricks (nearest-neighbour footprints are the cells
+                                      themselves), each leaf holding a label set: the object of
+                                      a constant cell (set = object index) or a mixed cell's
+                                      record (set = object count + record number) */
 } leap_occupancy_desc;
 
 typedef struct leap_occupancy leap_occupancy;
@@ -67,6 +73,11 @@ void leap_occupancy_destroy(leap_occupancy *occ); /* accepts NULL */
  * hi == lo: every value maps to u = 0) and updates counts and node classes bottom-up. */
 leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, double range_lo,
                                     double range_hi, leap_error *err);
+
+/* Label trees: classifies every leaf by its label set's class, set_class[set] (EMPTY when no
+ * object of the set is drawn). Errors: LEAP_ERR_USAGE (not a label tree, too few classes). */
+leap_result leap_occupancy_classify_sets(leap_occupancy *occ, const uint8_t *set_class, size_t set_count,
+                                         leap_error *err);
 
 void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *out);
 

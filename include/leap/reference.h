@@ -7,6 +7,7 @@
 
 #include "leap/camera.h"
 #include "leap/error.h"
+#include "leap/labels.h"
 #include "leap/march.h"
 #include "leap/tf.h"
 #include "leap/vdb.h"
@@ -21,6 +22,9 @@ typedef struct leap_reference_desc {
     const leap_rays *rays;   /* the image's rays; its index_origin must equal march->index_origin */
     const leap_march *march;
     int threads;             /* 0 = one per online core */
+    const leap_labels *labels; /* a segmentation: each sample takes the object of the voxel
+                                  nearest to it (floor(p + 0.5) per axis) and that object's
+                                  colour and opacity (leap_labels_rgba); tf is not used */
 } leap_reference_desc;
 
 /* Renders view->width * view->height pixels. Caller-owned outputs (any may be NULL):

@@ -102,6 +102,9 @@ const char *leap_renderer_atlas_format(const leap_renderer *r);
  * (again whenever the step changes). */
 leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err);
 
+/* The looks of a label volume's objects (copied; call again after any change of them). */
+leap_result leap_renderer_set_objects(leap_renderer *r, const leap_labels *labels, leap_error *err);
+
 /* Occupancy for the bbox and sparseleap modes. Not owned: both must outlive their use and
  * be set again after re-classification (the renderer re-reads them every frame). */
 void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes);

@@ -9,6 +9,7 @@
 #include "leap/error.h"
 #include "leap/march.h"
 #include "leap/boxes.h"
+#include "leap/labels.h"
 #include "leap/occupancy.h"
 #include "leap/tf.h"
 #include "leap/vdb.h"
@@ -26,6 +27,9 @@ typedef struct leap_scene_desc {
     double step;           /* voxels; 0 = 0.5 */
     int no_merge;          /* 1 = do not merge same-class sibling boxes */
     int exact_boxes;       /* 1 = every class change of the tree is a box (no cost-model cut) */
+    int labels;            /* 1 = render a grid of integer values as a segmentation (--labels);
+                              integer grids always are */
+    double label_opacity;  /* objects' opacity per voxel; 0 = LEAP_LABEL_OPACITY */
 } leap_scene_desc;
 
 typedef struct leap_scene {
@@ -36,6 +40,8 @@ typedef struct leap_scene {
     leap_march march;
     leap_occupancy *occupancy;
     leap_boxes *boxes;
+    leap_labels *labels;       /* segmentations: the objects (NULL for scalar volumes) */
+    uint8_t *set_classes;      /* segmentations: class per label set (leap_atlas_label_classes) */
     int merge, exact_boxes;
     double center[3], radius;  /* world-space bounding sphere */
     double load_ms;            /* opening the file and reading the grid */
@@ -53,6 +59,11 @@ void leap_scene_destroy(leap_scene *scene); /* accepts NULL */
  * rebuilds the boxes (no voxel data is read). */
 leap_result leap_scene_set_tf(leap_scene *scene, const leap_tf *tf, double range_lo, double range_hi,
                               leap_error *err);
+
+/* Segmentations: re-classifies after the objects' looks changed (leap_labels_set_visible ...)
+ * and rebuilds the boxes; no voxel data is read. A renderer holding the scene must be given
+ * the objects and boxes again (leap_renderer_bind_scene). */
+leap_result leap_scene_update_objects(leap_scene *scene, leap_error *err);
 
 /* Sets the sample step (voxels) and rebuilds the boxes for it: the cost-model cut depends on
  * the step (exact boxes do not). Errors: LEAP_ERR_USAGE (not a positive number), LEAP_ERR_OOM.

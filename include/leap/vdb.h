@@ -5,7 +5,9 @@
  * - Index space: voxel (i,j,k) has its centre at integer coordinates (i,j,k), as in
  *   OpenVDB. world = index_to_world * (i, j, k, 1).
  * - Every scalar value type is presented as float: float, half (float grids saved as
- *   half), double (rounded), int32 (converted).
+ *   half), double (rounded), int32 and int64 (converted).
+ * - Integer grids (int32, int64) are also label grids: their exact values are object IDs,
+ *   read with leap_grid_reader_labels (never through float).
  * - Non-finite voxel values have one defined meaning everywhere (reader, bricks,
  *   min/max, info): NaN reads as the grid's background; +Inf / -Inf read as the
  *   grid's largest / smallest finite value. They are counted in info.nonfinite_values.
@@ -34,7 +36,8 @@ typedef struct leap_grid_info {
     char name[128];
     char value_type[32];         /* OpenVDB type name: "float", "double", "int32", "vec3s", ... */
     char grid_class[32];         /* "fog volume", "level set", "unknown", ... */
-    int scalar;                  /* 1 if the grid can be rendered (float/half/double/int32) */
+    int scalar;                  /* 1 if the grid can be rendered (float/half/double/int32/int64) */
+    int labels;                  /* 1 for integer grids (int32, int64): a segmentation */
     int saved_as_half;           /* 1 if the file stores the float grid as half */
     double index_to_world[4][4]; /* row-major affine: world = M * (i,j,k,1) */
     double voxel_size[3];        /* length of each index axis in world units */
@@ -106,6 +109,36 @@ float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int
 void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3],
                           float *out);
 
+/* ---- Labels (segmentations) -------------------------------------------------------- */
+
+/* 1 when the grid holds exact integer labels: an integer grid, or a grid converted by
+ * leap_grid_make_labels. */
+int leap_grid_has_labels(const leap_grid *grid);
+
+/* Makes a float/double grid whose values are all integers a label grid (for `--labels`).
+ * Errors: LEAP_ERR_USAGE naming a non-integer value and where it is. A label grid: no-op. */
+leap_result leap_grid_make_labels(leap_grid *grid, leap_error *err);
+
+/* The grid's background label (label grids only). */
+int64_t leap_grid_background_label(const leap_grid *grid);
+
+/* One object of a label grid: every label value stored anywhere (leaf voxels, active or not,
+ * tiles, the background), with its active voxel count and active index bounding box
+ * (min > max when it has no active voxel). */
+typedef struct leap_label_object {
+    int64_t id;
+    uint64_t voxels;
+    int32_t bbox_min[3], bbox_max[3];
+} leap_label_object;
+
+/* All objects, sorted by id; *out is malloc'ed (free it). Errors: LEAP_ERR_USAGE (not a label
+ * grid), LEAP_ERR_OOM. */
+leap_result leap_grid_label_objects(const leap_grid *grid, leap_label_object **out, size_t *count,
+                                    leap_error *err);
+
+/* Exact labels of the box [min, min+dim) (x fastest), like leap_grid_reader_box. Label grids only. */
+void leap_grid_reader_labels(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], int64_t *out);
+
 /* ---- Writing (volume generator and tests) ---------------------------------------- */
 
 typedef enum leap_vdb_type {
@@ -113,6 +146,7 @@ typedef enum leap_vdb_type {
     LEAP_VDB_HALF,   /* float grid saved as half */
     LEAP_VDB_DOUBLE,
     LEAP_VDB_INT32,
+    LEAP_VDB_INT64,
     LEAP_VDB_VEC3F   /* not renderable; for tests of grid selection and errors */
 } leap_vdb_type;
 
@@ -130,6 +164,11 @@ int leap_vdb_writer_add_grid(leap_vdb_writer *writer, const char *name, leap_vdb
 /* Sets one voxel active with `value` (vec3 grids store (value, value, value)). */
 void leap_vdb_writer_set(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k,
                          double value);
+
+/* Sets one voxel active with an exact integer label (int64 grids keep every bit; other types
+ * convert as leap_vdb_writer_set does). */
+void leap_vdb_writer_set_label(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k,
+                               int64_t label);
 
 /* Fills the inclusive box [min, max] with `value` (active or inactive); OpenVDB makes
  * tiles wherever the box covers whole nodes, so this is how tests get tiles. */

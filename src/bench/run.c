@@ -187,7 +187,7 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
         progress(o, b->done, b->total, what);
         leap_march fine = s->march;
         fine.step = b->min_step / o->ref_factor;
-        leap_reference_desc refd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &fine};
+        leap_reference_desc refd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &fine, .labels = s->labels};
         if ((lr = leap_reference_render(&refd, ref, NULL, NULL, err))) {
             char msg[sizeof err->msg];
             snprintf(msg, sizeof msg, "%s", err->msg);

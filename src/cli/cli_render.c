@@ -217,7 +217,7 @@ int cli_render(int argc, char **argv)
     int mode = leap_mode_from_name(o.mode_name);
     if (mode < 0) { /* reference */
         double t = leap__now_ms();
-        leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &view, .march = &scene->march};
+        leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &view, .march = &scene->march, .labels = scene->labels};
         if (leap_reference_render(&rd, rgba, depth, samples, &err)) {
             cli_runtime_error("%s: reference renderer: %s", o.input, err.msg);
             goto done;

@@ -72,6 +72,8 @@ struct leap_occupancy {
     uint64_t root_count[LEAP_CLASS_COUNT];
     uint32_t root_cls;
     double build_ms, classify_ms;
+    uint32_t label_sets;         /* label trees: ranges are [s, s] for label set s (0 = scalar tree) */
+    uint32_t label_singletons;   /* sets below this hold one object (constant cells) */
     int bounds_found;            /* cached by classify: bounds of NONEMPTY/UNKNOWN cells */
     double bounds_lo[3], bounds_hi[3];
 };
@@ -135,6 +137,7 @@ typedef struct builder {
     uint32_t *blist;           /* stack of big item indices, one slice per recursion level */
     size_t blist_count, blist_cap;
     int oom;
+    int exact;                 /* items cover their own cell only (label trees) */
 } builder;
 
 /* Footprint of a brick in cells, clipped to the grid: the cells c whose closed footprint
@@ -251,6 +254,14 @@ static int ref_range(const leap_occupancy *occ, uint32_t ref, float *lo, float *
     return 0;
 }
 
+/* Which halves (1 = lower, 2 = upper) of an axis split at `mid` a small item at cell p meets:
+ * footprint [p-1, p], or [p, p] for exact items. */
+static unsigned item_sides(const builder *b, int64_t p, int64_t mid)
+{
+    if (b->exact) return p < mid ? 1u : 2u;
+    return (p <= mid ? 1u : 0u) | (p >= mid ? 2u : 0u);
+}
+
 /* Builds the subtree of the node (level, org) from the small items arena[sb, se) (those whose
  * footprint meets the node) and the big items listed in blist[lb, le); returns its child
  * reference. */
@@ -295,7 +306,8 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
 
     /* Children lists of the small items, appended to the arena. A footprint [b-1, b] meets
      * the lower half of an axis when b <= mid and the upper half when b >= mid, so an item
-     * goes to one child, or to two, four or eight when it straddles the split planes. */
+     * goes to one child, or to two, four or eight when it straddles the split planes (exact
+     * items go to one). */
     const uint32_t half = (uint32_t)(edge >> 1);
     int64_t mid[3];
     for (int a = 0; a < 3; ++a) mid[a] = (int64_t)org[a] + half;
@@ -303,7 +315,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
     for (size_t i = sb; i < se; ++i) {
         const int32_t *p = b->arena[i].b;
         unsigned opt[3];
-        for (int a = 0; a < 3; ++a) opt[a] = (p[a] <= mid[a] ? 1u : 0u) | (p[a] >= mid[a] ? 2u : 0u);
+        for (int a = 0; a < 3; ++a) opt[a] = item_sides(b, p[a], mid[a]);
         for (int k = 0; k < 8; ++k)
             if ((opt[0] >> (k & 1) & 1u) && (opt[1] >> (k >> 1 & 1) & 1u) && (opt[2] >> (k >> 2) & 1u))
                 ++cnt[k];
@@ -321,7 +333,7 @@ static uint32_t build(builder *b, uint32_t level, const uint32_t org[3], size_t 
     for (size_t i = sb; i < se; ++i) {
         const small_item it = b->arena[i];
         unsigned opt[3];
-        for (int a = 0; a < 3; ++a) opt[a] = (it.b[a] <= mid[a] ? 1u : 0u) | (it.b[a] >= mid[a] ? 2u : 0u);
+        for (int a = 0; a < 3; ++a) opt[a] = item_sides(b, it.b[a], mid[a]);
         if (opt[0] != 3u && opt[1] != 3u && opt[2] != 3u) {
             b->arena[pos[(opt[0] >> 1) | (opt[1] >> 1) << 1 | (opt[2] >> 1) << 2]++] = it;
             continue;
@@ -421,6 +433,65 @@ void leap_occupancy_destroy(leap_occupancy *occ)
     free(occ);
 }
 
+/* Label set of a label atlas's page entry: the object index of a constant cell, else
+ * label_singletons + the record's number. */
+static uint32_t label_set(const leap_atlas *a, uint32_t entry)
+{
+    if (entry & LEAP_PAGE_CONST) return entry & LEAP_LABEL_INDEX_MASK;
+    return a->object_count + a->label_words[entry + 1];
+}
+
+/* Label trees: one exact item per cell not of the background's set, read from the atlas's
+ * page table; a constant page block becomes one big item covering its cells. */
+static leap_result add_label_cells(builder *b, const leap_atlas *a, leap_error *err)
+{
+    leap_occupancy *occ = b->occ;
+    if ((uint64_t)a->object_count + a->record_count >= (1u << 24))
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "occupancy: %u objects and %u mixed cells exceed the 2^24 label sets the tree holds",
+                         a->object_count, a->record_count);
+    b->exact = 1;
+    occ->label_singletons = a->object_count;
+    occ->label_sets = a->object_count + a->record_count;
+    const uint32_t shift = a->block_shift, edge = 1u << shift;
+    for (uint32_t t = 0; t < a->top_count && !b->oom; ++t) {
+        const uint32_t bo[3] = {t % a->top_dims[0] * edge, t / a->top_dims[0] % a->top_dims[1] * edge,
+                                t / a->top_dims[0] / a->top_dims[1] * edge};
+        const uint32_t top = a->pages[t];
+        if (top & LEAP_PAGE_CONST) {
+            const float set = (float)label_set(a, top);
+            if (set == occ->background) continue;
+            if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) {
+                b->oom = 1;
+                break;
+            }
+            big_item *it = &b->big[b->big_count++];
+            for (int k = 0; k < 3; ++k) {
+                it->flo[k] = it->ilo[k] = bo[k];
+                it->fhi[k] = it->ihi[k] = (bo[k] + edge < a->cells[k] ? bo[k] + edge : a->cells[k]) - 1;
+            }
+            it->interior = 1;
+            it->lo = it->hi = it->v = set;
+            continue;
+        }
+        const uint32_t *cells = a->pages + a->top_count + ((size_t)top << (3 * shift));
+        for (uint32_t i = 0; i < (1u << (3 * shift)); ++i) {
+            const uint32_t c[3] = {bo[0] + (i & (edge - 1)), bo[1] + (i >> shift & (edge - 1)), bo[2] + (i >> (2 * shift))};
+            if (c[0] >= a->cells[0] || c[1] >= a->cells[1] || c[2] >= a->cells[2]) continue;
+            const float set = (float)label_set(a, cells[i]);
+            if (set == occ->background) continue;
+            if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) {
+                b->oom = 1;
+                break;
+            }
+            small_item *it = &b->arena[b->arena_count++];
+            for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
+            it->lo = it->hi = set;
+        }
+    }
+    return LEAP_OK;
+}
+
 leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupancy **out,
                                   leap_error *err)
 {
@@ -437,6 +508,15 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     }
     while (((uint64_t)1 << occ->depth) < maxc) ++occ->depth;
     occ->background = desc->background;
+    if (desc->label_atlas) {
+        const leap_atlas *la = desc->label_atlas;
+        occ->background = (float)la->background_object;
+        for (int a = 0; a < 3; ++a)
+            if (desc->cells[a] != la->cells[a] || desc->origin[a] != la->origin[a]) {
+                free(occ);
+                return leap_fail(err, LEAP_ERR_USAGE, "occupancy: the cell grid differs from the label atlas's");
+            }
+    }
     occ->value_min = desc->value_min;
     occ->value_max = desc->value_max;
     occ->bg_cls = LEAP_CLASS_UNKNOWN;
@@ -451,7 +531,16 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
         !leap__grow((void **)&b.arena, &b.arena_cap, desc->brick_count + desc->brick_count / 2 + 64,
               sizeof *b.arena))
         b.oom = 1;
-    for (size_t i = 0; !empty && i < desc->brick_count && !b.oom; ++i)
+    if (desc->label_atlas) {
+        leap_result lr = add_label_cells(&b, desc->label_atlas, err);
+        if (lr) {
+            free(b.arena);
+            free(b.big);
+            leap_occupancy_destroy(occ);
+            return lr;
+        }
+    }
+    for (size_t i = 0; !empty && !desc->label_atlas && i < desc->brick_count && !b.oom; ++i)
         add_brick(&b, &desc->bricks[i], desc->origin);
     /* a first guess of the tree size */
     if (!b.oom && b.arena_count &&
@@ -551,6 +640,22 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
     return LEAP_OK;
 }
 
+leap_result leap_occupancy_classify_sets(leap_occupancy *occ, const uint8_t *set_class, size_t set_count,
+                                         leap_error *err)
+{
+    if (!occ || !set_class) return leap_fail(err, LEAP_ERR_USAGE, "occupancy: missing tree or classes");
+    if (!occ->label_sets || set_count < occ->label_sets)
+        return leap_fail(err, LEAP_ERR_USAGE, "occupancy: %zu label set classes given for a tree of %u sets", set_count,
+                         occ->label_sets);
+    const double t0 = leap__now_ms();
+    for (size_t i = 0; i < occ->range_count; ++i) occ->range_cls[i] = set_class[(uint32_t)occ->ranges[i].lo];
+    occ->bg_cls = set_class[(uint32_t)occ->background];
+    update_counts(occ);
+    occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
+    occ->classify_ms = leap__now_ms() - t0;
+    return LEAP_OK;
+}
+
 void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *out)
 {
     memset(out, 0, sizeof *out);
@@ -617,7 +722,8 @@ size_t leap_occ_internal_node_count(const leap_occupancy *occ) { return occ->nod
 int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref)
 {
     float lo, hi;
-    return ref_range(occ, ref, &lo, &hi) && lo == hi;
+    if (!ref_range(occ, ref, &lo, &hi) || lo != hi) return 0;
+    return !occ->label_sets || lo < (float)occ->label_singletons;
 }
 
 void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3])

@@ -252,7 +252,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     double offset = range != 0 ? (r->value_min - m->range_lo) / range : 0.0;
     f->march = (leap_vec4){(float)m->step, (float)(m->step / LEAP_TF_STEP_REF), (float)scale, (float)offset};
     /* A precorrected table's opacities are compared with a threshold corrected alike. */
-    double depth_opacity = r->tf_precorrected ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
+    double depth_opacity = r->tf_precorrected || r->labels ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
                             (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
@@ -264,4 +264,5 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     f->bbox_min = v4(lo, 0);
     f->bbox_max = v4(hi, 0);
     f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, r->tree_depth};
+    f->labels = (leap_uvec4){r->label_base, r->object_count, 0, 0};
 }

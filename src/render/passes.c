@@ -102,7 +102,7 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_EVENT_COUNTS] = &r->event_counts,
         [LEAP_BINDING_EVENT_T] = &r->event_t, [LEAP_BINDING_EVENT_KEY] = &r->event_key,
         [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
-        [LEAP_BINDING_TREE] = &r->tree,
+        [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
     };
     VkDescriptorImageInfo img[2] = {
         {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
@@ -212,6 +212,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
     if (!lr) lr = renderer_upload_tf(r, march->step, err);
+    if (!lr && r->labels) lr = renderer_upload_objects(r, march->step, err);
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
     if (lr) return lr;
     if (lists) {
@@ -227,7 +228,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     if ((mode == LEAP_RENDER_OCTREE || (lists && !chord)) && (lr = upload_tree(r, err))) return lr;
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
     VkPipeline composite = VK_NULL_HANDLE;
-    if ((lr = renderer_composite_pipeline(r, pass_mode, r->tf_precorrected, &composite, err))) return lr;
+    if ((lr = renderer_composite_pipeline(r, pass_mode, r->labels ? 2 : r->tf_precorrected, &composite, err))) return lr;
     renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
     if (chord) {
         leap_frame_gpu *f = r->frame.mapped;
@@ -260,7 +261,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    st.tf_precorrected = r->tf_precorrected;
+    st.tf_precorrected = r->labels || r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
         chunk_rect q = rects ? rects[chunk] : (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height};
         if (q.x0 >= q.x1 || q.y0 >= q.y1) continue;

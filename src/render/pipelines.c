@@ -110,6 +110,7 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
 typedef struct spec_values {
     VkBool32 tf_precorrected; /* constant_id 0 */
     uint32_t mode;            /* constant_id 1 */
+    VkBool32 labels;          /* constant_id 2 */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -118,8 +119,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
     const VkSpecializationMapEntry entries[] = {
         {0, offsetof(spec_values, tf_precorrected), sizeof values.tf_precorrected},
         {1, offsetof(spec_values, mode), sizeof values.mode},
+        {2, offsetof(spec_values, labels), sizeof values.labels},
     };
-    VkSpecializationInfo spec = {2, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {3, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -132,12 +134,13 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
     return LEAP_OK;
 }
 
-leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int precorrected, VkPipeline *out,
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out,
                                       leap_error *err)
 {
-    VkPipeline *p = &r->composite[mode][precorrected != 0];
+    VkPipeline *p = &r->composite[mode][kind];
     if (!*p) {
-        spec_values values = {precorrected != 0, (uint32_t)mode};
+        /* Label opacities are corrected for the step in the object table, like a precorrected TF. */
+        spec_values values = {kind != 0, (uint32_t)mode, kind == 2};
         leap_result lr = create_compute(r, r->composite_module, values, p, err);
         if (lr) return lr;
     }
@@ -176,7 +179,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
@@ -213,5 +216,6 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_frame_gpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT, &r->frame, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, sizeof(leap_box_gpu), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, 32, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->objects, err);
     return lr;
 }

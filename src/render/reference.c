@@ -122,6 +122,22 @@ static int lattice_range(const leap_march *m, const double o[3], const double d[
     return 1;
 }
 
+/* A segmentation's sample: the object of the nearest voxel. */
+static void sample_label(const leap_labels *labels, leap_grid_reader *reader, const double p[3], double rgba[4])
+{
+    int32_t v[3];
+    const int32_t one[3] = {1, 1, 1};
+    for (int c = 0; c < 3; ++c) v[c] = (int32_t)floor(p[c] + 0.5);
+    int64_t id;
+    leap_grid_reader_labels(reader, v, one, &id);
+    const int64_t index = leap_labels_find(labels, id);
+    if (index < 0) { /* every stored label is an object; kept safe all the same */
+        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 0.0;
+        return;
+    }
+    leap_labels_rgba(labels, (size_t)index, rgba);
+}
+
 static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *reader,
                          cell_cache *cache, double px, double py, double out_rgba[4],
                          double *out_depth, double *out_samples)
@@ -142,11 +158,15 @@ static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *read
             ray_point(o, d, t, p);
             for (int c = 0; c < 3; ++c)
                 p[c] += m->index_origin[c];
-            const double v = sample_trilinear(reader, cache, p);
-            /* range_hi == range_lo: every value maps to u = 0 */
-            const double u = span != 0.0 ? (v - m->range_lo) * inv_span : 0.0;
             double tf[4];
-            leap_tf_eval(desc->tf, u, tf);
+            if (desc->labels) {
+                sample_label(desc->labels, reader, p, tf);
+            } else {
+                const double v = sample_trilinear(reader, cache, p);
+                /* range_hi == range_lo: every value maps to u = 0 */
+                const double u = span != 0.0 ? (v - m->range_lo) * inv_span : 0.0;
+                leap_tf_eval(desc->tf, u, tf);
+            }
             n += 1.0;
             if (tf[3] > LEAP_DEPTH_OPACITY && depth == INFINITY)
                 depth = leap_rays_world_distance(desc->rays, d, t);
@@ -198,6 +218,8 @@ static leap_result validate(const leap_reference_desc *desc, leap_error *err)
 {
     if (!desc)
         return leap_fail(err, LEAP_ERR_USAGE, "reference: no render description");
+    if (desc->labels && !leap_grid_has_labels(desc->grid))
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: objects given for a grid without labels");
     if (!desc->grid || !desc->tf || !desc->rays || !desc->march)
         return leap_fail(err, LEAP_ERR_USAGE,
                          "reference: the description needs a grid, a transfer function, a view "

@@ -67,6 +67,7 @@ void leap_renderer_destroy(leap_renderer *r)
         (void)vkDeviceWaitIdle(dev); /* tearing down: nothing to do about a failure */
         renderer_destroy_frame_buffers(r);
         leap_gpu_buffer_destroy(gpu, &r->tree);
+        leap_gpu_buffer_destroy(gpu, &r->objects);
         leap_gpu_buffer_destroy(gpu, &r->boxes);
         leap_gpu_image_destroy(gpu, &r->tf);
         leap_gpu_buffer_destroy(gpu, &r->pages);
@@ -78,13 +79,14 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
-            for (int i = 0; i < 2; ++i)
+            for (int i = 0; i < 3; ++i)
                 if (r->composite[m][i]) vkDestroyPipeline(dev, r->composite[m][i], NULL);
         if (r->composite_module) vkDestroyShaderModule(dev, r->composite_module, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
         if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);
     }
     leap_gpu_destroy(gpu);
+    free(r->object_rgba);
     free(r);
 }
 
@@ -113,10 +115,16 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     r->has_volume = 0;
     r->atlas_serial = 0;
     size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
+    const uint64_t page_bytes = ((uint64_t)atlas->page_words + atlas->label_word_count) * 4;
+    if (page_bytes > r->gpu->storage_buffer_range)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                         "the volume's page table and label cells take %.1f MiB, more than the %llu MiB one storage "
+                         "buffer of this device can hold",
+                         (double)page_bytes / (1 << 20), (unsigned long long)(r->gpu->storage_buffer_range >> 20));
     leap_result lr = LEAP_ERR_OOM;
     VkFormatProperties fp;
     vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R32_SFLOAT, &fp);
-    int float_ok = (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
+    int float_ok = !atlas->labels && (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
                    texels <= r->float_atlas_max_bytes / sizeof(float);
     float *values = float_ok ? malloc(texels * sizeof(float)) : NULL;
     if (values) {
@@ -136,10 +144,13 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
                                    texels * sizeof(uint16_t), &r->atlas, err);
     }
     if (!lr)
-        lr = leap_gpu_buffer_create(r->gpu, atlas->page_words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
-                                    &r->pages, err);
+        lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
     if (lr) return lr;
     memcpy(r->pages.mapped, atlas->pages, atlas->page_words * 4);
+    if (atlas->labels)
+        memcpy((uint32_t *)r->pages.mapped + atlas->page_words, atlas->label_words, atlas->label_word_count * 4);
+    r->labels = atlas->labels;
+    r->label_base = (uint32_t)atlas->page_words;
     r->value_min = atlas->value_min;
     r->value_max = atlas->value_max;
     for (int i = 0; i < 3; ++i) {
@@ -159,6 +170,7 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
     leap_result lr = LEAP_OK;
     if (!r->has_volume || r->atlas_serial != scene->atlas->serial) lr = leap_renderer_set_volume(r, scene->atlas, err);
     if (!lr) lr = leap_renderer_set_tf(r, &scene->tf, err);
+    if (!lr && scene->labels) lr = leap_renderer_set_objects(r, scene->labels, err);
     if (lr) return lr;
     leap_renderer_set_occupancy(r, scene->occupancy, scene->boxes);
     return LEAP_OK;
@@ -190,6 +202,46 @@ leap_result renderer_upload_tf(leap_renderer *r, double step, leap_error *err)
     free(table);
     if (!lr) r->tf_step = step; /* a failed upload leaves no table: the next frame retries */
     return lr;
+}
+
+leap_result leap_renderer_set_objects(leap_renderer *r, const leap_labels *labels, leap_error *err)
+{
+    const size_t n = leap_labels_count(labels);
+    if (n > UINT32_MAX / 4) return leap_fail(err, LEAP_ERR_UNSUPPORTED, "renderer: %zu objects are too many", n);
+    float *rgba = realloc(r->object_rgba, (n ? n : 1) * 4 * sizeof *rgba);
+    if (!rgba) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for %zu objects", n);
+    r->object_rgba = rgba;
+    for (size_t i = 0; i < n; ++i) {
+        double c[4];
+        leap_labels_rgba(labels, i, c);
+        for (int k = 0; k < 4; ++k) rgba[4 * i + k] = (float)c[k];
+    }
+    r->object_count = (uint32_t)n;
+    r->objects_step = 0;
+    return LEAP_OK;
+}
+
+/* Opacities are corrected for the step in double, as the reference corrects each sample. */
+leap_result renderer_upload_objects(leap_renderer *r, double step, leap_error *err)
+{
+    if (r->objects_step == step) return LEAP_OK;
+    const VkDeviceSize bytes = (VkDeviceSize)(r->object_count ? r->object_count : 1) * 16;
+    if (bytes > r->gpu->storage_buffer_range)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "renderer: the table of %u objects exceeds one storage buffer",
+                         r->object_count);
+    LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device)); /* the old table may be in use */
+    if (r->objects.size < bytes) {
+        leap_gpu_buffer_destroy(r->gpu, &r->objects);
+        leap_result lr = leap_gpu_buffer_create(r->gpu, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->objects, err);
+        if (lr) return lr;
+    }
+    float *dst = r->objects.mapped;
+    for (uint32_t i = 0; i < r->object_count; ++i) {
+        memcpy(dst + 4 * i, r->object_rgba + 4 * i, 3 * sizeof *dst);
+        dst[4 * i + 3] = (float)leap_tf_alpha_for_step(r->object_rgba[4 * i + 3], step);
+    }
+    r->objects_step = step;
+    return LEAP_OK;
 }
 
 void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes)

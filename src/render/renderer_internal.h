@@ -9,9 +9,9 @@
 #include "shared.h"
 
 
-_Static_assert(sizeof(leap_frame_gpu) == 400, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 416, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 13
+#define BINDING_COUNT 14
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
 enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
@@ -23,11 +23,11 @@ struct leap_renderer {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     VkPipeline resolve, events;
-    /* The composite pass per mode and opacity correction (per sample [0], in the TF table
-     * [1]): specialisation constants, so each pipeline holds only the code it runs. Created
-     * on first use from composite_module. */
+    /* The composite pass per mode and volume kind (scalar with opacity corrected per sample
+     * [0] or in the TF table [1], labels [2]): specialisation constants, so each pipeline
+     * holds only the code it runs. Created on first use from composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][2];
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][3];
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -43,6 +43,14 @@ struct leap_renderer {
     double tf_step;
     int tf_precorrected; /* the table's opacities are corrected for tf_step */
     leap_buffer out_rgba, out_aux;
+    /* Label volumes: the objects' looks (display RGB, opacity per voxel) and their table on
+     * the device, corrected for objects_step. */
+    int labels;
+    uint32_t label_base;     /* first label word in the pages buffer */
+    float *object_rgba;
+    uint32_t object_count;
+    leap_buffer objects;
+    double objects_step;     /* 0: the device table is stale */
     leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, tree;
     uint32_t tree_depth;
     int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
@@ -70,11 +78,14 @@ struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
 
 /* pipelines.c */
 leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err);
-leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int precorrected, VkPipeline *out, leap_error *err);
+/* kind: 0, 1 = scalar volume with opacity corrected per sample / in the table, 2 = labels. */
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out, leap_error *err);
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);
 /* renderer.c: the TF table for a step (uploaded again when the step changes). */
 leap_result renderer_upload_tf(leap_renderer *r, double step, leap_error *err);
+/* renderer.c: the label volume's object table for a step. */
+leap_result renderer_upload_objects(leap_renderer *r, double step, leap_error *err);
 /* frame.c: the frame's uniform block and the composite dispatches it needs. */
 void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode, uint32_t box_count, leap_frame_gpu *f);
 leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, const leap_frame_gpu *f, uint32_t *count, chunk_rect **rects_out, leap_error *err);

@@ -55,6 +55,7 @@ static leap_result build_occupancy(leap_scene *s, leap_error *err)
         .background = (float)s->info->background,
         .value_min = s->atlas->value_min,
         .value_max = s->atlas->value_max,
+        .label_atlas = s->labels ? s->atlas : NULL,
     };
     for (int i = 0; i < 3; ++i) {
         od.origin[i] = s->atlas->origin[i];
@@ -115,11 +116,25 @@ static leap_result build_boxes(leap_scene *s, leap_error *err)
     return r;
 }
 
+leap_result leap_scene_update_objects(leap_scene *s, leap_error *err)
+{
+    if (!s->labels) return leap_fail(err, LEAP_ERR_USAGE, "the volume is not a segmentation");
+    leap_atlas_label_classes(s->atlas, s->labels, s->set_classes);
+    leap_result r = leap_occupancy_classify_sets(s->occupancy, s->set_classes,
+                                                 (size_t)s->atlas->object_count + s->atlas->record_count, err);
+    if (r) return r;
+    leap_occupancy_stats os;
+    leap_occupancy_get_stats(s->occupancy, &os);
+    s->classify_ms = os.classify_ms;
+    return build_boxes(s, err);
+}
+
 leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, double hi, leap_error *err)
 {
     if (tf != &s->tf) s->tf = *tf;
     s->march.range_lo = lo;
     s->march.range_hi = hi;
+    if (s->labels) return leap_scene_update_objects(s, err); /* the objects' looks, not the TF */
     leap_result r = leap_occupancy_classify(s->occupancy, &s->tf, lo, hi, err);
     if (r) return r;
     leap_occupancy_stats os;
@@ -163,14 +178,22 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         s->march.range_lo = lo;
         s->march.range_hi = hi;
     }
+    if (!r && (desc->labels || s->info->labels)) {
+        r = leap_grid_make_labels(s->grid, err);
+        if (!r) r = leap_labels_create(s->grid, desc->label_opacity, &s->labels, err);
+    }
     if (!r) {
-        leap_atlas_desc ad = {.grid = s->grid};
+        leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
     }
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);
         r = build_occupancy(s, err);
+    }
+    if (!r && s->labels) {
+        s->set_classes = malloc(((size_t)s->atlas->object_count + s->atlas->record_count) * sizeof *s->set_classes + 1);
+        if (!s->set_classes) r = leap_fail(err, LEAP_ERR_OOM, "out of memory for the label sets");
     }
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
     if (r) {
@@ -187,6 +210,8 @@ void leap_scene_destroy(leap_scene *s)
     leap_boxes_destroy(s->boxes);
     leap_occupancy_destroy(s->occupancy);
     leap_atlas_destroy(s->atlas);
+    leap_labels_destroy(s->labels);
+    free(s->set_classes);
     leap_grid_destroy(s->grid);
     free(s);
 }

@@ -252,8 +252,19 @@ struct TileRec {
 
 struct leap_grid {
     vdb::FloatGrid::Ptr grid;
+    vdb::Int64Tree::Ptr labels; // exact values of a label grid (null otherwise)
     leap_grid_info info;
     std::vector<leap_vdb_detail::TileRec> tiles; // active tiles, in iteration order
+};
+
+// Per-thread accessors (exact labels too for a label grid).
+struct leap_grid_reader {
+    explicit leap_grid_reader(const leap_grid &g) : acc(g.grid->constTree())
+    {
+        if (g.labels) labels.reset(new vdb::tree::ValueAccessor<const vdb::Int64Tree>(*g.labels));
+    }
+    vdb::tree::ValueAccessor<const leap_vdb_detail::FloatTree> acc;
+    std::unique_ptr<vdb::tree::ValueAccessor<const vdb::Int64Tree>> labels;
 };
 
 #endif

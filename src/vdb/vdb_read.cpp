@@ -37,7 +37,7 @@ void copy_str(char *dst, size_t cap, const std::string &s)
 
 bool is_scalar_type(const std::string &t)
 {
-    return t == "float" || t == "double" || t == "int32";
+    return t == "float" || t == "double" || t == "int32" || t == "int64";
 }
 
 // Row-major column-vector matrix (world = M * (i,j,k,1)) from an OpenVDB transform.
@@ -61,6 +61,7 @@ void meta_to_info(const vdb::GridBase &g, const std::string &name, leap_grid_inf
     copy_str(info->grid_class, sizeof info->grid_class,
              vdb::GridBase::gridClassToString(g.getGridClass()));
     info->scalar = is_scalar_type(g.valueType());
+    info->labels = g.valueType() == "int32" || g.valueType() == "int64";
     info->saved_as_half = g.valueType() == "float" && g.saveFloatAsHalf();
     transform_to_info(g.constTransform(), info);
     info->bbox_min[0] = info->bbox_min[1] = info->bbox_min[2] = 0;
@@ -73,6 +74,7 @@ bool scalar_background(const vdb::GridBase &g, double *out)
     if (auto f = dynamic_cast<const vdb::FloatGrid *>(&g)) *out = f->background();
     else if (auto d = dynamic_cast<const vdb::DoubleGrid *>(&g)) *out = float(d->background());
     else if (auto i = dynamic_cast<const vdb::Int32Grid *>(&g)) *out = float(i->background());
+    else if (auto l = dynamic_cast<const vdb::Int64Grid *>(&g)) *out = float(l->background());
     else return false;
     return true;
 }
@@ -269,10 +271,6 @@ struct leap_vdb_file {
     mutable std::mutex mutex;
 };
 
-struct leap_grid_reader {
-    explicit leap_grid_reader(const FloatTree &t) : acc(t) {}
-    vdb::tree::ValueAccessor<const FloatTree> acc;
-};
 
 namespace {
 
@@ -395,7 +393,7 @@ leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, 
     const leap_grid_info &meta = file->infos[gi];
     if (!meta.scalar)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': grid '%s' has value type %s; only float, half, double "
-                         "and int32 grids can be rendered", file->path.c_str(), meta.name, meta.value_type);
+                         "int32 and int64 grids can be rendered", file->path.c_str(), meta.name, meta.value_type);
 
     const std::string what = "'" + file->path + "', grid '" + file->names[gi] + "'";
     return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
@@ -417,9 +415,15 @@ leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, 
             g->grid = vdb::gridPtrCast<vdb::FloatGrid>(base);
         } else {
             FloatTree::Ptr tree;
-            if (base->isType<vdb::DoubleGrid>()) tree = convert_tree<vdb::DoubleGrid>(*base);
-            else if (base->isType<vdb::Int32Grid>()) tree = convert_tree<vdb::Int32Grid>(*base);
-            else return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: unsupported grid type %s", what.c_str(),
+            if (base->isType<vdb::DoubleGrid>()) {
+                tree = convert_tree<vdb::DoubleGrid>(*base);
+            } else if (base->isType<vdb::Int32Grid>()) {
+                tree = convert_tree<vdb::Int32Grid>(*base);
+                g->labels.reset(new vdb::Int64Tree(static_cast<const vdb::Int32Grid &>(*base).tree()));
+            } else if (base->isType<vdb::Int64Grid>()) {
+                tree = convert_tree<vdb::Int64Grid>(*base);
+                g->labels = vdb::gridPtrCast<vdb::Int64Grid>(base)->treePtr();
+            } else return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: unsupported grid type %s", what.c_str(),
                                   base->type().c_str());
             g->grid = vdb::FloatGrid::create(tree);
             g->grid->setTransform(base->constTransform().copy());
@@ -535,7 +539,7 @@ leap_result leap_grid_reader_create(const leap_grid *grid, leap_grid_reader **ou
     if (out) *out = nullptr;
     if (!grid || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_reader_create: NULL argument");
     return guarded(err, LEAP_ERR_OOM, "leap_grid_reader_create", [&]() -> leap_result {
-        *out = new leap_grid_reader(grid->grid->constTree());
+        *out = new leap_grid_reader(*grid);
         return LEAP_OK;
     });
 }

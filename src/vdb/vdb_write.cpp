@@ -23,6 +23,16 @@ int32_t to_int32(double v)
     return int32_t(v);
 }
 
+// Nearest int64 (NaN -> 0, out of range -> clamped).
+int64_t to_int64(double v)
+{
+    if (!std::isfinite(v)) return 0;
+    v = std::round(v);
+    if (v <= -9.2233720368547758e18) return INT64_MIN;
+    if (v >= 9.2233720368547758e18) return INT64_MAX;
+    return int64_t(v);
+}
+
 } // namespace
 
 extern "C" {
@@ -65,6 +75,7 @@ int leap_vdb_writer_add_grid(leap_vdb_writer *writer, const char *name, leap_vdb
         case LEAP_VDB_HALF: g = vdb::FloatGrid::create(float(background)); break;
         case LEAP_VDB_DOUBLE: g = vdb::DoubleGrid::create(background); break;
         case LEAP_VDB_INT32: g = vdb::Int32Grid::create(to_int32(background)); break;
+        case LEAP_VDB_INT64: g = vdb::Int64Grid::create(to_int64(background)); break;
         case LEAP_VDB_VEC3F: g = vdb::Vec3SGrid::create(vdb::Vec3s(float(background))); break;
         default: return leap_fail(err, LEAP_ERR_USAGE, "grid '%s': unknown value type %d", name, int(type));
         }
@@ -101,6 +112,7 @@ void with_typed(leap_vdb_writer *w, int grid, double value, Op op)
         case LEAP_VDB_HALF: op(static_cast<vdb::FloatGrid &>(*g.grid), float(value)); break;
         case LEAP_VDB_DOUBLE: op(static_cast<vdb::DoubleGrid &>(*g.grid), value); break;
         case LEAP_VDB_INT32: op(static_cast<vdb::Int32Grid &>(*g.grid), to_int32(value)); break;
+        case LEAP_VDB_INT64: op(static_cast<vdb::Int64Grid &>(*g.grid), to_int64(value)); break;
         case LEAP_VDB_VEC3F: op(static_cast<vdb::Vec3SGrid &>(*g.grid), vdb::Vec3s(float(value))); break;
         }
     } catch (const std::exception &e) {
@@ -117,6 +129,14 @@ extern "C" {
 void leap_vdb_writer_set(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k, double value)
 {
     with_typed(writer, grid, value, [&](auto &g, auto v) { g.tree().setValueOn(vdb::Coord(i, j, k), v); });
+}
+
+void leap_vdb_writer_set_label(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k, int64_t label)
+{
+    if (!writer || grid < 0 || grid >= int(writer->grids.size())) return;
+    const WriterGrid &g = writer->grids[size_t(grid)];
+    if (g.type == LEAP_VDB_INT64) static_cast<vdb::Int64Grid &>(*g.grid).tree().setValueOn(vdb::Coord(i, j, k), label);
+    else leap_vdb_writer_set(writer, grid, i, j, k, double(label));
 }
 
 void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3], const int32_t max[3],

@@ -26,6 +26,8 @@ typedef struct builder {
     uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
     int page_overflow;        /* the cell level of the page table did not fit */
+    const leap_labels *labels; /* label atlas: its objects */
+    leap_grid_reader *label_reader;
     int top_overflow;         /* the top level of the page table did not fit */
 } builder;
 
@@ -46,6 +48,12 @@ static uint16_t quantize(const leap_atlas *a, float v)
 static uint32_t const_entry(uint16_t q)
 {
     return LEAP_PAGE_CONST | q;
+}
+
+/* A label atlas's constant entry: the object index. */
+static uint32_t label_entry(const leap_labels *labels, int64_t id)
+{
+    return LEAP_PAGE_CONST | ((uint32_t)leap_labels_find(labels, id) & LEAP_LABEL_INDEX_MASK);
 }
 
 /* Sets the entry of cell c, splitting a constant page block into cells on first write. */
@@ -120,6 +128,12 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
         if (lo[i] > hi[i]) return LEAP_OK;
     }
     uint32_t entry = const_entry(quantize(a, br->tile_value));
+    if (a->labels) {
+        int64_t label;
+        const int32_t one[3] = {1, 1, 1};
+        leap_grid_reader_labels(b->label_reader, br->origin, one, &label);
+        entry = label_entry(b->labels, label);
+    }
     const int64_t B = block_edge(a);
     leap_result r;
     for (int64_t bz = lo[2] / B; bz <= hi[2] / B; ++bz)
@@ -220,6 +234,84 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
     return LEAP_OK;
 }
 
+static int cmp_u32(const void *x, const void *y)
+{
+    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
+    return a < b ? -1 : a > b;
+}
+
+/* Label atlases: each candidate cell's footprint as object indices; one object makes a
+ * constant entry, more a record (palette + packed indices, LEAP_LABEL_HEADER). */
+static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_error *err)
+{
+    leap_atlas *a = b->a;
+    int64_t ids[SLOT_TEXELS];
+    uint32_t idx[SLOT_TEXELS], palette[SLOT_TEXELS];
+    size_t cap = 0, rec_cap = 0;
+    leap_result r = LEAP_OK;
+    for (size_t i = 0; i < l->count && !r; ++i) {
+        uint64_t k = l->keys[i];
+        uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
+                         (uint32_t)(k / a->cells[0] / a->cells[1])};
+        int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
+        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
+        leap_grid_reader_labels(b->label_reader, min, dim, ids);
+        int64_t last_id = 0;
+        uint32_t last = UINT32_MAX, n = 0;
+        for (int j = 0; j < SLOT_TEXELS; ++j) {
+            if (last == UINT32_MAX || ids[j] != last_id) { /* runs of one label are common */
+                last_id = ids[j];
+                last = (uint32_t)leap_labels_find(b->labels, ids[j]);
+            }
+            idx[j] = last;
+            palette[n++] = last;
+        }
+        qsort(palette, n, sizeof *palette, cmp_u32);
+        uint32_t count = 0;
+        for (uint32_t j = 0; j < n; ++j)
+            if (j == 0 || palette[j] != palette[j - 1]) palette[count++] = palette[j];
+        uint32_t entry;
+        if (count == 1 && !dense) {
+            entry = LEAP_PAGE_CONST | (palette[0] & LEAP_LABEL_INDEX_MASK);
+        } else {
+            uint32_t bits = 1;
+            while ((1u << bits) < count) bits <<= 1;
+            const size_t packed = ((size_t)SLOT_TEXELS * bits + 31) / 32;
+            const size_t words = LEAP_LABEL_HEADER + count + packed;
+            if (a->label_word_count + words > LEAP_LABEL_INDEX_MASK) {
+                r = leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: the label cells need more than 2^31 words (8 GiB)");
+                break;
+            }
+            if (!leap__grow((void **)&a->label_words, &cap, a->label_word_count + words, sizeof(uint32_t)) ||
+                !leap__grow((void **)&a->record_offsets, &rec_cap, (size_t)a->record_count + 1, sizeof(uint32_t))) {
+                r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for the label cells");
+                break;
+            }
+            uint32_t *w = a->label_words + a->label_word_count;
+            memset(w, 0, words * sizeof *w);
+            w[0] = bits | count << 8;
+            w[1] = a->record_count;
+            memcpy(w + LEAP_LABEL_HEADER, palette, count * sizeof *palette);
+            uint32_t *bitsbuf = w + LEAP_LABEL_HEADER + count;
+            for (int j = 0; j < SLOT_TEXELS; ++j) {
+                uint32_t lo = 0, hi = count; /* the voxel's palette position */
+                while (lo < hi) {
+                    uint32_t mid = (lo + hi) / 2;
+                    if (palette[mid] < idx[j]) lo = mid + 1;
+                    else hi = mid;
+                }
+                const size_t bit = (size_t)j * bits;
+                bitsbuf[bit / 32] |= lo << (bit % 32);
+            }
+            entry = (uint32_t)a->label_word_count;
+            a->record_offsets[a->record_count++] = entry;
+            a->label_word_count += words;
+        }
+        r = set_cell(b, c, entry, err);
+    }
+    return r;
+}
+
 /* Reads the footprint of each candidate cell; uniform footprints become constants, the
  * rest atlas slots. */
 static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *grid, int dense,
@@ -231,6 +323,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
     for (size_t i = 0; i < l->count; ++i)
         if (i == 0 || l->keys[i] != l->keys[i - 1]) l->keys[unique++] = l->keys[i];
     l->count = unique;
+    if (a->labels) return fill_label_cells(b, l, dense, err);
     const uint64_t budget = slot_budget();
     leap_result r = check_slot_estimate(b, l->keys, unique, grid, budget, err);
     if (r) return r;
@@ -334,7 +427,7 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
         uint32_t *dst = pages + a->top_count + (size_t)k * n_cells;
         for (uint32_t i = 0; i < n_cells; ++i) {
             uint32_t e = b->blocks[k][i];
-            if (!(e & LEAP_PAGE_CONST)) {
+            if (!(e & LEAP_PAGE_CONST) && !a->labels) {
                 uint32_t d = perm[e];
                 e = d % sx | (d / sx % sy) << LEAP_SLOT_BITS | (d / (sx * sy)) << (2 * LEAP_SLOT_BITS);
             }
@@ -387,9 +480,19 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
     a->pages = malloc(top_count * sizeof *a->pages);
     if (!a->pages) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
     uint32_t background = const_entry(quantize(a, (float)info->background));
+    if (a->labels) {
+        background = label_entry(b->labels, leap_grid_background_label(desc->grid));
+        a->background_object = background & LEAP_LABEL_INDEX_MASK;
+        leap_result rr = leap_grid_reader_create(desc->grid, &b->label_reader, err);
+        if (rr) return rr;
+    }
     leap_result r = LEAP_OK;
     for (uint64_t i = 0; i < top_count; ++i) a->pages[i] = background;
-    if (a->empty) return finish(b, desc->shuffle_seed, err);
+    if (a->empty) {
+        leap_grid_reader_destroy(b->label_reader);
+        b->label_reader = NULL;
+        return finish(b, desc->shuffle_seed, err);
+    }
 
     size_t nbricks = leap_grid_brick_count(desc->grid);
     leap_brick *bricks = malloc((nbricks ? nbricks : 1) * sizeof *bricks);
@@ -424,6 +527,8 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
     }
     free(bricks);
     if (!r) r = fill_candidates(b, &keys, desc->grid, desc->dense, err);
+    leap_grid_reader_destroy(b->label_reader);
+    b->label_reader = NULL;
     free(keys.keys);
     if (r) return r;
     return finish(b, desc->shuffle_seed, err);
@@ -444,6 +549,13 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
     }
     b->a = a;
+    b->labels = desc->labels;
+    a->labels = desc->labels != NULL;
+    if (a->labels && !leap_grid_has_labels(desc->grid)) {
+        free(b);
+        free(a);
+        return leap_fail(err, LEAP_ERR_USAGE, "atlas: objects given for a grid without labels");
+    }
     /* Large page blocks keep the top level small; when scattered data would touch so many
      * blocks that their cells overflow the storage buffer, smaller blocks are tried. When the
      * top level itself overflows (a sparse grid spanning billions of voxels), larger blocks. */
@@ -468,15 +580,22 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
             break;
         free(a->pages); /* start over */
         free(a->texels);
+        free(a->label_words);
+        free(a->record_offsets);
+        uint64_t serial = a->serial;
         memset(a, 0, sizeof *a);
         memset(b, 0, sizeof *b);
+        a->serial = serial;
         b->a = a;
+        b->labels = desc->labels;
+        a->labels = desc->labels != NULL;
     }
     free(b);
     if (r) {
         leap_atlas_destroy(a);
         return r;
     }
+    if (a->labels) a->object_count = (uint32_t)leap_labels_count(desc->labels);
     a->build_ms = leap__now_ms() - t0;
     *out = a;
     return LEAP_OK;
@@ -487,6 +606,8 @@ void leap_atlas_destroy(leap_atlas *atlas)
     if (!atlas) return;
     free(atlas->pages);
     free(atlas->texels);
+    free(atlas->label_words);
+    free(atlas->record_offsets);
     free(atlas);
 }
 
@@ -501,6 +622,30 @@ void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march)
 
 uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas)
 {
+    if (atlas->labels) return (atlas->page_words + atlas->label_word_count) * 4;
     return (uint64_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2] * 2 +
            atlas->page_words * 4;
+}
+
+void leap_atlas_label_classes(const leap_atlas *atlas, const leap_labels *labels, uint8_t *out)
+{
+    for (uint32_t i = 0; i < atlas->object_count; ++i) {
+        double rgba[4];
+        leap_labels_rgba(labels, i, rgba);
+        out[i] = rgba[3] > 0 ? LEAP_CLASS_NONEMPTY : LEAP_CLASS_EMPTY;
+    }
+    for (uint32_t k = 0; k < atlas->record_count; ++k) {
+        uint32_t n;
+        const uint32_t *objects = leap_atlas_record_objects(atlas, k, &n);
+        uint8_t cls = LEAP_CLASS_EMPTY;
+        for (uint32_t j = 0; j < n && cls == LEAP_CLASS_EMPTY; ++j) cls = out[objects[j]];
+        out[atlas->object_count + k] = cls;
+    }
+}
+
+const uint32_t *leap_atlas_record_objects(const leap_atlas *atlas, uint32_t record, uint32_t *count)
+{
+    const uint32_t *w = atlas->label_words + atlas->record_offsets[record];
+    *count = w[0] >> 8;
+    return w + LEAP_LABEL_HEADER;
 }

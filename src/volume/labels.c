@@ -1,0 +1,143 @@
+/* The objects of a label grid and their appearance (see include/leap/labels.h). */
+#include "leap/labels.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct object_look {
+    float rgb[3];
+    float opacity;
+    uint8_t visible;
+} object_look;
+
+struct leap_labels {
+    leap_label_object *objects;
+    object_look *looks;
+    size_t count;
+    int64_t background;
+};
+
+/* splitmix64: a well-mixed hash, so neighbouring IDs get unrelated colours. */
+static uint64_t mix64(uint64_t x)
+{
+    x += 0x9e3779b97f4a7c15ull;
+    x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+    x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+    return x ^ (x >> 31);
+}
+
+void leap_labels_hash_colour(int64_t id, float rgb[3])
+{
+    const uint64_t h = mix64((uint64_t)id);
+    /* Hue anywhere, saturation and value high enough that every object stands out. */
+    const double hue = (double)(h & 0xffffu) / 65536.0 * 6.0;
+    const double sat = 0.55 + 0.45 * (double)(h >> 16 & 0xffu) / 255.0;
+    const double val = 0.75 + 0.25 * (double)(h >> 24 & 0xffu) / 255.0;
+    const int sector = (int)hue;
+    const double f = hue - sector, p = val * (1 - sat), q = val * (1 - sat * f), t = val * (1 - sat * (1 - f));
+    double r, g, b;
+    switch (sector) {
+    case 0: r = val, g = t, b = p; break;
+    case 1: r = q, g = val, b = p; break;
+    case 2: r = p, g = val, b = t; break;
+    case 3: r = p, g = q, b = val; break;
+    case 4: r = t, g = p, b = val; break;
+    default: r = val, g = p, b = q; break;
+    }
+    rgb[0] = (float)r, rgb[1] = (float)g, rgb[2] = (float)b;
+}
+
+leap_result leap_labels_create(const leap_grid *grid, double opacity, leap_labels **out, leap_error *err)
+{
+    *out = NULL;
+    if (!leap_grid_has_labels(grid)) return leap_fail(err, LEAP_ERR_USAGE, "labels: the grid holds no labels");
+    if (opacity == 0) opacity = LEAP_LABEL_OPACITY;
+    if (!(opacity > 0 && opacity <= 1))
+        return leap_fail(err, LEAP_ERR_USAGE, "labels: opacity %g is outside (0, 1]", opacity);
+    leap_labels *l = calloc(1, sizeof *l);
+    if (!l) return leap_fail(err, LEAP_ERR_OOM, "labels: out of memory");
+    leap_result r = leap_grid_label_objects(grid, &l->objects, &l->count, err);
+    if (!r) {
+        l->looks = malloc((l->count ? l->count : 1) * sizeof *l->looks);
+        if (!l->looks) r = leap_fail(err, LEAP_ERR_OOM, "labels: out of memory for %zu objects", l->count);
+    }
+    if (r) {
+        leap_labels_destroy(l);
+        return r;
+    }
+    l->background = leap_grid_background_label(grid);
+    for (size_t i = 0; i < l->count; ++i) {
+        leap_labels_hash_colour(l->objects[i].id, l->looks[i].rgb);
+        l->looks[i].opacity = (float)opacity;
+        l->looks[i].visible = 1;
+    }
+    *out = l;
+    return LEAP_OK;
+}
+
+void leap_labels_destroy(leap_labels *l)
+{
+    if (!l) return;
+    free(l->objects);
+    free(l->looks);
+    free(l);
+}
+
+size_t leap_labels_count(const leap_labels *l) { return l->count; }
+const leap_label_object *leap_labels_objects(const leap_labels *l) { return l->objects; }
+
+/* First index whose id >= id. */
+static size_t lower_bound(const leap_labels *l, int64_t id)
+{
+    size_t lo = 0, hi = l->count;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (l->objects[mid].id < id) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+int64_t leap_labels_find(const leap_labels *l, int64_t id)
+{
+    size_t i = lower_bound(l, id);
+    return i < l->count && l->objects[i].id == id ? (int64_t)i : -1;
+}
+
+int leap_labels_is_background(const leap_labels *l, size_t index)
+{
+    return l->objects[index].id == 0 || l->objects[index].id == l->background;
+}
+
+size_t leap_labels_set_visible(leap_labels *l, int64_t lo, int64_t hi, int visible)
+{
+    size_t changed = 0;
+    for (size_t i = lower_bound(l, lo); i < l->count && l->objects[i].id <= hi; ++i) {
+        changed += l->looks[i].visible != (visible != 0);
+        l->looks[i].visible = visible != 0;
+    }
+    return changed;
+}
+
+int leap_labels_visible(const leap_labels *l, size_t index) { return l->looks[index].visible; }
+
+void leap_labels_set_look(leap_labels *l, size_t index, const float rgb[3], double opacity)
+{
+    if (rgb) memcpy(l->looks[index].rgb, rgb, sizeof l->looks[index].rgb);
+    if (opacity >= 0) l->looks[index].opacity = (float)fmin(opacity, 1.0);
+}
+
+void leap_labels_rgba(const leap_labels *l, size_t index, double rgba[4])
+{
+    const object_look *k = &l->looks[index];
+    for (int c = 0; c < 3; ++c) rgba[c] = k->rgb[c];
+    rgba[3] = k->visible && !leap_labels_is_background(l, index) ? k->opacity : 0.0;
+}
+
+size_t leap_labels_visible_count(const leap_labels *l)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < l->count; ++i) n += l->looks[i].visible && l->looks[i].opacity > 0 && !leap_labels_is_background(l, i);
+    return n;
+}
