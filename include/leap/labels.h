@@ -55,6 +55,17 @@ void leap_labels_set_look(leap_labels *labels, size_t index, const float rgb[3],
  * 0 when hidden, the background or label 0. */
 void leap_labels_rgba(const leap_labels *labels, size_t index, double rgba[4]);
 
+/* Shows (visible = 1) or hides the objects of a list "12,57,300-400" (IDs and inclusive ranges of
+ * non-negative IDs, or "all"); *matched = objects of the volume the list names. Errors:
+ * LEAP_ERR_USAGE naming the bad item. */
+leap_result leap_labels_select(leap_labels *labels, const char *list, int visible, size_t *matched, leap_error *err);
+
+/* Shows exactly the objects a text file lists, one per line: ID [COLOUR] [OPACITY], COLOUR
+ * #rrggbb or R,G,B in [0, 1], OPACITY in [0, 1] per voxel; '#' at the start of a line makes a
+ * comment. IDs the volume lacks are skipped (*listed counts every listed line). Errors:
+ * LEAP_ERR_IO, LEAP_ERR_FORMAT naming the file and line. */
+leap_result leap_labels_load_objects(leap_labels *labels, const char *path, size_t *listed, leap_error *err);
+
 /* Number of visible objects (drawn with a non-zero opacity). */
 size_t leap_labels_visible_count(const leap_labels *labels);
 

@@ -30,6 +30,9 @@ typedef struct leap_scene_desc {
     int labels;            /* 1 = render a grid of integer values as a segmentation (--labels);
                               integer grids always are */
     double label_opacity;  /* objects' opacity per voxel; 0 = LEAP_LABEL_OPACITY */
+    const char *objects;   /* segmentations: a file of the objects to show (leap_labels_load_objects) */
+    const char *show;      /* segmentations: show only these objects ("12,57,300-400") */
+    const char *hide;      /* segmentations: hide these objects (after show / objects) */
 } leap_scene_desc;
 
 typedef struct leap_scene {

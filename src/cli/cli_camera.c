@@ -43,6 +43,14 @@ const char *cli_camera_options_help =
     "                      more walk the occupancy tree instead (as --mode octree) and\n"
     "                      are counted as overflowed\n"
     "  --device NAME       Vulkan device whose name contains NAME (env LEAP_DEVICE)\n"
+    "segmentations (int32/int64 grids; each object in its own colour, nearest voxel):\n"
+    "  --labels            render a grid of integer values as a segmentation\n"
+    "  --show IDS          show only these objects, e.g. 12,57,300-400 (default: all)\n"
+    "  --hide IDS          hide these objects\n"
+    "  --show-all          show every object (the default)\n"
+    "  --objects FILE      show the objects a file lists, one per line:\n"
+    "                      ID [#rrggbb|R,G,B] [OPACITY]\n"
+    "  --label-opacity A   objects' opacity per voxel of ray, in (0, 1] (default 0.5)\n"
     "camera (world space):\n"
     "  --orbit AZ,EL[,DIST]  azimuth and elevation in degrees about the --up axis, distance\n"
     "                      in bounding-sphere radii (default 35,25 at the distance that\n"
@@ -77,11 +85,21 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.exact_boxes = 1;
         return 1;
     }
-    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, FOV, COUNT };
+    if (!strcmp(a, "--labels")) {
+        o->scene.labels = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--show-all")) {
+        o->scene.show = o->scene.hide = o->scene.objects = NULL;
+        return 1;
+    }
+    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
+           FOV, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
-        [TARGET] = "--target", [UP] = "--up",    [FOV] = "--fov"};
+        [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
+        [OPACITY] = "--label-opacity", [FOV] = "--fov"};
     int which = -1;
     for (int k = 0; k < COUNT && which < 0; ++k)
         if (OPT(names[k])) which = k;
@@ -138,6 +156,14 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     case UP:
         if (leap__parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
         o->has_up = 1;
+        break;
+    case SHOW: o->scene.show = v; break;
+    case HIDE: o->scene.hide = v; break;
+    case OBJECTS: o->scene.objects = v; break;
+    case OPACITY:
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || !(n > 0 && n <= 1))
+            FAIL("--label-opacity '%s' must be a number in (0, 1]", v);
+        o->scene.label_opacity = n;
         break;
     case FOV:
     default:

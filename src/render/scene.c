@@ -151,6 +151,35 @@ leap_result leap_scene_set_step(leap_scene *s, double step, leap_error *err)
     return s->exact_boxes ? LEAP_OK : build_boxes(s, err);
 }
 
+/* The objects shown: --objects, then --show, then --hide. */
+static leap_result choose_objects(leap_scene *s, const leap_scene_desc *d, leap_error *err)
+{
+    if (!s->labels) {
+        const char *opt = d->show ? "--show" : d->hide ? "--hide" : d->objects ? "--objects" : NULL;
+        if (!opt) return LEAP_OK;
+        return leap_fail(err, LEAP_ERR_USAGE,
+                         "%s needs a segmentation: an int32 or int64 grid, or --labels for a grid of integer values",
+                         opt);
+    }
+    leap_result r = LEAP_OK;
+    size_t n = 0;
+    if (d->objects) r = leap_labels_load_objects(s->labels, d->objects, &n, err);
+    if (!r && d->show) {
+        if (!d->objects) leap_labels_select(s->labels, "all", 0, NULL, err);
+        r = leap_labels_select(s->labels, d->show, 1, &n, err);
+        if (!r && n == 0) {
+            const size_t count = leap_labels_count(s->labels);
+            const leap_label_object *o = leap_labels_objects(s->labels);
+            r = leap_fail(err, LEAP_ERR_USAGE,
+                          "--show %.60s names none of the volume's %zu objects (IDs %lld .. %lld; 'leap info --objects' "
+                          "lists them)",
+                          d->show, count, (long long)o[0].id, (long long)o[count - 1].id);
+        }
+    }
+    if (!r && d->hide) r = leap_labels_select(s->labels, d->hide, 0, &n, err);
+    return r;
+}
+
 leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err)
 {
     *out = NULL;
@@ -182,6 +211,7 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         r = leap_grid_make_labels(s->grid, err);
         if (!r) r = leap_labels_create(s->grid, desc->label_opacity, &s->labels, err);
     }
+    if (!r) r = choose_objects(s, desc, err);
     if (!r) {
         leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels};
         r = leap_atlas_create(&ad, &s->atlas, err);

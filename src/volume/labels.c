@@ -1,6 +1,8 @@
 /* The objects of a label grid and their appearance (see include/leap/labels.h). */
 #include "leap/labels.h"
+#include "leap/files.h"
 
+#include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -140,4 +142,124 @@ size_t leap_labels_visible_count(const leap_labels *l)
     size_t n = 0;
     for (size_t i = 0; i < l->count; ++i) n += l->looks[i].visible && l->looks[i].opacity > 0 && !leap_labels_is_background(l, i);
     return n;
+}
+
+/* ---- choosing objects ----------------------------------------------------------------- */
+
+/* A non-negative decimal int64 at *s (advanced past it). */
+static int parse_id(const char **s, int64_t *out)
+{
+    const char *p = *s;
+    if (*p < '0' || *p > '9') return 0;
+    uint64_t v = 0;
+    for (; *p >= '0' && *p <= '9'; ++p) {
+        if (v > ((uint64_t)INT64_MAX - (uint64_t)(*p - '0')) / 10) return 0;
+        v = v * 10 + (uint64_t)(*p - '0');
+    }
+    *s = p;
+    *out = (int64_t)v;
+    return 1;
+}
+
+leap_result leap_labels_select(leap_labels *l, const char *list, int visible, size_t *matched, leap_error *err)
+{
+    size_t n = 0;
+    const char *p = list ? list : "";
+    if (!*p) return leap_fail(err, LEAP_ERR_USAGE, "an empty object list (expected IDs like 12,57,300-400)");
+    if (strcmp(p, "all") == 0) {
+        leap_labels_set_visible(l, INT64_MIN, INT64_MAX, visible);
+        n = l->count;
+    } else {
+        for (;;) {
+            const char *start = p;
+            int64_t lo, hi;
+            int ok = parse_id(&p, &lo);
+            hi = lo;
+            if (ok && *p == '-') {
+                ++p;
+                ok = parse_id(&p, &hi) && hi >= lo;
+            }
+            if (!ok || (*p != ',' && *p != '\0')) {
+                size_t len = strcspn(start, ",");
+                return leap_fail(err, LEAP_ERR_USAGE,
+                                 "'%.*s' in the object list '%s' is not an ID or a range LO-HI (non-negative integers, "
+                                 "LO <= HI)",
+                                 (int)(len > 40 ? 40 : len), start, list);
+            }
+            for (size_t i = lower_bound(l, lo); i < l->count && l->objects[i].id <= hi; ++i) {
+                l->looks[i].visible = visible != 0;
+                ++n;
+            }
+            if (*p == '\0') break;
+            ++p;
+        }
+    }
+    if (matched) *matched = n;
+    return LEAP_OK;
+}
+
+/* "#rrggbb" or "R,G,B" with components in [0, 1]. */
+static int parse_colour(const char *s, float rgb[3])
+{
+    if (s[0] == '#') {
+        unsigned v;
+        char tail;
+        if (strlen(s) != 7 || sscanf(s + 1, "%6x%c", &v, &tail) != 1) return 0;
+        for (int c = 0; c < 3; ++c) rgb[c] = (float)((v >> (16 - 8 * c)) & 0xffu) / 255.0f;
+        return 1;
+    }
+    double c[3];
+    char tail;
+    if (sscanf(s, "%lf,%lf,%lf%c", &c[0], &c[1], &c[2], &tail) != 3) return 0;
+    for (int k = 0; k < 3; ++k) {
+        if (!(c[k] >= 0 && c[k] <= 1)) return 0;
+        rgb[k] = (float)c[k];
+    }
+    return 1;
+}
+
+leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *listed, leap_error *err)
+{
+    char *data = NULL;
+    size_t size = 0;
+    leap_result r = leap_file_read(path, "object list", 64u << 20, &data, &size, err);
+    if (r) return r;
+    for (size_t i = 0; i < l->count; ++i) l->looks[i].visible = 0;
+    size_t n = 0;
+    int line = 0;
+    for (char *p = data; p && *p && !r;) {
+        char *next = strchr(p, '\n');
+        if (next) *next++ = '\0';
+        ++line;
+        char *hash = p[0] == '#' ? p : NULL; /* a whole-line comment; '#rrggbb' comes after the ID */
+        if (hash) *hash = '\0';
+        char *tok[4];
+        int count = 0;
+        for (char *t = strtok(p, " \t\r"); t && count < 4; t = strtok(NULL, " \t\r")) tok[count++] = t;
+        p = next;
+        if (count == 0) continue;
+        const char *q = tok[0];
+        int64_t id = 0;
+        float rgb[3];
+        double opacity = -1;
+        char *end;
+        if (count > 3 || !parse_id(&q, &id) || *q)
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: expected 'ID [COLOUR] [OPACITY]' (COLOUR #rrggbb or R,G,B)",
+                          path, line);
+        else if (count >= 2 && !parse_colour(tok[1], rgb))
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: colour '%.40s' is not #rrggbb or R,G,B in [0, 1]", path,
+                          line, tok[1]);
+        else if (count == 3 && (opacity = strtod(tok[2], &end), *end || !(opacity >= 0 && opacity <= 1)))
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: opacity '%.40s' is not a number in [0, 1]", path, line,
+                          tok[2]);
+        if (r) break;
+        const int64_t index = leap_labels_find(l, id);
+        ++n;
+        if (index < 0) continue; /* an object of another volume of the same dataset */
+        l->looks[index].visible = 1;
+        leap_labels_set_look(l, (size_t)index, count >= 2 ? rgb : NULL, opacity);
+    }
+    free(data);
+    if (!r && listed) *listed = n;
+    return r;
 }
