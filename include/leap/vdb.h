@@ -170,6 +170,12 @@ void leap_vdb_writer_set(leap_vdb_writer *writer, int grid, int32_t i, int32_t j
 void leap_vdb_writer_set_label(leap_vdb_writer *writer, int grid, int32_t i, int32_t j, int32_t k,
                                int64_t label);
 
+/* Writes a dense box of labels given as indices into `table`: voxel min + (x, y, z) gets
+ * table[index[x + dim0 * (y + dim1 * z)]], set active; index 0 leaves the voxel alone (the
+ * background). For segmentations made in memory (tools, tests). */
+void leap_vdb_writer_set_indexed(leap_vdb_writer *writer, int grid, const int32_t min[3], const int32_t dim[3],
+                                 const uint32_t *index, const int64_t *table);
+
 /* Fills the inclusive box [min, max] with `value` (active or inactive); OpenVDB makes
  * tiles wherever the box covers whole nodes, so this is how tests get tiles. */
 void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3],

@@ -139,6 +139,29 @@ void leap_vdb_writer_set_label(leap_vdb_writer *writer, int grid, int32_t i, int
     else leap_vdb_writer_set(writer, grid, i, j, k, double(label));
 }
 
+void leap_vdb_writer_set_indexed(leap_vdb_writer *writer, int grid, const int32_t min[3], const int32_t dim[3],
+                                 const uint32_t *index, const int64_t *table)
+{
+    if (!writer || grid < 0 || grid >= int(writer->grids.size()) || !index || !table) return;
+    const WriterGrid &g = writer->grids[size_t(grid)];
+    try {
+        auto fill = [&](auto &typed) {
+            using V = typename std::decay_t<decltype(typed)>::ValueType;
+            auto acc = typed.getAccessor();
+            size_t n = 0;
+            for (int32_t z = 0; z < dim[2]; ++z)
+                for (int32_t y = 0; y < dim[1]; ++y)
+                    for (int32_t x = 0; x < dim[0]; ++x, ++n)
+                        if (index[n]) acc.setValueOn(vdb::Coord(min[0] + x, min[1] + y, min[2] + z), V(table[index[n]]));
+        };
+        if (g.type == LEAP_VDB_INT64) fill(static_cast<vdb::Int64Grid &>(*g.grid));
+        else if (g.type == LEAP_VDB_INT32) fill(static_cast<vdb::Int32Grid &>(*g.grid));
+        else if (writer->deferred_error.empty()) writer->deferred_error = "indexed labels need an int32 or int64 grid";
+    } catch (const std::exception &e) {
+        if (writer->deferred_error.empty()) writer->deferred_error = one_line(e.what());
+    }
+}
+
 void leap_vdb_writer_fill(leap_vdb_writer *writer, int grid, const int32_t min[3], const int32_t max[3],
                           double value, int active)
 {
