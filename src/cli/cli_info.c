@@ -1,16 +1,19 @@
 /* `leap info`: what a .vdb file holds, and its occupancy under transfer functions. */
 #include <cjson/cJSON.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "cli_common.h"
 
 static const char *info_help =
-    "usage: leap info VOLUME.vdb [--json] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
+    "usage: leap info VOLUME.vdb [--json] [--objects] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
     "\n"
     "Lists every grid: value type, class, transform, active bounding box, voxel, leaf and\n"
     "tile counts, value range, memory. Scalar grids are loaded to count their contents.\n"
     "  --json         machine-readable output on stdout\n"
+    "  --objects      segmentations (int32/int64 grids): every object's ID, active voxel\n"
+    "                 count and index bounding box, background included\n"
     "  --tf T         for each transfer function (preset or JSON file), in order: cell\n"
     "                 classes, occupancy tree nodes, emitted boxes, and the time to\n"
     "                 re-classify and rebuild the boxes when switching to it\n"
@@ -155,10 +158,45 @@ static int info_tfs(const char *path, const char *grid_name, const char *const *
     return rc;
 }
 
+/* The objects of a label grid: a count, and with `list` every object. */
+static int info_objects(const leap_grid *grid, int list, cJSON *json_grid)
+{
+    leap_error err = {{0}};
+    leap_label_object *objs = NULL;
+    size_t n = 0;
+    if (leap_grid_label_objects(grid, &objs, &n, &err)) return cli_runtime_error("%s", err.msg);
+    if (json_grid) {
+        cJSON_AddNumberToObject(json_grid, "objects", (double)n);
+        cJSON *arr = list ? cJSON_AddArrayToObject(json_grid, "object_list") : NULL;
+        for (size_t i = 0; arr && i < n; ++i) {
+            cJSON *o = cJSON_CreateObject();
+            cJSON_AddNumberToObject(o, "id", (double)objs[i].id);
+            cJSON_AddNumberToObject(o, "voxels", (double)objs[i].voxels);
+            cJSON_AddItemToObject(o, "bbox_min", cJSON_CreateIntArray(objs[i].bbox_min, 3));
+            cJSON_AddItemToObject(o, "bbox_max", cJSON_CreateIntArray(objs[i].bbox_max, 3));
+            cJSON_AddItemToArray(arr, o);
+        }
+    } else {
+        printf("  objects        %zu label values (background %lld included)\n", n,
+               (long long)leap_grid_background_label(grid));
+        if (list) printf("  %20s %12s  %s\n", "id", "voxels", "bbox");
+        for (size_t i = 0; list && i < n; ++i) {
+            const leap_label_object *o = &objs[i];
+            if (o->voxels)
+                printf("  %20lld %12llu  [%d %d %d] .. [%d %d %d]\n", (long long)o->id, (unsigned long long)o->voxels,
+                       o->bbox_min[0], o->bbox_min[1], o->bbox_min[2], o->bbox_max[0], o->bbox_max[1], o->bbox_max[2]);
+            else
+                printf("  %20lld %12d  (no active voxel)\n", (long long)o->id, 0);
+        }
+    }
+    free(objs);
+    return 0;
+}
+
 int cli_info(int argc, char **argv)
 {
     const char *input = NULL;
-    int json = 0, ntf = 0, has_range = 0;
+    int json = 0, ntf = 0, has_range = 0, objects = 0;
     const char *tfs[16];
     double range[2];
     for (int i = 2; i < argc; ++i) {
@@ -177,6 +215,8 @@ int cli_info(int argc, char **argv)
             has_range = 1;
         } else if (!strcmp(argv[i], "--json")) {
             json = 1;
+        } else if (!strcmp(argv[i], "--objects")) {
+            objects = 1;
         } else if (argv[i][0] == '-' && argv[i][1]) {
             return cli_unknown_option("info", argv[i], &info_help, 1);
         } else if (!input) {
@@ -214,7 +254,8 @@ int cli_info(int argc, char **argv)
         cJSON *jg = json ? info_json(&gi, loaded) : NULL;
         if (jg) cJSON_AddItemToArray(grids, jg);
         else print_info_text(&gi, loaded);
-        if (grid && ntf) rc = info_tfs(input, gi.name, tfs, ntf, has_range ? range : NULL, jg);
+        if (grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
+        if (!rc && grid && ntf) rc = info_tfs(input, gi.name, tfs, ntf, has_range ? range : NULL, jg);
         leap_grid_destroy(grid);
     }
     leap_vdb_close(file);
