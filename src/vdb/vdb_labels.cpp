@@ -84,11 +84,13 @@ leap_result leap_grid_label_objects(const leap_grid *grid, leap_label_object **o
             [&](const Blocks &r, ObjectMap m) {
                 for (size_t i = r.begin(); i != r.end(); ++i) {
                     const LabelLeaf &leaf = *leaves[i];
+                    const int64_t *v = leaf.buffer().data();
+                    ObjectAcc *o = nullptr;
                     for (vdb::Index n = 0; n < LabelLeaf::SIZE; ++n) {
-                        ObjectAcc &o = m[leaf.getValue(n)];
+                        if (!o || v[n] != v[n - 1]) o = &m[v[n]]; /* runs of one label are common */
                         if (leaf.isValueOn(n)) {
                             const vdb::Coord c = leaf.offsetToGlobalCoord(n);
-                            o.add_active(c, c, 1);
+                            o->add_active(c, c, 1);
                         }
                     }
                 }

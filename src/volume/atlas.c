@@ -234,12 +234,6 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
     return LEAP_OK;
 }
 
-static int cmp_u32(const void *x, const void *y)
-{
-    uint32_t a = *(const uint32_t *)x, b = *(const uint32_t *)y;
-    return a < b ? -1 : a > b;
-}
-
 /* Label atlases: each candidate cell's footprint as object indices; one object makes a
  * constant entry, more a record (palette + packed indices, LEAP_LABEL_HEADER). */
 static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_error *err)
@@ -256,20 +250,34 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
         int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
         for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
         leap_grid_reader_labels(b->label_reader, min, dim, ids);
+        /* Object indices, and the distinct ones in a small unsorted palette (cells hold few). */
         int64_t last_id = 0;
-        uint32_t last = UINT32_MAX, n = 0;
+        uint32_t last = UINT32_MAX, count = 0, pos = 0;
         for (int j = 0; j < SLOT_TEXELS; ++j) {
             if (last == UINT32_MAX || ids[j] != last_id) { /* runs of one label are common */
                 last_id = ids[j];
                 last = (uint32_t)leap_labels_find(b->labels, ids[j]);
+                pos = 0;
+                while (pos < count && palette[pos] != last) ++pos;
+                if (pos == count) palette[count++] = last;
             }
-            idx[j] = last;
-            palette[n++] = last;
+            idx[j] = pos;
         }
-        qsort(palette, n, sizeof *palette, cmp_u32);
-        uint32_t count = 0;
-        for (uint32_t j = 0; j < n; ++j)
-            if (j == 0 || palette[j] != palette[j - 1]) palette[count++] = palette[j];
+        /* Ascending palette; voxels re-pointed through rank[] */
+        uint32_t order[SLOT_TEXELS], rank[SLOT_TEXELS];
+        for (uint32_t j = 0; j < count; ++j) order[j] = j;
+        for (uint32_t j = 1; j < count; ++j) /* insertion sort: count is small */
+            for (uint32_t m = j; m > 0 && palette[order[m]] < palette[order[m - 1]]; --m) {
+                uint32_t t = order[m];
+                order[m] = order[m - 1];
+                order[m - 1] = t;
+            }
+        uint32_t sorted[SLOT_TEXELS];
+        for (uint32_t j = 0; j < count; ++j) {
+            sorted[j] = palette[order[j]];
+            rank[order[j]] = j;
+        }
+        memcpy(palette, sorted, count * sizeof *palette);
         uint32_t entry;
         if (count == 1 && !dense) {
             entry = LEAP_PAGE_CONST | (palette[0] & LEAP_LABEL_INDEX_MASK);
@@ -294,14 +302,8 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
             memcpy(w + LEAP_LABEL_HEADER, palette, count * sizeof *palette);
             uint32_t *bitsbuf = w + LEAP_LABEL_HEADER + count;
             for (int j = 0; j < SLOT_TEXELS; ++j) {
-                uint32_t lo = 0, hi = count; /* the voxel's palette position */
-                while (lo < hi) {
-                    uint32_t mid = (lo + hi) / 2;
-                    if (palette[mid] < idx[j]) lo = mid + 1;
-                    else hi = mid;
-                }
                 const size_t bit = (size_t)j * bits;
-                bitsbuf[bit / 32] |= lo << (bit % 32);
+                bitsbuf[bit / 32] |= rank[idx[j]] << (bit % 32);
             }
             entry = (uint32_t)a->label_word_count;
             a->record_offsets[a->record_count++] = entry;
