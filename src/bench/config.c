@@ -97,6 +97,10 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
             USAGE("--elevation '%s' must be in [-90, 90]", v);
     } else if (!strcmp(name, "tf")) {
         o->tf = v;
+    } else if (!strcmp(name, "show")) {
+        o->show = v;
+    } else if (!strcmp(name, "objects")) {
+        o->objects = v;
     } else if (!strcmp(name, "vs_vdb_render") || !strcmp(name, "vs-vdb-render")) {
         if (!strcmp(v, "true") || !strcmp(v, "1")) o->vs_vdb = 1;
         else if (!strcmp(v, "false") || !strcmp(v, "0")) o->vs_vdb = 0;
@@ -149,7 +153,8 @@ static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *roo
             return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad value for \"%s\"", path, item->string);
         }
         /* The desc keeps the tf string: the file's own, not this loop's buffer. */
-        const char *kept = !strcmp(item->string, "tf") && cJSON_IsString(item) ? item->valuestring : value;
+        const int keeps = !strcmp(item->string, "tf") || !strcmp(item->string, "show") || !strcmp(item->string, "objects");
+        const char *kept = keeps && cJSON_IsString(item) ? item->valuestring : value;
         leap_result lr = leap_bench_set_option(o, item->string, kept, err);
         if (lr) return lr; /* a bad option is the user's, in a file or not: a usage error */
     }

@@ -225,7 +225,8 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
 static leap_result run_volume(bench_state *b, int vi, leap_error *err)
 {
     const leap_bench_desc *o = b->o;
-    leap_scene_desc sd = {.path = o->volumes[vi], .tf = o->tf, .step = o->steps[0], .exact_boxes = o->exact_boxes};
+    leap_scene_desc sd = {.path = o->volumes[vi], .tf = o->tf, .step = o->steps[0], .exact_boxes = o->exact_boxes,
+                          .show = o->show, .objects = o->objects};
     leap_scene *s = NULL;
     leap_result lr;
     b->outcome->failed_volume = vi;

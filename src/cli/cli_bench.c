@@ -36,6 +36,8 @@ static const char *bench_help =
     "  --warmup N          untimed frames first (default 1)\n"
     "  --ref-factor F      reference step = smallest step / F (default 4)\n"
     "  --tf PRESET|FILE    transfer function for every volume (default per volume)\n"
+    "  --show IDS          segmentations: show only these objects (e.g. 12,57,300-400)\n"
+    "  --objects FILE      segmentations: show the objects a file lists (see leap render)\n"
     "  --no-reference      skip the reference and the error columns\n"
     "  --exact-boxes       sparseleap rasterizes every class change of the occupancy tree\n"
     "                      (default: the cost-model cut for each step)\n"
@@ -91,11 +93,12 @@ static int check_outputs(const leap_bench_desc *o, const char *config_path)
 {
     enum { MAX_OUT = 2 + 4 * (LEAP_BENCH_MAX_ITEMS + 2) };
     static char paths[MAX_OUT][4096];
-    const char *outputs[MAX_OUT], *inputs[LEAP_BENCH_MAX_ITEMS + 2];
+    const char *outputs[MAX_OUT], *inputs[LEAP_BENCH_MAX_ITEMS + 3];
     int n = leap_bench_output_paths(o, paths, MAX_OUT), ni = 0;
     for (int i = 0; i < n; ++i) outputs[i] = paths[i];
     for (int i = 0; i < o->nvolumes; ++i) inputs[ni++] = o->volumes[i];
     inputs[ni++] = o->tf;
+    inputs[ni++] = o->objects;
     inputs[ni++] = config_path;
     return cli_check_outputs("bench", inputs, ni, outputs, n);
 }
