@@ -64,7 +64,7 @@ void main()
     if (pix.x >= frame.image.x || pix.y >= frame.image.y) return;
     uint pixel = pix.y * frame.image.x + pix.x;
     // Later chunks continue only the rays an earlier chunk left unfinished.
-    if (push.chunk > 0u && out_aux[pixel].w == 0.0) return;
+    if (push.chunk > 0u && out_aux[pixel].w != 1.0) return;
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
@@ -82,6 +82,7 @@ void main()
             acc.transmittance = c.a;
             acc.depth_t = aux.x;
             acc.samples = uint(aux.y);
+            acc.first_object = aux.z;
             j_next = j_lo;
         }
         const uint mode = leap_mode; // a specialisation constant: the other modes compile out
@@ -112,7 +113,7 @@ void main()
     }
     if (!finished) {
         out_rgba[pixel] = vec4(acc.color.rgb, acc.transmittance);
-        out_aux[pixel] = vec4(acc.depth_t, float(acc.samples), 0.0, 1.0);
+        out_aux[pixel] = vec4(acc.depth_t, float(acc.samples), acc.first_object, 1.0);
         return;
     }
 
@@ -124,5 +125,7 @@ void main()
         depth = length(w) * frame.limits.w * acc.depth_t; // limits.w: the rows' scale, 1 for most grids
     }
     out_rgba[pixel] = acc.color;
-    out_aux[pixel] = vec4(depth, float(acc.samples), naive_samples, 0.0);
+    // w: 0, or -(object + 1) for the first object drawn along a label volume's ray (never 1,
+    // which marks a ray waiting for its next chunk).
+    out_aux[pixel] = vec4(depth, float(acc.samples), naive_samples, -(acc.first_object + 1.0));
 }

@@ -26,6 +26,7 @@ struct leap_accum {
     float transmittance;
     float depth_t; // t of the first sample above the depth opacity, or -1
     uint samples;
+    float first_object; // label volumes: index of the first object drawn with opacity > 0, or -1
 };
 
 leap_ray leap_pixel_ray(vec2 pixel_centre)
@@ -117,6 +118,7 @@ leap_accum leap_accum_init()
     a.transmittance = 1.0;
     a.depth_t = -1.0;
     a.samples = 0u;
+    a.first_object = -1.0;
     return a;
 }
 
@@ -217,6 +219,15 @@ void leap_composite_tf(inout leap_accum acc, vec4 c, float t)
     leap_composite(acc, c.rgb, leap_sample_alpha(c), c.a > frame.limits.y, t);
 }
 
+// A label sample of object `object`: composited, and the first object with any opacity kept
+// for picking (indices below 2^24 are exact in float; the occupancy refuses more).
+void leap_composite_object(inout leap_accum acc, uint object, float t)
+{
+    vec4 c = objects[object];
+    leap_composite_tf(acc, c, t);
+    if (acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(object);
+}
+
 // Takes the lattice samples in [ta, tb], skipping indices below j_next (so adjacent intervals
 // never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
@@ -245,6 +256,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         if (constant) {
             for (;;) {
                 leap_composite(acc, c.rgb, alpha, opaque, t);
+                if (leap_labels && acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(cur.object);
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;
                 if (leap_accum_done(acc) || t > tb) { more = false; break; }
@@ -254,7 +266,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         } else {
             for (;;) {
                 if (leap_labels) {
-                    leap_composite_tf(acc, objects[leap_label_at(cur, q)], t);
+                    leap_composite_object(acc, leap_label_at(cur, q), t);
                 } else {
                     float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
                     leap_composite_tf(acc, leap_tf_lookup(tf, s), t);

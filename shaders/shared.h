@@ -30,7 +30,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_PAGES 3      /* storage uint[]: page table (see below) */
 #define LEAP_BINDING_OUT_RGBA 4   /* storage vec4[] per pixel: premultiplied RGBA */
 #define LEAP_BINDING_OUT_AUX 5    /* storage vec4[] per pixel: depth, samples, naive samples,
-                                     w = 1 while the ray waits for its next chunk */
+                                     w = 1 while the ray waits for its next chunk, else
+                                     -(first object + 1) (see LEAP_LOOP_ITERATIONS_SAFE) */
 #define LEAP_BINDING_BOXES 6      /* storage leap_box_gpu[] in view DFS order */
 #define LEAP_BINDING_EVENT_COUNTS 7 /* storage uint[] per pixel: events appended (may exceed the capacity) */
 #define LEAP_BINDING_EVENT_T 8    /* storage float[] per pixel, LEAP_PIXEL_EVENTS each: event t */
@@ -99,7 +100,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * LEAP_SIMD_LANES invocations that run in lock step. A ray with more lattice samples than a
  * dispatch can safely take is composited over several dispatches, each taking at most
  * frame.limits.z lattice indices; the partial result waits in out_rgba (rgb, transmittance)
- * and out_aux (depth t, samples, 0, 1) between them. */
+ * and out_aux (depth t, samples, first object, 1) between them. A finished ray's out_aux is
+ * (depth, samples, naive samples, -(first object + 1)), first object -1 when none or not a
+ * label volume. */
 #define LEAP_LOOP_ITERATIONS_SAFE 60000
 #define LEAP_SIMD_LANES 8
 

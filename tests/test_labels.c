@@ -77,6 +77,51 @@ static void check_modes(leap_renderer *r, leap_scene *s, const char *what, int w
     free(img_d);
 }
 
+/* The GPU's first object per pixel against the reference's pick, for random pixels. */
+static void check_picks(leap_renderer *r, leap_scene *s, const char *what)
+{
+    leap_error err = {{0}};
+    const int w = 128, h = 128;
+    float *img = malloc((size_t)w * h * 4 * sizeof *img);
+    int64_t *objects = malloc((size_t)w * h * sizeof *objects);
+    render(r, s, LEAP_RENDER_SPARSELEAP, 35, w, h, img, NULL);
+    CHECK(leap_renderer_pixel_objects(r, objects));
+    leap_camera cam;
+    const double up[3] = {0, 1, 0};
+    leap_camera_orbit_about(s->center, s->radius, up, 35, 25, 0, 40, 0, &cam, &err);
+    leap_rays rays;
+    leap_scene_rays(s, &cam, w, h, &rays, &err);
+    leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &rays, .march = &s->march, .labels = s->labels};
+    uint32_t seed = 12345;
+    int same = 0, hits = 0, tries = 300;
+    /* half the pixels among those the objects cover, so that few shown objects still get hits */
+    int *covered = malloc((size_t)w * h * sizeof *covered), ncov = 0;
+    for (int i = 0; i < w * h; ++i)
+        if (img[4 * i + 3] > 0) covered[ncov++] = i;
+    for (int i = 0; i < tries; ++i) {
+        seed = seed * 1664525u + 1013904223u;
+        int x = (int)(seed >> 8) % w, y = (int)(seed >> 20) % h;
+        if ((i & 1) && ncov) {
+            const int c = covered[(seed >> 4) % (uint32_t)ncov];
+            x = c % w;
+            y = c / w;
+        }
+        leap_pick p;
+        CHECK_OK(leap_reference_pick(&rd, x + 0.5, y + 0.5, &p, &err), &err);
+        const int64_t gpu = objects[(size_t)y * w + x];
+        hits += p.hit;
+        same += p.hit ? gpu == p.object : gpu < 0;
+        /* a picked object must also colour the pixel */
+        if (gpu >= 0) CHECK(img[4 * ((size_t)y * w + x) + 3] > 0);
+    }
+    printf("%s: picks agree with the reference at %d of %d random pixels (%d hit an object)\n", what, same, tries, hits);
+    /* float vs double positions may round a sample at a voxel's half-way plane either way */
+    CHECK_MSG(same >= tries * 98 / 100 && hits > 10, "%s: %d of %d picks agree, %d hits", what, same, tries, hits);
+    free(img);
+    free(objects);
+    free(covered);
+}
+
 /* A tiny int64 grid with IDs that float would merge, shown one at a time. */
 static void test_ids(leap_renderer *r)
 {
@@ -230,6 +275,7 @@ static void test_tubes(leap_renderer *r)
         char what[64];
         snprintf(what, sizeof what, "tubes, %d shown", n);
         check_modes(r, s, what, 128, 128);
+        check_picks(r, s, what);
         /* The toggled scene's boxes and image equal those of a tree built and classified afresh
          * (the largest case also through a new scene with --show, as the command line does). */
         leap_occupancy_desc od = {.background = 0, .label_atlas = s->atlas};

@@ -79,6 +79,12 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
 leap_result leap_occupancy_classify_sets(leap_occupancy *occ, const uint8_t *set_class, size_t set_count,
                                          leap_error *err);
 
+/* Label trees, after a change of a few sets' classes: updates only the leaves of the sets listed
+ * in changed[] (through an inverted index set -> leaves, built on first use), then the counts.
+ * The result equals leap_occupancy_classify_sets with the same set_class. */
+leap_result leap_occupancy_reclassify_sets(leap_occupancy *occ, const uint8_t *set_class, const uint32_t *changed,
+                                           size_t changed_count, leap_error *err);
+
 void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *out);
 
 /* Class of the leaf cell `cell` (cells outside the grid: the background's class). */

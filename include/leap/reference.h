@@ -33,6 +33,20 @@ typedef struct leap_reference_desc {
 leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, float *depth,
                                   float *samples, leap_error *err);
 
+/* What the ray of pixel centre (px, py) meets first in a segmentation (desc->labels): the first
+ * lattice sample whose object is drawn with opacity > 0, by the same rule as rendering. */
+typedef struct leap_pick {
+    int hit;            /* 0: the ray meets no visible object */
+    int64_t object;     /* object index (leap_labels order) */
+    int64_t id;         /* its label ID */
+    double t;           /* ray parameter (index-space voxels) */
+    double depth;       /* world distance from the eye (ray origin) */
+    double world[3];    /* world position of the sample */
+} leap_pick;
+
+/* Errors: LEAP_ERR_USAGE (bad desc, no labels). threads and the outputs of render are unused. */
+leap_result leap_reference_pick(const leap_reference_desc *desc, double px, double py, leap_pick *out, leap_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -134,6 +134,12 @@ uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap
  * rays->origin0 or rays->dir0 rounded to float, as the GPU sees them. */
 void leap_renderer_order_eye(const leap_rays *rays, double eye_or_dir[3]);
 
+/* The first object drawn (opacity > 0) along each pixel's ray in the last frame of a label
+ * volume, as an object index (leap_labels order), -1 where none: width * height entries
+ * written to out (row 0 at the top). Returns 0 (out untouched) when the last frame was not of
+ * a label volume. */
+int leap_renderer_pixel_objects(const leap_renderer *r, int64_t *out);
+
 /* The boxes of the last sparseleap frame in the view order used (count in *count). */
 const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count);
 

@@ -45,6 +45,10 @@ typedef struct leap_scene {
     leap_boxes *boxes;
     leap_labels *labels;       /* segmentations: the objects (NULL for scalar volumes) */
     uint8_t *set_classes;      /* segmentations: class per label set (leap_atlas_label_classes) */
+    uint32_t *object_record_start, *object_records; /* object -> the mixed cells holding it
+                                                       (built on the first toggle) */
+    size_t objects_changed;    /* objects whose visibility the last update_objects changed */
+    int classified;            /* set_classes hold a complete classification */
     int merge, exact_boxes;
     double center[3], radius;  /* world-space bounding sphere */
     double load_ms;            /* opening the file and reading the grid */
@@ -64,7 +68,9 @@ leap_result leap_scene_set_tf(leap_scene *scene, const leap_tf *tf, double range
                               leap_error *err);
 
 /* Segmentations: re-classifies after the objects' looks changed (leap_labels_set_visible ...)
- * and rebuilds the boxes; no voxel data is read. A renderer holding the scene must be given
+ * and rebuilds the boxes; no voxel data is read. Only the cells holding an object whose
+ * visibility changed are re-classified (an inverted index object -> cells), unless many
+ * objects changed. A renderer holding the scene must be given
  * the objects and boxes again (leap_renderer_bind_scene). */
 leap_result leap_scene_update_objects(leap_scene *scene, leap_error *err);
 

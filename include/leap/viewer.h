@@ -20,6 +20,9 @@
  *   q, Escape            quit
  *   ?                    help (key list)
  *   arrow keys           orbit in steps
+ *   left click           segmentations: pick the object under the cursor (title bar)
+ *   x  i  a              segmentations: hide/show the picked object, show only it, show all
+ *                        (re-classified without reading the volume again)
  *
  * Script format (one command per line; '#' starts a comment; numbers are plain decimals):
  *   orbit AZ EL [DIST]        camera at azimuth/elevation (degrees) about the orbit centre,
@@ -39,6 +42,7 @@
  *   wait MS                   let MS milliseconds pass (idle refinement happens)
  *   resize W H                resize the window
  *   mark LABEL                print frames and frames per second since the last mark
+ *   click X Y                 left click at window pixel (X, Y) (picks an object)
  *   quit                      end the session
  *   repeat N COMMAND ...      run COMMAND N times, waiting for one frame after each */
 #ifndef LEAP_VIEWER_H
@@ -79,8 +83,14 @@ enum {
     LEAP_VIEWER_OVERLAY = 1u << 4,    /* boxes or heat-map overlay toggled */
     LEAP_VIEWER_SCREENSHOT = 1u << 5, /* a screenshot was requested */
     LEAP_VIEWER_QUIT = 1u << 6,
-    LEAP_VIEWER_HELP = 1u << 7        /* the key list should be shown */
+    LEAP_VIEWER_HELP = 1u << 7,       /* the key list should be shown */
+    LEAP_VIEWER_PICK = 1u << 8,       /* a click asks which object a pixel shows */
+    LEAP_VIEWER_OBJECTS = 1u << 9     /* segmentations: objects shown or hidden: re-classify */
 };
+
+/* Object operations of a segmentation (keys x, i, a), on the last picked object. */
+enum { LEAP_VIEWER_OBJECTS_TOGGLE = 1, LEAP_VIEWER_OBJECTS_ONLY, LEAP_VIEWER_OBJECTS_ALL };
+#define LEAP_VIEWER_CLICK_PIXELS 3.0 /* a left press and release closer than this: a click (pick) */
 
 enum { LEAP_VIEWER_DRAG_NONE = 0, LEAP_VIEWER_DRAG_ORBIT, LEAP_VIEWER_DRAG_PAN, LEAP_VIEWER_DRAG_ZOOM };
 
@@ -141,6 +151,12 @@ typedef struct leap_viewer {
     int drag;                    /* LEAP_VIEWER_DRAG_* */
     int drag_button;
     double mouse_x, mouse_y;
+    double press_x, press_y;     /* where the left button went down */
+    /* segmentations: requests the render thread carries out (counters: each new one once) */
+    unsigned picks;              /* clicks so far */
+    double pick_x, pick_y;       /* the last click, window pixels */
+    unsigned object_ops;         /* object operations so far */
+    int object_op;               /* the last: LEAP_VIEWER_OBJECTS_* */
     leap_viewer_desc home;       /* for reset (tf points into initial_tf) */
     char initial_tf[512];
 } leap_viewer;
@@ -200,7 +216,8 @@ typedef enum leap_viewer_op {
     LEAP_VIEWER_OP_WAIT,
     LEAP_VIEWER_OP_RESIZE,
     LEAP_VIEWER_OP_MARK,
-    LEAP_VIEWER_OP_QUIT
+    LEAP_VIEWER_OP_QUIT,
+    LEAP_VIEWER_OP_CLICK
 } leap_viewer_op;
 
 typedef struct leap_viewer_cmd {
@@ -209,7 +226,8 @@ typedef struct leap_viewer_cmd {
     int repeat;        /* >= 1; > 1: run `repeat` times, one frame after each */
     int count;         /* numbers given */
     double num[5];     /* orbit: az el [dist]; rotate: daz del; zoom: clicks; pan: dx dy;
-                          drag: x0 y0 x1 y1; step; range lo hi; frames n; wait ms; resize w h */
+                          drag: x0 y0 x1 y1; step; range lo hi; frames n; wait ms; resize w h;
+                          click: x y */
     int button, mods;  /* drag */
     int key;           /* key: LEAP_VIEWER_KEY_* or 0 for a character */
     unsigned codepoint;/* key: the character */

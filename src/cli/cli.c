@@ -11,6 +11,7 @@ int cli_info(int argc, char **argv);
 int cli_segments(int argc, char **argv);
 int cli_bench(int argc, char **argv);
 int cli_view(int argc, char **argv);
+int cli_pick(int argc, char **argv);
 
 static const char *main_help =
     "usage: leap <command> [options]\n"
@@ -23,6 +24,7 @@ static const char *main_help =
     "  segments VOLUME.vdb --pixel X,Y | -o DIR explain the ray events and segment lists\n"
     "  bench VOLUME.vdb ... -o DIR              time every mode against the reference\n"
     "  view VOLUME.vdb                          interactive window (orbit, modes, transfer functions)\n"
+    "  pick SEGMENTATION.vdb --pixel X,Y        the object a pixel shows (ID, depth, position)\n"
     "\n"
     "Run 'leap <command> --help' for the options of a command.\n"
     "Exit codes: 0 success, 1 runtime failure, 2 usage error.\n";
@@ -47,7 +49,8 @@ int leap_cli_main(int argc, char **argv)
     if (!strcmp(verb, "segments")) return cli_segments(argc, argv);
     if (!strcmp(verb, "bench")) return cli_bench(argc, argv);
     if (!strcmp(verb, "view")) return cli_view(argc, argv);
-    static const char *const verbs[] = {"render", "info", "segments", "bench", "view"};
+    if (!strcmp(verb, "pick")) return cli_pick(argc, argv);
+    static const char *const verbs[] = {"render", "info", "segments", "bench", "view", "pick"};
     const char *near = leap__closest(verb, verbs, sizeof verbs / sizeof verbs[0]);
     if (near) return cli_usage_error(NULL, "unknown command '%s' (did you mean '%s'?)", verb, near);
     return cli_usage_error(NULL, "unknown command '%s'", verb);

@@ -24,7 +24,11 @@ static const char *render_help_tail =
     "output:\n"
     "  -o, --output FILE   .png/.tif: RGB composited over black; .exr: premultiplied RGBA\n"
     "                      float plus 'depth' (world distance to the first sample with\n"
-    "                      opacity above 0.05, inf if none) and 'samples' channels\n"
+    "                      opacity above 0.05, inf if none) and 'samples' channels;\n"
+    "                      for segmentations (GPU modes) also the ID of the first object\n"
+    "                      drawn along each pixel's ray, exactly, in three channels:\n"
+    "                      ID = object.lo + object.mid * 2^24 + object.hi * 2^48 (-1 in\n"
+    "                      all three where the ray meets no object)\n"
     "  --stats FILE.json   per-stage times, samples, events and segments per pixel,\n"
     "                      occupancy, memory, device\n"
     "  -q, --quiet         no summary line on stderr\n";
@@ -33,25 +37,34 @@ typedef struct stage_times {
     double load, atlas, occupancy, classify, boxes, setup, upload, order, render, readback, write;
 } stage_times;
 
+/* objects: per pixel the first object's index into objs (-1: none), or NULL. */
 static leap_result write_output(const char *path, int w, int h, const float *rgba, const float *depth,
-                                const float *samples, leap_error *err)
+                                const float *samples, const int64_t *objects, const leap_label_object *objs,
+                                leap_error *err)
 {
     size_t n = (size_t)w * h;
     const char *ext = strrchr(path, '.');
     int exr = ext && !strcasecmp(ext, ".exr");
-    int channels = exr ? 6 : 3;
+    int channels = exr ? (objects ? 9 : 6) : 3;
     float *px = malloc(n * channels * sizeof(float));
     if (!px) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the output image");
     for (size_t i = 0; i < n; ++i) {
         if (exr) {
-            memcpy(px + 6 * i, rgba + 4 * i, 4 * sizeof(float));
-            px[6 * i + 4] = depth[i];
-            px[6 * i + 5] = samples[i];
+            float *p = px + (size_t)channels * i;
+            memcpy(p, rgba + 4 * i, 4 * sizeof(float));
+            p[4] = depth[i];
+            p[5] = samples[i];
+            if (objects) { /* the ID's bits as unsigned 24-bit pieces: exact in float */
+                const uint64_t id = objects[i] < 0 ? 0 : (uint64_t)objs[objects[i]].id;
+                p[6] = objects[i] < 0 ? -1.0f : (float)(id & 0xffffffu);
+                p[7] = objects[i] < 0 ? -1.0f : (float)(id >> 24 & 0xffffffu);
+                p[8] = objects[i] < 0 ? -1.0f : (float)(id >> 48);
+            }
         } else {
             memcpy(px + 3 * i, rgba + 4 * i, 3 * sizeof(float)); /* premultiplied over black */
         }
     }
-    static const char *exr_names[] = {"R", "G", "B", "A", "depth", "samples"};
+    static const char *exr_names[] = {"R", "G", "B", "A", "depth", "samples", "object.lo", "object.mid", "object.hi"};
     leap_result r = leap_image_write(path, w, h, channels, exr ? exr_names : NULL, px, err);
     free(px);
     return r;
@@ -188,6 +201,7 @@ int cli_render(int argc, char **argv)
     leap_scene *scene = NULL;
     leap_renderer *renderer = NULL;
     float *rgba = NULL, *depth = NULL, *samples = NULL;
+    int64_t *ids = NULL;
     leap_frame_stats fs = {0};
     stage_times times = {0};
     leap_result r = leap_scene_create(&o.scene, &scene, &err);
@@ -254,8 +268,20 @@ int cli_render(int argc, char **argv)
         times.readback = fs.readback_ms;
     }
 
+    if (renderer && scene->labels) {
+        ids = malloc(n * sizeof *ids);
+        if (ids && !leap_renderer_pixel_objects(renderer, ids)) {
+            free(ids);
+            ids = NULL;
+        }
+        if (!ids) {
+            cli_runtime_error("out of memory for the object channel of a %dx%d image", o.width, o.height);
+            goto done;
+        }
+    }
     double t = leap__now_ms();
-    if (write_output(output, o.width, o.height, rgba, depth, samples, &err)) {
+    if (write_output(output, o.width, o.height, rgba, depth, samples, ids,
+                     scene->labels ? leap_labels_objects(scene->labels) : NULL, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;
     }
@@ -279,6 +305,7 @@ done:
     free(rgba);
     free(depth);
     free(samples);
+    free(ids);
     leap_renderer_destroy(renderer);
     leap_scene_destroy(scene);
     return rc;

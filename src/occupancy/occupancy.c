@@ -74,6 +74,8 @@ struct leap_occupancy {
     double build_ms, classify_ms;
     uint32_t label_sets;         /* label trees: ranges are [s, s] for label set s (0 = scalar tree) */
     uint32_t label_singletons;   /* sets below this hold one object (constant cells) */
+    uint32_t *set_leaf_start;    /* label trees: the stored leaves of set s are */
+    uint32_t *set_leaves;        /* set_leaves[set_leaf_start[s] .. set_leaf_start[s + 1]) */
     int bounds_found;            /* cached by classify: bounds of NONEMPTY/UNKNOWN cells */
     double bounds_lo[3], bounds_hi[3];
 };
@@ -430,6 +432,8 @@ void leap_occupancy_destroy(leap_occupancy *occ)
     free(occ->nodes);
     free(occ->ranges);
     free(occ->range_cls);
+    free(occ->set_leaf_start);
+    free(occ->set_leaves);
     free(occ);
 }
 
@@ -634,6 +638,46 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
     for (size_t i = 0; i < occ->range_count; ++i)
         occ->range_cls[i] = (uint8_t)classify_range(cl, occ->ranges[i].lo, occ->ranges[i].hi);
     occ->bg_cls = classify_range(cl, occ->background, occ->background);
+    update_counts(occ);
+    occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
+    occ->classify_ms = leap__now_ms() - t0;
+    return LEAP_OK;
+}
+
+/* The inverted index set -> stored leaves (a counting sort), built on first use. */
+static int index_set_leaves(leap_occupancy *occ)
+{
+    if (occ->set_leaf_start) return 1;
+    uint32_t *start = calloc((size_t)occ->label_sets + 2, sizeof *start);
+    uint32_t *leaves = malloc((occ->range_count ? occ->range_count : 1) * sizeof *leaves);
+    if (!start || !leaves) {
+        free(start);
+        free(leaves);
+        return 0;
+    }
+    for (size_t i = 0; i < occ->range_count; ++i) ++start[(uint32_t)occ->ranges[i].lo + 2];
+    for (uint32_t s = 0; s < occ->label_sets; ++s) start[s + 2] += start[s + 1];
+    for (size_t i = 0; i < occ->range_count; ++i) leaves[start[(uint32_t)occ->ranges[i].lo + 1]++] = (uint32_t)i;
+    occ->set_leaf_start = start;
+    occ->set_leaves = leaves;
+    return 1;
+}
+
+leap_result leap_occupancy_reclassify_sets(leap_occupancy *occ, const uint8_t *set_class, const uint32_t *changed,
+                                           size_t changed_count, leap_error *err)
+{
+    if (!occ || !set_class || (changed_count && !changed))
+        return leap_fail(err, LEAP_ERR_USAGE, "occupancy: missing tree, classes or changed sets");
+    if (!occ->label_sets) return leap_fail(err, LEAP_ERR_USAGE, "occupancy: not a label tree");
+    const double t0 = leap__now_ms();
+    if (!index_set_leaves(occ)) return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory for the set index");
+    for (size_t k = 0; k < changed_count; ++k) {
+        const uint32_t s = changed[k];
+        if (s >= occ->label_sets) return leap_fail(err, LEAP_ERR_USAGE, "occupancy: label set %u out of range", s);
+        for (uint32_t i = occ->set_leaf_start[s]; i < occ->set_leaf_start[s + 1]; ++i)
+            occ->range_cls[occ->set_leaves[i]] = set_class[s];
+    }
+    occ->bg_cls = set_class[(uint32_t)occ->background];
     update_counts(occ);
     occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
     occ->classify_ms = leap__now_ms() - t0;

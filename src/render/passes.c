@@ -22,6 +22,7 @@ void renderer_destroy_frame_buffers(leap_renderer *r)
     if (r->framebuffer) vkDestroyFramebuffer(gpu->device, r->framebuffer, NULL);
     r->framebuffer = VK_NULL_HANDLE;
     r->pixels_allocated = 0;
+    r->last_frame_pixels = 0;
     r->lists_valid = 0;
 }
 
@@ -309,6 +310,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         }
     }
     r->lists_valid = lists && !chord;
+    r->last_frame_pixels = pixels;
     st.readback_ms = leap__now_ms() - t2;
     st.samples_mean = (double)st.total_samples / (double)pixels;
     st.events_mean = (double)events / (double)pixels;

@@ -338,3 +338,45 @@ leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, 
     free(started);
     return LEAP_OK;
 }
+
+leap_result leap_reference_pick(const leap_reference_desc *desc, double px, double py, leap_pick *out, leap_error *err)
+{
+    memset(out, 0, sizeof *out);
+    leap_result r = validate(desc, err);
+    if (r) return r;
+    if (!desc->labels) return leap_fail(err, LEAP_ERR_USAGE, "picking needs a segmentation");
+    const leap_march *m = desc->march;
+    double o[3], d[3], k0, k1;
+    leap_rays_at(desc->rays, px, py, o, d);
+    if (!lattice_range(m, o, d, &k0, &k1)) return LEAP_OK;
+    leap_grid_reader *reader;
+    if ((r = leap_grid_reader_create(desc->grid, &reader, err))) return r;
+    const int64_t count = (int64_t)(k1 - k0) + 1;
+    for (int64_t i = 0; i < count; ++i) {
+        const double t = (k0 + (double)i) * m->step;
+        double p[3], rgba[4];
+        ray_point(o, d, t, p);
+        for (int c = 0; c < 3; ++c) p[c] += m->index_origin[c];
+        int32_t v[3];
+        const int32_t one[3] = {1, 1, 1};
+        for (int c = 0; c < 3; ++c) v[c] = (int32_t)floor(p[c] + 0.5);
+        int64_t id;
+        leap_grid_reader_labels(reader, v, one, &id);
+        const int64_t index = leap_labels_find(desc->labels, id);
+        if (index < 0) continue;
+        leap_labels_rgba(desc->labels, (size_t)index, rgba);
+        if (!(rgba[3] > 0)) continue;
+        const leap_grid_info *gi = leap_grid_get_info(desc->grid);
+        out->hit = 1;
+        out->object = index;
+        out->id = id;
+        out->t = t;
+        out->depth = leap_rays_world_distance(desc->rays, d, t);
+        for (int row = 0; row < 3; ++row)
+            out->world[row] = gi->index_to_world[row][0] * p[0] + gi->index_to_world[row][1] * p[1] +
+                              gi->index_to_world[row][2] * p[2] + gi->index_to_world[row][3];
+        break;
+    }
+    leap_grid_reader_destroy(reader);
+    return LEAP_OK;
+}

@@ -114,6 +114,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     r->has_volume = 0;
     r->atlas_serial = 0;
+    r->last_frame_pixels = 0;
     size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
     const uint64_t page_bytes = ((uint64_t)atlas->page_words + atlas->label_word_count) * 4;
     if (page_bytes > r->gpu->storage_buffer_range)
@@ -292,6 +293,14 @@ uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap
     for (uint32_t i = 0; i < n && i < cap; ++i)
         out[i] = (leap_segment){seg[2 * i], seg[2 * i + 1], (pl[2] >> i) & 1u ? LEAP_CLASS_UNKNOWN : LEAP_CLASS_NONEMPTY};
     return n;
+}
+
+int leap_renderer_pixel_objects(const leap_renderer *r, int64_t *out)
+{
+    if (!r->labels || !r->last_frame_pixels) return 0;
+    const float *aux = r->out_aux.mapped;
+    for (size_t i = 0; i < r->last_frame_pixels; ++i) out[i] = (int64_t)(-aux[4 * i + 3]) - 1;
+    return 1;
 }
 
 void leap_renderer_order_eye(const leap_rays *rays, double eye_or_dir[3])

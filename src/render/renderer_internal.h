@@ -55,6 +55,7 @@ struct leap_renderer {
     uint32_t tree_depth;
     int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
     size_t pixels_allocated;
+    size_t last_frame_pixels; /* pixels of the last finished frame (0: none since the buffers were made) */
     /* From the uploaded atlas. */
     int has_volume;
     uint64_t atlas_serial;  /* the uploaded atlas (0: none or not from a scene binding) */

@@ -3,6 +3,7 @@
 #include "util.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -116,13 +117,90 @@ static leap_result build_boxes(leap_scene *s, leap_error *err)
     return r;
 }
 
+/* The inverted index object -> mixed cells (records) of the label atlas. */
+static int index_object_records(leap_scene *s)
+{
+    if (s->object_record_start) return 1;
+    const leap_atlas *a = s->atlas;
+    uint32_t *start = calloc((size_t)a->object_count + 2, sizeof *start);
+    if (!start) return 0;
+    size_t total = 0;
+    for (uint32_t k = 0; k < a->record_count; ++k) {
+        uint32_t n;
+        const uint32_t *objs = leap_atlas_record_objects(a, k, &n);
+        for (uint32_t j = 0; j < n; ++j) ++start[objs[j] + 2];
+        total += n;
+    }
+    uint32_t *recs = malloc((total ? total : 1) * sizeof *recs);
+    if (!recs) {
+        free(start);
+        return 0;
+    }
+    for (uint32_t o = 0; o < a->object_count; ++o) start[o + 2] += start[o + 1];
+    for (uint32_t k = 0; k < a->record_count; ++k) {
+        uint32_t n;
+        const uint32_t *objs = leap_atlas_record_objects(a, k, &n);
+        for (uint32_t j = 0; j < n; ++j) recs[start[objs[j] + 1]++] = k;
+    }
+    s->object_record_start = start;
+    s->object_records = recs;
+    return 1;
+}
+
+/* The label sets whose class changes with the objects' visibility now: the objects (sets of
+ * one) whose drawn state changed, and the records holding them whose class changed. Returns
+ * the count written to changed[], or SIZE_MAX when a full classification is cheaper. */
+static size_t changed_sets(leap_scene *s, uint32_t **changed)
+{
+    const leap_atlas *a = s->atlas;
+    size_t n = 0, cap = 0, objects = 0;
+    *changed = NULL;
+    for (uint32_t o = 0; o < a->object_count; ++o) {
+        double rgba[4];
+        leap_labels_rgba(s->labels, o, rgba);
+        const uint8_t cls = rgba[3] > 0 ? LEAP_CLASS_NONEMPTY : LEAP_CLASS_EMPTY;
+        if (cls == s->set_classes[o]) continue;
+        if (++objects > a->object_count / 8 + 16 || !index_object_records(s)) break;
+        s->set_classes[o] = cls;
+        if (!leap__grow((void **)changed, &cap, n + 1, sizeof **changed)) break;
+        (*changed)[n++] = o;
+        for (uint32_t i = s->object_record_start[o]; i < s->object_record_start[o + 1]; ++i) {
+            const uint32_t k = s->object_records[i];
+            uint32_t m;
+            const uint32_t *objs = leap_atlas_record_objects(a, k, &m);
+            uint8_t rc = LEAP_CLASS_EMPTY;
+            for (uint32_t j = 0; j < m && rc == LEAP_CLASS_EMPTY; ++j) rc = s->set_classes[objs[j]];
+            if (rc == s->set_classes[a->object_count + k]) continue;
+            s->set_classes[a->object_count + k] = rc;
+            if (!leap__grow((void **)changed, &cap, n + 1, sizeof **changed)) break;
+            (*changed)[n++] = a->object_count + k;
+        }
+    }
+    s->objects_changed = objects;
+    if (objects > a->object_count / 8 + 16 || !s->object_record_start || (objects && n == 0)) {
+        free(*changed);
+        *changed = NULL;
+        return SIZE_MAX;
+    }
+    return n;
+}
+
 leap_result leap_scene_update_objects(leap_scene *s, leap_error *err)
 {
     if (!s->labels) return leap_fail(err, LEAP_ERR_USAGE, "the volume is not a segmentation");
-    leap_atlas_label_classes(s->atlas, s->labels, s->set_classes);
-    leap_result r = leap_occupancy_classify_sets(s->occupancy, s->set_classes,
-                                                 (size_t)s->atlas->object_count + s->atlas->record_count, err);
+    const size_t sets = (size_t)s->atlas->object_count + s->atlas->record_count;
+    uint32_t *changed = NULL;
+    const size_t n = s->classified ? changed_sets(s, &changed) : SIZE_MAX;
+    leap_result r;
+    if (n == SIZE_MAX) { /* the first classification, or many objects changed */
+        leap_atlas_label_classes(s->atlas, s->labels, s->set_classes);
+        r = leap_occupancy_classify_sets(s->occupancy, s->set_classes, sets, err);
+    } else {
+        r = leap_occupancy_reclassify_sets(s->occupancy, s->set_classes, changed, n, err);
+    }
+    free(changed);
     if (r) return r;
+    s->classified = 1;
     leap_occupancy_stats os;
     leap_occupancy_get_stats(s->occupancy, &os);
     s->classify_ms = os.classify_ms;
@@ -242,6 +320,8 @@ void leap_scene_destroy(leap_scene *s)
     leap_atlas_destroy(s->atlas);
     leap_labels_destroy(s->labels);
     free(s->set_classes);
+    free(s->object_record_start);
+    free(s->object_records);
     leap_grid_destroy(s->grid);
     free(s);
 }

@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "leap/image.h"
+#include "leap/reference.h"
 #include "session.h"
 #include "util.h"
 
@@ -58,6 +59,60 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     if (!r) r = leap_renderer_bind_scene(s->renderer, s->scene, err);
     ++s->tf_gen;
     s->tf_apply_ms = leap__now_ms() - t;
+    return r;
+}
+
+/* Segmentations: a new click picks the object under it (exact, on the CPU: one ray), and a new
+ * object operation (keys x, i, a) changes what is shown, re-classifies and re-binds. */
+static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
+{
+    leap_scene *scene = s->scene;
+    if (st->picks != s->applied_picks) {
+        s->applied_picks = st->picks;
+        if (!scene->labels) {
+            snprintf(s->pick_text, sizeof s->pick_text, " | picking needs a segmentation");
+        } else {
+            leap_camera cam;
+            leap_rays rays;
+            leap_pick p;
+            leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &rays, .march = &scene->march,
+                                      .labels = scene->labels};
+            leap_result r = leap_viewer_camera(st, &cam, err);
+            if (!r) r = leap_scene_rays(scene, &cam, st->width, st->height, &rays, err);
+            if (!r) r = leap_reference_pick(&rd, st->pick_x, st->pick_y, &p, err);
+            if (r) return r;
+            s->picked = p.hit;
+            if (p.hit) {
+                s->picked_id = p.id;
+                s->picked_index = p.object;
+                snprintf(s->pick_text, sizeof s->pick_text, " | object %lld at (%.4g, %.4g, %.4g)", (long long)p.id,
+                         p.world[0], p.world[1], p.world[2]);
+            } else {
+                snprintf(s->pick_text, sizeof s->pick_text, " | no object under (%.0f, %.0f)", st->pick_x, st->pick_y);
+            }
+        }
+    }
+    if (st->object_ops == s->applied_object_ops) return LEAP_OK;
+    s->applied_object_ops = st->object_ops;
+    if (!scene->labels) return LEAP_OK;
+    if (st->object_op != LEAP_VIEWER_OBJECTS_ALL && !s->picked) {
+        snprintf(s->pick_text, sizeof s->pick_text, " | click an object first (x, i act on the picked one)");
+        return LEAP_OK;
+    }
+    double t = leap__now_ms();
+    if (st->object_op == LEAP_VIEWER_OBJECTS_ALL) {
+        leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 1);
+    } else if (st->object_op == LEAP_VIEWER_OBJECTS_ONLY) {
+        leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 0);
+        leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, 1);
+    } else {
+        const int shown = leap_labels_visible(scene->labels, (size_t)s->picked_index);
+        leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, !shown);
+    }
+    leap_result r = leap_scene_update_objects(scene, err);
+    if (!r) r = leap_renderer_bind_scene(s->renderer, scene, err);
+    s->tf_apply_ms = leap__now_ms() - t;
+    snprintf(s->pick_text, sizeof s->pick_text, " | %zu objects shown", leap_labels_visible_count(scene->labels));
     return r;
 }
 
@@ -180,12 +235,12 @@ static void make_title(const leap_viewer_session *s, const leap_viewer *st, cons
     if (s->tf_apply_ms > 0) snprintf(tf_ms, sizeof tf_ms, " | re-classify %.1f ms", s->tf_apply_ms);
     snprintf(out, size,
              "leap view %s | %s | %ux%u%s | %.1f ms (%.1f fps) | raster %.1f resolve %.1f composite %.1f "
-             "readback %.1f compose %.1f present %.1f ms | %u boxes | %.1f spp | step %g | %s [%g, %g]%s%s%s",
+             "readback %.1f compose %.1f present %.1f ms | %u boxes | %.1f spp | step %g | %s [%g, %g]%s%s%s%s",
              s->volume_name, leap_mode_name(st->mode), (unsigned)s->width, (unsigned)s->height, res, ff->total_ms,
              ff->total_ms > 0 ? 1000.0 / ff->total_ms : 0.0, ff->raster_ms, ff->resolve_ms, ff->composite_ms, ff->readback_ms,
              ff->compose_ms, ff->present_ms, leap_boxes_count(s->scene->boxes),
              ff->pixels ? (double)ff->samples / (double)ff->pixels : 0.0, st->step, leap__base_name(st->tf), st->range[0],
-             st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat);
+             st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat, s->pick_text);
 }
 
 static void set_fatal(leap_viewer_session *s, leap_result code, const char *msg)
@@ -298,6 +353,7 @@ void *session_render_thread(void *arg)
         }
         s->tf_apply_ms = 0;
         leap_result tr = apply_tf(s, &st, &err);
+        if (!tr) tr = apply_objects(s, &st, &err);
         if (tr) {
             char msg[1100];
             snprintf(msg, sizeof msg, "transfer function '%s': %s", st.tf, err.msg);

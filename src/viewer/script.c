@@ -36,6 +36,9 @@ unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *c)
     case LEAP_VIEWER_OP_RANGE: return leap_viewer_set_range(v, c->num[0], c->num[1]);
     case LEAP_VIEWER_OP_SCREENSHOT: ++v->screenshots; return LEAP_VIEWER_SCREENSHOT;
     case LEAP_VIEWER_OP_QUIT: v->quit = 1; return LEAP_VIEWER_QUIT;
+    case LEAP_VIEWER_OP_CLICK:
+        bits |= leap_viewer_button(v, LEAP_VIEWER_BUTTON_LEFT, 1, 0, c->num[0], c->num[1]);
+        return bits | leap_viewer_button(v, LEAP_VIEWER_BUTTON_LEFT, 0, 0, c->num[0], c->num[1]);
     default: return 0;
     }
 }
@@ -101,6 +104,7 @@ static const struct {
     {"screenshot", LEAP_VIEWER_OP_SCREENSHOT, 1, 1}, {"frames", LEAP_VIEWER_OP_FRAMES, 1, 1},
     {"wait", LEAP_VIEWER_OP_WAIT, 1, 1},         {"resize", LEAP_VIEWER_OP_RESIZE, 2, 2},
     {"mark", LEAP_VIEWER_OP_MARK, 0, MAX_TOKENS}, {"quit", LEAP_VIEWER_OP_QUIT, 0, 0},
+    {"click", LEAP_VIEWER_OP_CLICK, 2, 2},
 };
 
 /* Parses tokens tok[0..n-1] (tok[0] the command) into *c. */
@@ -119,7 +123,7 @@ static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cm
     switch (c->op) {
     case LEAP_VIEWER_OP_ORBIT: case LEAP_VIEWER_OP_ROTATE: case LEAP_VIEWER_OP_ZOOM: case LEAP_VIEWER_OP_PAN:
     case LEAP_VIEWER_OP_STEP: case LEAP_VIEWER_OP_RANGE: case LEAP_VIEWER_OP_FRAMES: case LEAP_VIEWER_OP_WAIT:
-    case LEAP_VIEWER_OP_RESIZE:
+    case LEAP_VIEWER_OP_RESIZE: case LEAP_VIEWER_OP_CLICK:
         for (int i = 0; i < args; ++i) {
             if (!parse_number(tok[1 + i], &c->num[i])) return perr(p, "'%s' is not a number (in '%s')", tok[1 + i], tok[0]);
             c->count = i + 1;

@@ -53,6 +53,11 @@ struct leap_viewer_session {
     double applied_range[2];
     double tf_apply_ms;
     uint64_t applied_fb_seq;
+    /* segmentations: the last pick and the object requests carried out */
+    unsigned applied_picks, applied_object_ops;
+    int picked;                /* 1 after a pick that met an object */
+    int64_t picked_id, picked_index;
+    char pick_text[160];       /* for the title: the last pick's outcome */
     int device_announced;      /* the device line went out with the first swapchain */
 
     /* shared (mutex) */

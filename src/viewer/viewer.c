@@ -29,6 +29,11 @@ static const char *help_text =
     "  s                    screenshot to PNG\n"
     "  u                    up axis: +Y -> +Z -> +X (the orbit turns about it)\n"
     "  r                    reset the camera\n"
+    "segmentations:\n"
+    "  left click           pick the object under the cursor (shown in the title)\n"
+    "  x                    hide / show the picked object\n"
+    "  i                    show only the picked object\n"
+    "  a                    show all objects\n"
     "  ?                    this list\n"
     "  q, Esc               quit\n";
 
@@ -330,6 +335,13 @@ static unsigned scale_range(leap_viewer *v, double factor)
 
 /* ---- events --------------------------------------------------------------------------------- */
 
+static unsigned object_op(leap_viewer *v, int op)
+{
+    v->object_op = op;
+    ++v->object_ops;
+    return LEAP_VIEWER_OBJECTS;
+}
+
 unsigned leap_viewer_char(leap_viewer *v, unsigned c)
 {
     switch (c) {
@@ -351,6 +363,9 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 'u': case 'U': return leap_viewer_next_up(v);
     case 'q': case 'Q': v->quit = 1; return LEAP_VIEWER_QUIT;
     case '?': v->show_help = !v->show_help; return LEAP_VIEWER_HELP;
+    case 'x': case 'X': return object_op(v, LEAP_VIEWER_OBJECTS_TOGGLE);
+    case 'i': case 'I': return object_op(v, LEAP_VIEWER_OBJECTS_ONLY);
+    case 'a': case 'A': return object_op(v, LEAP_VIEWER_OBJECTS_ALL);
     default: return 0;
     }
 }
@@ -385,10 +400,20 @@ unsigned leap_viewer_button(leap_viewer *v, int button, int pressed, int mods, d
         else
             return 0;
         v->drag_button = button;
+        v->press_x = x;
+        v->press_y = y;
         return 0;
     }
+    unsigned bits = 0;
+    if (v->drag == LEAP_VIEWER_DRAG_ORBIT && button == v->drag_button &&
+        hypot(x - v->press_x, y - v->press_y) < LEAP_VIEWER_CLICK_PIXELS) {
+        v->pick_x = x;
+        v->pick_y = y;
+        ++v->picks;
+        bits = LEAP_VIEWER_PICK;
+    }
     if (v->drag != LEAP_VIEWER_DRAG_NONE && button == v->drag_button) v->drag = LEAP_VIEWER_DRAG_NONE;
-    return 0;
+    return bits;
 }
 
 unsigned leap_viewer_cursor(leap_viewer *v, double x, double y)
