@@ -179,7 +179,7 @@ int main(void)
 
     /* The scripted session. */
     static const char *shots[] = {"orbit", "naive", "bbox", "octree", "sparseleap", "drag", "zoompan", "tf",
-                                  "window", "boxes", "heat", "resized"};
+                                  "window", "boxes", "heat", "resized", "only", "hidden"};
     enum { N_SHOTS = sizeof shots / sizeof shots[0] };
     char text[8192];
     expand(text, sizeof text,
@@ -215,6 +215,13 @@ int main(void)
              "key h\n"
              "resize 256 200\n"
              "screenshot @/resized.png\n"
+             "# a segmentation: pick the object in the middle, show only it, then hide it\n"
+             "click 128 100\n"
+             "key i\n"
+             "screenshot @/only.png\n"
+             "key x\n"
+             "screenshot @/hidden.png\n"
+             "key a\n"
              "key q\n"
              "orbit 0 0\n", /* never reached: q quits */
            tmp);
@@ -259,7 +266,10 @@ int main(void)
         }
         if (!strcmp(shots[i], "tf")) CHECK_MSG(strstr(args, "--tf labels") == NULL, "t did not change the tf: %s", args);
         if (!strcmp(shots[i], "window")) CHECK_MSG(strstr(args, "--step 0.625 ") != NULL, "+ did not raise the step: %s", args);
-        if (!strcmp(shots[i], "resized")) CHECK_MSG(strstr(args, "--size 256x200 ") != NULL, "resize: %s", args);
+        if (!strcmp(shots[i], "only")) CHECK_MSG(strstr(args, "--show ") != NULL, "i did not isolate an object: %s", args);
+        if (!strcmp(shots[i], "hidden")) CHECK_MSG(strstr(args, "--hide all") != NULL, "x did not hide it: %s", args);
+        if (!strcmp(shots[i], "resized") || !strcmp(shots[i], "only") || !strcmp(shots[i], "hidden"))
+            CHECK_MSG(strstr(args, "--size 256x200 ") != NULL, "resize: %s", args);
         else CHECK_MSG(strstr(args, "--size 320x240 ") != NULL, "%s: %s", shots[i], args);
     }
 
@@ -286,6 +296,14 @@ int main(void)
         snprintf(a2, sizeof a2, "%s/drag.png", tmp);
         cmp_result c = compare(a1, a2);
         CHECK_MSG(c.ok && c.differing > 1000, "drag did not move the camera (%ld values differ)", c.differing);
+    }
+    /* The click picked an object and i isolated it: fewer coloured pixels, but some. */
+    {
+        char a1[1024], a2[1024];
+        snprintf(a1, sizeof a1, "%s/resized.png", tmp);
+        snprintf(a2, sizeof a2, "%s/only.png", tmp);
+        cmp_result c = compare(a1, a2);
+        CHECK_MSG(c.ok && c.differing > 100, "i did not change the picture (%ld values differ)", c.differing);
     }
     free(session);
 

@@ -294,18 +294,53 @@ static int wait_for_work(leap_viewer_session *s)
 }
 
 /* Reports a screenshot written, with the `leap render` line that reproduces it. */
+/* Segmentations: the objects shown as --show or --hide options (empty when all are shown). */
+static void objects_args(const leap_scene *scene, char *out, size_t size)
+{
+    out[0] = '\0';
+    if (!scene->labels) return;
+    const leap_labels *l = scene->labels;
+    const size_t n = leap_labels_count(l), shown = leap_labels_visible_count(l);
+    size_t drawable = 0;
+    for (size_t i = 0; i < n; ++i) drawable += !leap_labels_is_background(l, i);
+    size_t len = 0;
+    if (!scene->info->labels) len = (size_t)snprintf(out, size, " --labels"); /* a grid of integer floats */
+    if (shown == drawable) return;
+    out += len;
+    size -= len;
+    const int list_shown = shown <= drawable - shown;
+    len = (size_t)snprintf(out, size, list_shown ? " --show " : " --hide ");
+    const char *sep = "";
+    if (list_shown && shown == 0) {
+        /* nothing shown: an ID no object has */
+        snprintf(out, size, " --hide all");
+        return;
+    }
+    for (size_t i = 0; i < n && len < size; ++i) {
+        if (leap_labels_is_background(l, i) || leap_labels_visible(l, i) != list_shown) continue;
+        int w = snprintf(out + len, size - len, "%s%lld", sep, (long long)leap_labels_objects(l)[i].id);
+        if (w < 0 || (size_t)w >= size - len) {
+            snprintf(out, size, " (objects: %zu of %zu shown, too many to list)", shown, drawable);
+            return;
+        }
+        len += (size_t)w;
+        sep = ",";
+    }
+}
+
 static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char *path)
 {
-    char args[1024];
+    char args[1024], objects[1024];
     leap_viewer_render_args(st, args, sizeof args);
+    objects_args(s->scene, objects, sizeof objects);
     const char *overlays = st->show_boxes && st->show_heat ? " (overlays: boxes, heat map)"
                            : st->show_boxes                ? " (overlay: boxes)"
                            : st->show_heat                 ? " (overlay: heat map)"
                                                            : "";
     const char *grid = s->desc.grid;
-    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s --size %ux%u %s", path, overlays,
-                 s->desc.volume_path, grid ? " --grid " : "", grid ? grid : "", (unsigned)s->width, (unsigned)s->height,
-                 args);
+    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s --size %ux%u %s%s", path,
+                 overlays, s->desc.volume_path, grid ? " --grid " : "", grid ? grid : "", (unsigned)s->width,
+                 (unsigned)s->height, args, objects);
 }
 
 void *session_render_thread(void *arg)
