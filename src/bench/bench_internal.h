@@ -64,6 +64,7 @@ int vdb_time(const vdb_runner *r, const char *volume, const char *grid, const le
 /* report.c */
 /* report.md, the plot data and the plots. vdb: NULL without vs_vdb. */
 leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, size_t nrows,
-                               const fixed_costs *fixed, const char *device, const vdb_runner *vdb, leap_error *err);
+                               const fixed_costs *fixed, const char *device, const vdb_runner *vdb,
+                               const char *extra_md, leap_error *err);
 
 #endif

@@ -89,7 +89,8 @@ static int fastest_mode(const leap_bench_desc *o, const bench_row *rows, size_t 
 }
 
 leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, size_t nrows,
-                               const fixed_costs *fixed, const char *device, const vdb_runner *vdb, leap_error *err)
+                               const fixed_costs *fixed, const char *device, const vdb_runner *vdb,
+                               const char *extra_md, leap_error *err)
 {
     int have_errors = !o->no_reference;
     char path[4096];
@@ -274,6 +275,7 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
              "plot for [c=2:5] '%s/stages.dat' using c:xtic(1) title columnheader\n",
              o->steps[mid], o->out);
     plots_ok &= run_gnuplot(o, o->out, "stages", body);
+    if (extra_md && extra_md[0]) fputs(extra_md, md);
     fprintf(md, "\n![speedup](speedup.png)\n\n![stages](stages.png)\n");
     fclose(md);
     if (!plots_ok)

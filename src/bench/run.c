@@ -121,6 +121,7 @@ typedef struct bench_state {
     double min_step;
     int done, total;
     leap_bench_outcome *outcome;
+    char toggles_md[8192];   /* segmentations: the object toggle table for the report */
 } bench_state;
 
 static void csv_header(FILE *csv)
@@ -221,6 +222,55 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
     return LEAP_OK;
 }
 
+/* Segmentations: the latency of hiding and showing again 1 and 1000 objects (spread over the ID
+ * order): re-classification, boxes and the upload of the objects and occupancy. */
+static leap_result measure_toggles(bench_state *b, leap_scene *s, int vi, leap_error *err)
+{
+    const size_t count = leap_labels_count(s->labels);
+    const leap_label_object *objs = leap_labels_objects(s->labels);
+    size_t len = strlen(b->toggles_md);
+    if (len == 0)
+        len += (size_t)snprintf(b->toggles_md, sizeof b->toggles_md,
+                                "\n## Object toggles (segmentations)\n\nHide, then show again, k objects spread over "
+                                "the ID order; median over 5 hides and 5 shows: re-classification (only the cells holding those "
+                                "objects), boxes, and binding them to the renderer (the object table is copied there; the GPU "
+                                "copies happen in the next frame, timed with it).\n\n| volume | "
+                                "objects | k | classify ms | boxes ms | bind ms | toggle ms |\n|---|---|---|---|---|---|---|\n");
+    const size_t ks[2] = {1, 1000};
+    for (int t = 0; t < 2; ++t) {
+        const size_t k = ks[t] < count - 1 ? ks[t] : count - 1;
+        if (k == 0) continue;
+        double cls[10], box[10], up[10], all[10];
+        for (int rep = 0; rep < 10; ++rep) {
+            for (size_t i = 0; i < k; ++i) {
+                const int64_t id = objs[1 + i * (count - 1) / k].id;
+                leap_labels_set_visible(s->labels, id, id, rep & 1);
+            }
+            double t0 = leap__now_ms();
+            leap_result lr = leap_scene_update_objects(s, err);
+            double t1 = leap__now_ms();
+            if (!lr) lr = leap_renderer_bind_scene(b->renderer, s, err);
+            if (lr) return lr;
+            double t2 = leap__now_ms();
+            cls[rep] = s->classify_ms;
+            box[rep] = s->boxes_ms;
+            up[rep] = t2 - t1;
+            all[rep] = t2 - t0;
+        }
+        double m[4];
+        double *v[4] = {cls, box, up, all};
+        for (int j = 0; j < 4; ++j) {
+            qsort(v[j], 10, sizeof *v[j], bench_cmp_double);
+            m[j] = 0.5 * (v[j][4] + v[j][5]);
+        }
+        len += (size_t)snprintf(b->toggles_md + len, sizeof b->toggles_md - len,
+                                "| %s | %zu | %zu | %.2f | %.2f | %.2f | %.2f |\n", leap__base_name(b->o->volumes[vi]),
+                                count, k, m[0], m[1], m[2], m[3]);
+        if (len >= sizeof b->toggles_md) len = sizeof b->toggles_md - 1;
+    }
+    return leap_scene_update_objects(s, err);
+}
+
 /* Every size and view of one volume, then its fixed costs. */
 static leap_result run_volume(bench_state *b, int vi, leap_error *err)
 {
@@ -255,6 +305,7 @@ static leap_result run_volume(bench_state *b, int vi, leap_error *err)
         free(img);
         free(ref);
     }
+    if (!lr && s->labels) lr = measure_toggles(b, s, vi, err);
     leap_renderer_set_occupancy(b->renderer, NULL, NULL);
     leap_scene_destroy(s);
     if (!lr) b->outcome->failed_volume = -1;
@@ -326,7 +377,7 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
     char device[512] = "";
     lr = run_all(&b, device, sizeof device, err);
     leap_renderer_destroy(b.renderer);
-    if (!lr) lr = bench_write_report(o, b.rows, b.nrows, b.fixed, device, b.vdb, err);
+    if (!lr) lr = bench_write_report(o, b.rows, b.nrows, b.fixed, device, b.vdb, b.toggles_md, err);
     if (b.vdb) b.outcome->vdb_failures = b.vdb->failures;
     free(b.rows);
     free(b.fixed);
