@@ -282,7 +282,21 @@ static void test_look_keys(void)
     CHECK(leap_viewer_char(&v, 's') == LEAP_VIEWER_SCREENSHOT && v.screenshots == shots + 1);
     CHECK(leap_viewer_char(&v, '?') == LEAP_VIEWER_HELP);
     CHECK(strstr(leap_viewer_help_text(), "orbit") && strstr(leap_viewer_help_text(), "sparseleap"));
-    CHECK(leap_viewer_char(&v, 'x') == 0);
+    CHECK(leap_viewer_char(&v, 'z') == 0);
+    /* segmentations: object operations are counted for the render thread */
+    unsigned ops = v.object_ops;
+    CHECK(leap_viewer_char(&v, 'x') == LEAP_VIEWER_OBJECTS && v.object_op == LEAP_VIEWER_OBJECTS_TOGGLE);
+    CHECK(leap_viewer_char(&v, 'i') == LEAP_VIEWER_OBJECTS && v.object_op == LEAP_VIEWER_OBJECTS_ONLY);
+    CHECK(leap_viewer_char(&v, 'a') == LEAP_VIEWER_OBJECTS && v.object_op == LEAP_VIEWER_OBJECTS_ALL);
+    CHECK(v.object_ops == ops + 3);
+    /* a click (press and release in place) picks; a drag does not */
+    unsigned picks = v.picks;
+    CHECK(leap_viewer_button(&v, LEAP_VIEWER_BUTTON_LEFT, 1, 0, 50, 40) == 0);
+    CHECK(leap_viewer_button(&v, LEAP_VIEWER_BUTTON_LEFT, 0, 0, 51, 40) == LEAP_VIEWER_PICK);
+    CHECK(v.picks == picks + 1 && v.pick_x == 51 && v.pick_y == 40);
+    leap_viewer_button(&v, LEAP_VIEWER_BUTTON_LEFT, 1, 0, 50, 40);
+    leap_viewer_cursor(&v, 80, 40);
+    CHECK(leap_viewer_button(&v, LEAP_VIEWER_BUTTON_LEFT, 0, 0, 80, 40) == 0 && v.picks == picks + 1);
     CHECK(v.quit == 0);
     CHECK(leap_viewer_char(&v, 'q') == LEAP_VIEWER_QUIT && v.quit == 1);
     v.quit = 0;
