@@ -60,10 +60,12 @@ void leap_labels_rgba(const leap_labels *labels, size_t index, double rgba[4]);
  * LEAP_ERR_USAGE naming the bad item. */
 leap_result leap_labels_select(leap_labels *labels, const char *list, int visible, size_t *matched, leap_error *err);
 
-/* Shows exactly the objects a text file lists, one per line: ID [COLOUR] [OPACITY], COLOUR
+/* Shows exactly the objects a file lists. Text: one per line, ID [COLOUR] [OPACITY], COLOUR
  * #rrggbb or R,G,B in [0, 1], OPACITY in [0, 1] per voxel; '#' at the start of a line makes a
- * comment. IDs the volume lacks are skipped (*listed counts every listed line). Errors:
- * LEAP_ERR_IO, LEAP_ERR_FORMAT naming the file and line. */
+ * comment. JSON (the file starts with [ or {): an array of IDs, {"objects": [ID or {"id",
+ * "color", "opacity"}, ...]}, or a neuroglancer layer's {"segments": ["ID", ...]}; IDs as
+ * numbers below 2^53 or as decimal strings. IDs the volume lacks are skipped (*listed counts
+ * every entry). Errors: LEAP_ERR_IO, LEAP_ERR_FORMAT naming the file and line or entry. */
 leap_result leap_labels_load_objects(leap_labels *labels, const char *path, size_t *listed, leap_error *err);
 
 /* Number of visible objects (drawn with a non-zero opacity). */

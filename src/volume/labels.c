@@ -2,6 +2,8 @@
 #include "leap/labels.h"
 #include "leap/files.h"
 
+#include <cjson/cJSON.h>
+
 #include <stdio.h>
 #include <math.h>
 #include <stdlib.h>
@@ -218,6 +220,62 @@ static int parse_colour(const char *s, float rgb[3])
     return 1;
 }
 
+/* An ID given as a JSON number (exact below 2^53) or a decimal string (any int64). */
+static int json_id(const cJSON *v, int64_t *id)
+{
+    if (cJSON_IsString(v)) {
+        const char *q = v->valuestring;
+        return parse_id(&q, id) && *q == '\0';
+    }
+    if (!cJSON_IsNumber(v) || !(v->valuedouble >= 0 && v->valuedouble < 9007199254740992.0) ||
+        v->valuedouble != floor(v->valuedouble))
+        return 0;
+    *id = (int64_t)v->valuedouble;
+    return 1;
+}
+
+/* The JSON forms: [ID, ...], {"objects": [ID | {"id", "color", "opacity"}, ...]}, or a
+ * neuroglancer segmentation layer's {"segments": ["ID", ...]}. */
+static leap_result load_objects_json(leap_labels *l, const char *path, const char *text, size_t *listed,
+                                     leap_error *err)
+{
+    cJSON *root = cJSON_Parse(text);
+    const cJSON *list = cJSON_IsArray(root) ? root : NULL;
+    if (!list && cJSON_IsObject(root)) {
+        list = cJSON_GetObjectItemCaseSensitive(root, "objects");
+        if (!list) list = cJSON_GetObjectItemCaseSensitive(root, "segments");
+    }
+    if (!cJSON_IsArray(list)) {
+        cJSON_Delete(root);
+        return leap_fail(err, LEAP_ERR_FORMAT,
+                         "%s: expected a JSON array of IDs, or an object with an \"objects\" or \"segments\" array", path);
+    }
+    leap_result r = LEAP_OK;
+    size_t n = 0;
+    for (const cJSON *e = list->child; e && !r; e = e->next, ++n) {
+        const cJSON *idv = cJSON_IsObject(e) ? cJSON_GetObjectItemCaseSensitive(e, "id") : e;
+        const cJSON *col = cJSON_IsObject(e) ? cJSON_GetObjectItemCaseSensitive(e, "color") : NULL;
+        const cJSON *op = cJSON_IsObject(e) ? cJSON_GetObjectItemCaseSensitive(e, "opacity") : NULL;
+        int64_t id = 0;
+        float rgb[3];
+        if (!json_id(idv, &id))
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: the ID must be a non-negative integer (a string for IDs "
+                          "beyond 2^53)", path, n + 1);
+        else if (col && (!cJSON_IsString(col) || !parse_colour(col->valuestring, rgb)))
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"color\" must be \"#rrggbb\" or \"R,G,B\"", path, n + 1);
+        else if (op && (!cJSON_IsNumber(op) || !(op->valuedouble >= 0 && op->valuedouble <= 1)))
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"opacity\" must be a number in [0, 1]", path, n + 1);
+        if (r) break;
+        const int64_t index = leap_labels_find(l, id);
+        if (index < 0) continue;
+        l->looks[index].visible = 1;
+        leap_labels_set_look(l, (size_t)index, col ? rgb : NULL, op ? op->valuedouble : -1);
+    }
+    cJSON_Delete(root);
+    if (!r && listed) *listed = n;
+    return r;
+}
+
 leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *listed, leap_error *err)
 {
     char *data = NULL;
@@ -225,6 +283,12 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *l
     leap_result r = leap_file_read(path, "object list", 64u << 20, &data, &size, err);
     if (r) return r;
     for (size_t i = 0; i < l->count; ++i) l->looks[i].visible = 0;
+    const char *first = data + strspn(data, " \t\r\n");
+    if (*first == '[' || *first == '{') {
+        r = load_objects_json(l, path, data, listed, err);
+        free(data);
+        return r;
+    }
     size_t n = 0;
     int line = 0;
     for (char *p = data; p && *p && !r;) {
