@@ -223,6 +223,14 @@ int main(void)
         cJSON_Delete(root);
     }
 
+    /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
+    CHECK_MSG(run(args) == 0, "%s", out_text);
+    root = cJSON_Parse(out_text);
+    CHECK_MSG(root && cJSON_GetObjectItem(root, "width")->valuedouble == 16, "stdout is not the stats: %s", out_text);
+    cJSON_Delete(root);
+    CHECK(!exists("-"));
+
     snprintf(path, sizeof path, "%s/out.exr", tmp);
     snprintf(args, sizeof args, "render %s -o %s --size 32x32 --ortho --orbit 0,0 -q", sphere, path);
     CHECK_MSG(run(args) == 0, "%s", out_text);

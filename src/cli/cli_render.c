@@ -30,7 +30,7 @@ static const char *render_help_tail =
     "                      ID = object.lo + object.mid * 2^24 + object.hi * 2^48 (-1 in\n"
     "                      all three where the ray meets no object)\n"
     "  --stats FILE.json   per-stage times, samples, events and segments per pixel,\n"
-    "                      occupancy, memory, device\n"
+    "                      occupancy, memory, device ('-': standard output)\n"
     "  -q, --quiet         no summary line on stderr\n";
 
 typedef struct stage_times {
@@ -188,6 +188,8 @@ int cli_render(int argc, char **argv)
     if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
     if (!leap_image_can_write(output))
         return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+    const int stats_to_stdout = stats && strcmp(stats, "-") == 0;
+    if (stats_to_stdout) stats = NULL;
     if (stats && leap_file_same(stats, output))
         return cli_usage_error("render", "--stats '%s' is the same file as the output image", stats);
     const char *inputs[] = {o.input, o.scene.tf};
@@ -286,10 +288,12 @@ int cli_render(int argc, char **argv)
         goto done;
     }
     times.write = leap__now_ms() - t;
-    if (stats) {
+    if (stats || stats_to_stdout) {
         char *text = stats_json(&o, scene, renderer, &times, &fs, mode);
-        r = text ? leap_file_publish_text(stats, text, &err)
-                 : leap_fail(&err, LEAP_ERR_OOM, "%s: out of memory for the stats", stats);
+        if (!text) r = leap_fail(&err, LEAP_ERR_OOM, "out of memory for the stats");
+        else if (stats) r = leap_file_publish_text(stats, text, &err);
+        else if (printf("%s\n", text) < 0 || fflush(stdout) != 0)
+            r = leap_fail(&err, LEAP_ERR_IO, "standard output could not be written");
         cJSON_free(text);
         if (r) {
             remove(output);
