@@ -19,7 +19,7 @@ data="${LEAP_BENCH_DATA:-$out/data}" # converted scans and the rain box
 mkdir -p "$out" "$data"
 templates=/usr/share/mricron/templates
 for scan in ch2bet ch2 aal; do
-  [ -f "$data/$scan.vdb" ] || /usr/bin/python3 "$root/scripts/nifti-to-vdb.py" "$templates/$scan.nii.gz" "$data/$scan.vdb"
+  [ -f "$data/$scan.vdb" ] || "$leap" convert "$templates/$scan.nii.gz" -o "$data/$scan.vdb" -q
 done
 [ -f "$data/rain.vdb" ] || /usr/bin/python3 "$root/scripts/make-rain.py" "$data/rain.vdb" 1024 2000 3
 volumes=("$root"/volumes/*.vdb "$data/ch2bet.vdb" "$data/ch2.vdb" "$data/aal.vdb" "$data/rain.vdb")

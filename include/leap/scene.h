@@ -11,6 +11,7 @@
 #include "leap/boxes.h"
 #include "leap/labels.h"
 #include "leap/occupancy.h"
+#include "leap/input.h"
 #include "leap/tf.h"
 #include "leap/vdb.h"
 
@@ -19,7 +20,8 @@ extern "C" {
 #endif
 
 typedef struct leap_scene_desc {
-    const char *path;      /* .vdb file */
+    const char *path;      /* .vdb or NIfTI file (leap_input_open) */
+    leap_input_options input; /* imported formats: threshold */
     const char *grid;      /* grid name; NULL = the first scalar grid */
     const char *tf;        /* preset or JSON path; NULL = "labels" for int grids, else "viridis" */
     int has_range;         /* 0 = the grid's value range; one value v widens to [v - max(1, |v|/1000), v] */
@@ -51,6 +53,7 @@ typedef struct leap_scene {
     int classified;            /* set_classes hold a complete classification */
     int merge, exact_boxes;
     double center[3], radius;  /* world-space bounding sphere */
+    leap_input_info input;     /* the file's format, and its up direction (cameras' default) */
     double load_ms;            /* opening the file and reading the grid */
     double bricks_ms;          /* listing the brick ranges for the occupancy */
     double atlas_ms, occupancy_ms, classify_ms, boxes_ms; /* the modules' own build times */

@@ -42,6 +42,8 @@ typedef struct leap_grid_info {
     double index_to_world[4][4]; /* row-major affine: world = M * (i,j,k,1) */
     double voxel_size[3];        /* length of each index axis in world units */
     double background;
+    double up[3];                /* the world's up direction stored by leap convert (grid
+                                    metadata "up"); zero when the file has none */
     /* Filled by leap_vdb_load_grid (zero / empty after leap_vdb_grid_info alone): */
     int32_t bbox_min[3], bbox_max[3]; /* active index bbox, inclusive; min > max when empty */
     uint64_t active_voxels;      /* includes voxels covered by active tiles */
@@ -63,6 +65,10 @@ int leap_vdb_grid_count(const leap_vdb_file *file);
 /* Metadata of grid `index` (0-based): name, type, class, transform, background. */
 leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out,
                                leap_error *err);
+
+/* The up direction the first grid that has one stores (leap_grid_info.up), read from the
+ * metadata alone; returns 0 (up untouched) when no grid has one. */
+int leap_vdb_file_up(const leap_vdb_file *file, double up[3]);
 
 /* Index of the grid called `name`, or of the first scalar grid when name is NULL.
  * Returns -1 when there is none (the caller words the error: it knows the context). */
@@ -138,6 +144,33 @@ leap_result leap_grid_label_objects(const leap_grid *grid, leap_label_object **o
 
 /* Exact labels of the box [min, min+dim) (x fastest), like leap_grid_reader_box. Label grids only. */
 void leap_grid_reader_labels(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], int64_t *out);
+
+/* ---- Grids made in memory (imported formats) -------------------------------------- */
+
+/* A dense box of voxels, x fastest: voxel (x, y, z) has index (x, y, z) and the value
+ * values[x + dim[0] * (y + dim[1] * z)] (or labels[...] for a segmentation; exactly one of
+ * the two is set). */
+typedef struct leap_dense_volume {
+    int32_t dim[3];
+    const float *values;
+    const int64_t *labels;
+    double background;           /* voxels equal to it become inactive (tiles where blocks are) */
+    double index_to_world[4][4]; /* row-major affine */
+    const char *grid_name;
+} leap_dense_volume;
+
+/* A file-like handle holding one grid built from `volume` (a float grid, or an int64 grid for
+ * labels) with OpenVDB's multi-threaded dense copy: everything that opens a leap_vdb_file
+ * (grid info, loading, info) works on it unchanged. `path` names the source in messages.
+ * Errors: LEAP_ERR_USAGE (bad dimensions), LEAP_ERR_OOM. Close with leap_vdb_close. */
+leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volume, leap_vdb_file **out,
+                                leap_error *err);
+
+/* Writes a loaded grid as a .vdb file with its transform and name (a segmentation as an
+ * int64 grid with its exact labels) and, if up is not NULL, the world's up direction as grid
+ * metadata "up" (vec3d), through a temporary file and a rename, so a failure leaves any
+ * previous file intact. Errors: LEAP_ERR_IO, LEAP_ERR_OOM. */
+leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char *path, leap_error *err);
 
 /* ---- Writing (volume generator and tests) ---------------------------------------- */
 

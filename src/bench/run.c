@@ -89,7 +89,7 @@ static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const l
     leap_camera cam;
     leap_rays view;
     leap_result lr;
-    if ((lr = leap_camera_orbit(s->center, s->radius, 0.0, o->elevation, 0, 40, 0, &cam, err)) ||
+    if ((lr = leap_camera_orbit_about(s->center, s->radius, s->input.up, 0.0, o->elevation, 0, 40, 0, &cam, err)) ||
         (lr = leap_scene_rays(s, &cam, w, h, &view, err)) || (lr = leap_scene_set_step(s, o->steps[0], err)))
         return lr;
     leap_tf keep = s->tf, blank = s->tf;
@@ -178,7 +178,7 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
     leap_rays view;
     leap_result lr;
     double az = 360.0 * view_i / o->views;
-    if ((lr = leap_camera_orbit(s->center, s->radius, az, o->elevation, 0, 40, 0, &cam, err)) ||
+    if ((lr = leap_camera_orbit_about(s->center, s->radius, s->input.up, az, o->elevation, 0, 40, 0, &cam, err)) ||
         (lr = leap_scene_rays(s, &cam, w, h, &view, err)))
         return lr;
     char what[256];

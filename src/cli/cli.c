@@ -12,11 +12,13 @@ int cli_segments(int argc, char **argv);
 int cli_bench(int argc, char **argv);
 int cli_view(int argc, char **argv);
 int cli_pick(int argc, char **argv);
+int cli_convert(int argc, char **argv);
 
 static const char *main_help =
     "usage: leap <command> [options]\n"
     "\n"
-    "Renders sparse OpenVDB volumes with empty-space skipping (Vulkan; lavapipe by default).\n"
+    "Renders sparse volumes (OpenVDB, NIfTI) with empty-space skipping (Vulkan; lavapipe by\n"
+    "default).\n"
     "\n"
     "commands:\n"
     "  render VOLUME.vdb -o OUT.{png,exr,tif}   render one image\n"
@@ -25,6 +27,9 @@ static const char *main_help =
     "  bench VOLUME.vdb ... -o DIR              time every mode against the reference\n"
     "  view VOLUME.vdb                          interactive window (orbit, modes, transfer functions)\n"
     "  pick SEGMENTATION.vdb --pixel X,Y        the object a pixel shows (ID, depth, position)\n"
+    "  convert SCAN.nii.gz -o OUT.vdb           write a volume as an OpenVDB file\n"
+    "\n"
+    "VOLUME: an OpenVDB file (.vdb) or a NIfTI-1/2 scan (.nii, .nii.gz), opened Z-up.\n"
     "\n"
     "Run 'leap <command> --help' for the options of a command.\n"
     "Exit codes: 0 success, 1 runtime failure, 2 usage error.\n";
@@ -50,7 +55,8 @@ int leap_cli_main(int argc, char **argv)
     if (!strcmp(verb, "bench")) return cli_bench(argc, argv);
     if (!strcmp(verb, "view")) return cli_view(argc, argv);
     if (!strcmp(verb, "pick")) return cli_pick(argc, argv);
-    static const char *const verbs[] = {"render", "info", "segments", "bench", "view", "pick"};
+    if (!strcmp(verb, "convert")) return cli_convert(argc, argv);
+    static const char *const verbs[] = {"render", "info", "segments", "bench", "view", "pick", "convert"};
     const char *near = leap__closest(verb, verbs, sizeof verbs / sizeof verbs[0]);
     if (near) return cli_usage_error(NULL, "unknown command '%s' (did you mean '%s'?)", verb, near);
     return cli_usage_error(NULL, "unknown command '%s'", verb);

@@ -26,6 +26,7 @@ static int parse_size(const char *s, int *w, int *h)
 const char *cli_camera_options_help =
     "volume and look:\n"
     "  --grid NAME         grid to render (default: the first scalar grid)\n"
+    "  --threshold V       NIfTI: voxels below V become background (skipped as empty)\n"
     "  --tf PRESET|FILE    transfer function: grey, viridis, labels, hot, cloud, or a\n"
     "                      ParaView JSON colour map (default: viridis; labels for int grids)\n"
     "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
@@ -57,7 +58,7 @@ const char *cli_camera_options_help =
     "                      in bounding-sphere radii (default 35,25 at the distance that\n"
     "                      frames the volume)\n"
     "  --eye X,Y,Z --target X,Y,Z   explicit camera\n"
-    "  --up X,Y,Z          the world's up direction (default 0,1,0; 0,0,1 for Z-up data):\n"
+    "  --up X,Y,Z          the world's up direction (default 0,1,0 for .vdb, 0,0,1 for NIfTI):\n"
     "                      the orbit turns about it and the picture keeps it upright\n"
     "  --fov DEG           vertical field of view (default 40)\n"
     "  --ortho             orthographic projection (framing the bounding sphere)\n";
@@ -95,12 +96,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         return 1;
     }
     enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
-           FOV, COUNT };
+           FOV, THRESHOLD, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
-        [OPACITY] = "--label-opacity", [FOV] = "--fov"};
+        [OPACITY] = "--label-opacity", [FOV] = "--fov", [THRESHOLD] = "--threshold"};
     int which = -1;
     for (int k = 0; k < COUNT && which < 0; ++k)
         if (OPT(names[k])) which = k;
@@ -114,6 +115,11 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     double n;
     switch (which) {
     case GRID: o->scene.grid = v; break;
+    case THRESHOLD:
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || !isfinite(n)) FAIL("--threshold '%s' must be a number", v);
+        o->scene.input.has_threshold = 1;
+        o->scene.input.threshold = n;
+        break;
     case TF: o->scene.tf = v; break;
     case RANGE:
         if (leap__parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
@@ -212,16 +218,25 @@ int cli_camera_options_check(const char *verb, const cli_camera_options *o, int 
     return 0;
 }
 
+void cli_up(const cli_camera_options *o, const leap_scene *s, double up[3])
+{
+    const double *u = o->has_up ? o->up : s->input.up;
+    memcpy(up, u, 3 * sizeof *up);
+    if (up[0] == 0 && up[1] == 0 && up[2] == 0) up[1] = 1; /* no hint: +Y */
+}
+
 leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_camera *cam, leap_error *err)
 {
+    double up[3];
+    cli_up(o, s, up);
     if (o->has_eye) {
         *cam = (leap_camera){.fov_deg = o->fov, .ortho = o->ortho, .ortho_height = 2 * s->radius};
         memcpy(cam->eye, o->eye, sizeof cam->eye);
         memcpy(cam->target, o->target, sizeof cam->target);
-        memcpy(cam->up, o->up, sizeof cam->up);
+        memcpy(cam->up, up, sizeof cam->up);
         return LEAP_OK;
     }
     double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
     double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
-    return leap_camera_orbit_about(s->center, s->radius, o->up, az, el, dist, o->fov, o->ortho, cam, err);
+    return leap_camera_orbit_about(s->center, s->radius, up, az, el, dist, o->fov, o->ortho, cam, err);
 }

@@ -66,6 +66,9 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 /* Checks combinations once all options are read; returns 0 or EXIT_USAGE. */
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference);
 
+/* The up direction: --up, else the volume's format's (leap_input_info.up). */
+void cli_up(const cli_camera_options *o, const leap_scene *scene, double up[3]);
+
 /* Camera for the options (orbit framing by default). Returns a leap_result. */
 leap_result cli_camera(const cli_camera_options *o, const leap_scene *scene, leap_camera *cam, leap_error *err);
 

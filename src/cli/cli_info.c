@@ -5,6 +5,7 @@
 #include <string.h>
 
 #include "cli_common.h"
+#include "leap/input.h"
 
 static const char *info_help =
     "usage: leap info VOLUME.vdb [--json] [--objects] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
@@ -228,12 +229,24 @@ int cli_info(int argc, char **argv)
     if (!input) return cli_usage_error("info", "no input volume given");
     leap_error err = {{0}};
     leap_vdb_file *file = NULL;
-    if (leap_vdb_open(input, &file, &err)) return cli_runtime_error("%s", err.msg);
+    leap_input_info source;
+    if (leap_input_open(input, NULL, &file, &source, &err)) return cli_runtime_error("%s", err.msg);
     cJSON *root = json ? cJSON_CreateObject() : NULL;
     cJSON *grids = json ? cJSON_AddArrayToObject(root, "grids") : NULL;
-    if (json) cJSON_AddStringToObject(root, "file", input);
+    if (json) {
+        cJSON_AddStringToObject(root, "file", input);
+        cJSON_AddStringToObject(root, "format", source.format);
+        if (source.description[0]) cJSON_AddStringToObject(root, "source", source.description);
+        cJSON *up = cJSON_AddArrayToObject(root, "up");
+        for (int a = 0; a < 3; ++a) cJSON_AddItemToArray(up, cJSON_CreateNumber(source.up[a]));
+    }
     char shown[1024];
-    if (!json) printf("%s: %d grid%s\n", cli_printable(input, shown, sizeof shown), leap_vdb_grid_count(file), leap_vdb_grid_count(file) == 1 ? "" : "s");
+    if (!json) {
+        printf("%s: %d grid%s\n", cli_printable(input, shown, sizeof shown), leap_vdb_grid_count(file),
+               leap_vdb_grid_count(file) == 1 ? "" : "s");
+        printf("format           %s%s%s, up %g,%g,%g\n", source.format, source.description[0] ? ": " : "",
+               source.description, source.up[0], source.up[1], source.up[2]);
+    }
     int rc = 0;
     for (int i = 0; i < leap_vdb_grid_count(file) && !rc; ++i) {
         leap_grid_info gi;

@@ -126,7 +126,7 @@ static leap_result viewer_from_options(const view_options *vo, leap_scene *s, le
     leap_result r = cli_camera(o, s, &d.camera, err);
     if (r) return r;
     d.camera_is_orbit = !o->has_eye;
-    memcpy(d.up, o->up, sizeof d.up);
+    cli_up(o, s, d.up);
     d.az = o->has_orbit ? o->orbit[0] : 35; /* the defaults cli_camera uses */
     d.el = o->has_orbit ? o->orbit[1] : 25;
     d.dist_radii = o->orbit_n == 3 ? o->orbit[2] : 0;

@@ -8,10 +8,11 @@
 #include <string.h>
 #include <time.h>
 
-static leap_result open_grid(const char *path, const char *name, leap_grid **grid, leap_error *err)
+static leap_result open_grid(const char *path, const char *name, const leap_input_options *input,
+                             leap_input_info *info, leap_grid **grid, leap_error *err)
 {
     leap_vdb_file *file = NULL;
-    leap_result r = leap_vdb_open(path, &file, err);
+    leap_result r = leap_input_open(path, input, &file, info, err);
     if (r) return r;
     int index = leap_vdb_find_grid(file, name);
     if (index < 0) {
@@ -266,7 +267,7 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     s->merge = !desc->no_merge;
     s->exact_boxes = desc->exact_boxes;
     double t = leap__now_ms();
-    leap_result r = open_grid(desc->path, desc->grid, &s->grid, err);
+    leap_result r = open_grid(desc->path, desc->grid, &desc->input, &s->input, &s->grid, err);
     s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);

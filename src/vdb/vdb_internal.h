@@ -72,6 +72,9 @@ leap_result guarded(leap_error *err, leap_result code, const std::string &what, 
     }
 }
 
+// A grid made from a dense box of voxels (leap_vdb_from_dense); throws on failure.
+vdb::GridBase::Ptr dense_to_grid(const leap_dense_volume &volume);
+
 // Damage found by the structure checks below, before OpenVDB reads the bytes.
 struct Corrupt : std::runtime_error {
     using std::runtime_error::runtime_error;

@@ -64,6 +64,11 @@ void meta_to_info(const vdb::GridBase &g, const std::string &name, leap_grid_inf
     info->labels = g.valueType() == "int32" || g.valueType() == "int64";
     info->saved_as_half = g.valueType() == "float" && g.saveFloatAsHalf();
     transform_to_info(g.constTransform(), info);
+    if (auto up = g.getMetadata<vdb::Vec3DMetadata>("up")) {
+        const vdb::Vec3d u = up->value();
+        if (std::isfinite(u[0]) && std::isfinite(u[1]) && std::isfinite(u[2]) && u.lengthSqr() > 0)
+            for (int a = 0; a < 3; ++a) info->up[a] = u[a];
+    }
     info->bbox_min[0] = info->bbox_min[1] = info->bbox_min[2] = 0;
     info->bbox_max[0] = info->bbox_max[1] = info->bbox_max[2] = -1;
 }
@@ -262,6 +267,7 @@ struct leap_vdb_file {
     std::unique_ptr<VdbReader> reader;
     std::vector<vdb::io::GridDescriptor> descs; // in file order
     std::vector<vdb::GridBase::Ptr> streamed;   // every grid of a file without grid offsets
+    bool in_memory = false;                     // made by leap_vdb_from_dense
     std::vector<std::string> names; // unique names ("name[N]" for duplicates)
     std::vector<std::string> plain; // grid names as written
     mutable std::vector<leap_grid_info> infos; // backgrounds are filled in lazily
@@ -277,6 +283,8 @@ namespace {
 // Grid `index` with its tree (an instance gets its parent's tree).
 vdb::GridBase::Ptr read_full_grid(const leap_vdb_file *file, size_t index)
 {
+    // A grid made in memory is handed out as it is (its loads only ever clean it the same way).
+    if (file->in_memory) return file->streamed[index];
     if (!file->streamed.empty()) return file->streamed[index]->deepCopyGrid();
     const vdb::io::GridDescriptor &gd = file->descs[index];
     vdb::GridBase::Ptr grid = file->reader->read(gd, true);
@@ -331,6 +339,38 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
     });
 }
 
+leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volume, leap_vdb_file **out,
+                                leap_error *err)
+{
+    if (out) *out = nullptr;
+    if (!path || !volume || !out || !volume->values == !volume->labels)
+        return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_from_dense: bad arguments");
+    for (int a = 0; a < 3; ++a)
+        if (volume->dim[a] < 1)
+            return leap_fail(err, LEAP_ERR_USAGE, "'%s': %d x %d x %d voxels: every size must be at least 1", path,
+                             volume->dim[0], volume->dim[1], volume->dim[2]);
+    const std::string what = std::string("'") + path + "'";
+    return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
+        init_openvdb();
+        std::unique_ptr<leap_vdb_file> f(new leap_vdb_file);
+        f->path = path;
+        vdb::GridBase::Ptr grid = dense_to_grid(*volume);
+        const std::string name = grid->getName();
+        f->names.push_back(name);
+        f->plain.push_back(name);
+        leap_grid_info info;
+        std::memset(&info, 0, sizeof info);
+        meta_to_info(*grid, name, &info);
+        info.background = volume->background;
+        f->infos.push_back(info);
+        f->have_background.assign(1, 1);
+        f->streamed.push_back(grid);
+        f->in_memory = true;
+        *out = f.release();
+        return LEAP_OK;
+    });
+}
+
 void leap_vdb_close(leap_vdb_file *file)
 {
     if (!file) return;
@@ -368,6 +408,18 @@ leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_i
     }
     *out = file->infos[i];
     return LEAP_OK;
+}
+
+int leap_vdb_file_up(const leap_vdb_file *file, double up[3])
+{
+    for (size_t i = 0; file && i < file->infos.size(); ++i) {
+        const double *u = file->infos[i].up;
+        if (u[0] != 0 || u[1] != 0 || u[2] != 0) {
+            std::memcpy(up, u, 3 * sizeof *up);
+            return 1;
+        }
+    }
+    return 0;
 }
 
 int leap_vdb_find_grid(const leap_vdb_file *file, const char *name)

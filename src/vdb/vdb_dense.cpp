@@ -1,0 +1,83 @@
+// Grids made from dense boxes of voxels (imported formats), and loaded grids written back
+// as .vdb files (leap convert).
+#include "vdb_internal.h"
+
+#include <openvdb/tools/Dense.h>
+
+#include "leap/files.h"
+
+using namespace leap_vdb_detail;
+
+namespace {
+
+// OpenVDB multiplies row vectors from the left: its matrix is our transpose.
+vdb::math::Transform::Ptr make_transform(const double m[4][4])
+{
+    vdb::math::Mat4d a;
+    for (int r = 0; r < 4; ++r)
+        for (int c = 0; c < 4; ++c) a(c, r) = m[r][c];
+    return vdb::math::Transform::createLinearTransform(a);
+}
+
+template <typename GridT>
+typename GridT::Ptr copy_dense(const leap_dense_volume &v, const typename GridT::ValueType *data)
+{
+    using V = typename GridT::ValueType;
+    const vdb::CoordBBox box(vdb::Coord(0), vdb::Coord(v.dim[0] - 1, v.dim[1] - 1, v.dim[2] - 1));
+    // LayoutXYZ: x varies fastest (Dense's "XYZ" names the order of the strides' sizes).
+    // Dense takes a mutable pointer; copyFromDense only reads through it.
+    vdb::tools::Dense<V, vdb::tools::LayoutXYZ> dense(box, const_cast<V *>(data));
+    typename GridT::Ptr grid = GridT::create(V(v.background));
+    // Tolerance 0: exactly the voxels equal to the background become inactive; constant
+    // blocks become tiles.
+    vdb::tools::copyFromDense(dense, *grid, V(0));
+    return grid;
+}
+
+} // namespace
+
+namespace leap_vdb_detail {
+
+vdb::GridBase::Ptr dense_to_grid(const leap_dense_volume &v)
+{
+    vdb::GridBase::Ptr grid;
+    if (v.labels) grid = copy_dense<vdb::Int64Grid>(v, v.labels);
+    else grid = copy_dense<vdb::FloatGrid>(v, v.values);
+    grid->setTransform(make_transform(v.index_to_world));
+    grid->setName(v.grid_name && *v.grid_name ? v.grid_name : (v.labels ? "labels" : "density"));
+    return grid;
+}
+
+} // namespace leap_vdb_detail
+
+extern "C" {
+
+leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char *path, leap_error *err)
+{
+    if (!grid || !path) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_save: NULL argument");
+    leap_publish pub;
+    leap_result r = leap_publish_begin(&pub, path, err);
+    if (r) return r;
+    r = guarded(err, LEAP_ERR_IO, std::string("cannot write '") + path + "'", [&]() -> leap_result {
+        init_openvdb();
+        vdb::GridBase::Ptr out;
+        if (grid->labels) {
+            out = vdb::Int64Grid::create(grid->labels);
+            out->setTransform(grid->grid->constTransform().copy());
+        } else {
+            out = grid->grid->copyGrid(); // shares the tree: only the name is its own
+        }
+        out->setName(grid->info.name);
+        if (up) out->insertMeta("up", vdb::Vec3DMetadata(vdb::Vec3d(up[0], up[1], up[2])));
+        vdb::GridCPtrVec grids{out};
+        vdb::io::File(pub.tmp).write(grids);
+        return LEAP_OK;
+    });
+    if (r) {
+        leap_publish_abort(&pub);
+        return r;
+    }
+    return leap_publish_commit(&pub, err);
+}
+
+} // extern "C"

@@ -1,0 +1,487 @@
+/* NIfTI import: NIfTI files written with the NIfTI library itself (every data type, sform,
+ * qform only, pixdim only, scl scaling, label intent, NIfTI-2, gzip) open with the voxel
+ * values, labels and transforms they hold; truncated and inconsistent files are clear
+ * errors; `leap convert` writes an OpenVDB file with the same grid, and fails with exit 1
+ * and no output on a broken file. */
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nifti/nifti2_io.h>
+
+#include "check.h"
+#include "leap/input.h"
+#include "leap/vdb.h"
+
+enum { NX = 11, NY = 7, NZ = 5 };
+
+static const char *tmp_file(const char *name)
+{
+    static char path[8][1024];
+    static int next = 0;
+    mkdir(LEAP_TEST_TMP, 0755);
+    char *p = path[next++ % 8];
+    snprintf(p, 1024, "%s/%s", LEAP_TEST_TMP, name);
+    return p;
+}
+
+/* The raw value of voxel (x, y, z): zero outside a ball, signed values where the type has them. */
+static double raw_value(int x, int y, int z, int is_signed)
+{
+    const double dx = x - 5, dy = y - 3, dz = z - 2;
+    if (dx * dx + dy * dy + dz * dz > 10) return 0;
+    return (double)(x + 3 * y + 7 * z) - (is_signed ? 20 : 0);
+}
+
+typedef struct nii_opts {
+    int datatype, sform, qform, intent, nifti2, series;
+    double slope, inter;
+    const int64_t *labels; /* int64 data instead of raw_value */
+} nii_opts;
+
+static const double sform[3][4] = {{0, -2, 0, 10}, {1.5, 0, 0, -20}, {0, 0, 3, 5}};
+
+static void write_nii(const char *path, const nii_opts *o)
+{
+    int64_t dims[8] = {o->series > 1 ? 4 : 3, NX, NY, NZ, o->series > 1 ? o->series : 1, 1, 1, 1};
+    nifti_image *nim = nifti_make_new_nim(dims, o->datatype, 1);
+    CHECK(nim != NULL);
+    if (!nim) return;
+    const int is_signed = o->datatype == NIFTI_TYPE_INT8 || o->datatype == NIFTI_TYPE_INT16 ||
+                          o->datatype == NIFTI_TYPE_INT32 || o->datatype == NIFTI_TYPE_INT64 ||
+                          o->datatype == NIFTI_TYPE_FLOAT32 || o->datatype == NIFTI_TYPE_FLOAT64;
+    size_t n = 0;
+    for (int s = 0; s < (o->series > 1 ? o->series : 1); ++s)
+        for (int z = 0; z < NZ; ++z)
+            for (int y = 0; y < NY; ++y)
+                for (int x = 0; x < NX; ++x, ++n) {
+                    const double v = raw_value(x, y, z, is_signed);
+                    switch (o->datatype) {
+                    case NIFTI_TYPE_UINT8: ((uint8_t *)nim->data)[n] = (uint8_t)v; break;
+                    case NIFTI_TYPE_INT8: ((int8_t *)nim->data)[n] = (int8_t)v; break;
+                    case NIFTI_TYPE_UINT16: ((uint16_t *)nim->data)[n] = (uint16_t)v; break;
+                    case NIFTI_TYPE_INT16: ((int16_t *)nim->data)[n] = (int16_t)v; break;
+                    case NIFTI_TYPE_UINT32: ((uint32_t *)nim->data)[n] = (uint32_t)v; break;
+                    case NIFTI_TYPE_INT32: ((int32_t *)nim->data)[n] = (int32_t)v; break;
+                    case NIFTI_TYPE_UINT64: ((uint64_t *)nim->data)[n] = (uint64_t)v; break;
+                    case NIFTI_TYPE_INT64:
+                        ((int64_t *)nim->data)[n] = o->labels ? o->labels[n] : (int64_t)v;
+                        break;
+                    case NIFTI_TYPE_FLOAT32: ((float *)nim->data)[n] = (float)(v * 0.25); break;
+                    case NIFTI_TYPE_FLOAT64: ((double *)nim->data)[n] = v * 0.25; break;
+                    default: break;
+                    }
+                }
+    nim->scl_slope = o->slope;
+    nim->scl_inter = o->inter;
+    nim->intent_code = o->intent;
+    nim->dx = nim->pixdim[1] = 0.5;
+    nim->dy = nim->pixdim[2] = 0.75;
+    nim->dz = nim->pixdim[3] = 2.0;
+    if (o->sform) {
+        nim->sform_code = NIFTI_XFORM_MNI_152;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 4; ++c) nim->sto_xyz.m[r][c] = sform[r][c];
+        nim->sto_xyz.m[3][3] = 1;
+    }
+    if (o->qform) {
+        /* 90 degrees about z: quaternion (cos 45, 0, 0, sin 45); offsets 1, 2, 3. */
+        nim->qform_code = NIFTI_XFORM_SCANNER_ANAT;
+        nim->quatern_b = 0;
+        nim->quatern_c = 0;
+        nim->quatern_d = sqrt(0.5);
+        nim->qoffset_x = 1;
+        nim->qoffset_y = 2;
+        nim->qoffset_z = 3;
+        nim->qfac = 1;
+    }
+    CHECK(nifti_set_filenames(nim, path, 0, 1) == 0);
+    if (o->nifti2) {
+        /* The library's writer does not write single-file NIfTI-2 here: its header is
+         * converted by the library and written by hand (540 bytes, 4 of extender, data). */
+        nim->nifti_type = NIFTI_FTYPE_NIFTI2_1;
+        nifti_2_header hdr;
+        CHECK(nifti_convert_nim2n2hdr(nim, &hdr) == 0);
+        hdr.vox_offset = 544;
+        FILE *f = fopen(path, "wb");
+        const char extender[4] = {0};
+        CHECK(f && fwrite(&hdr, sizeof hdr, 1, f) == 1 && fwrite(extender, 4, 1, f) == 1 &&
+              fwrite(nim->data, (size_t)nim->nbyper, (size_t)nim->nvox, f) == (size_t)nim->nvox);
+        if (f) fclose(f);
+    } else {
+        nifti_image_write(nim);
+    }
+    nifti_image_free(nim);
+}
+
+/* Opens and loads the grid; NULL on failure (err set). */
+static leap_grid *load(const char *path, const leap_input_options *o, leap_input_info *info, leap_error *err)
+{
+    leap_vdb_file *file = NULL;
+    leap_grid *grid = NULL;
+    if (leap_input_open(path, o, &file, info, err) == LEAP_OK) {
+        if (leap_vdb_load_grid(file, 0, &grid, err) != LEAP_OK) grid = NULL;
+    }
+    leap_vdb_close(file);
+    return grid;
+}
+
+/* Every voxel of the box reads the value the file holds, scaled; the transform is `m`. */
+static void check_values(const char *what, const leap_grid *grid, double slope, double inter, double scale,
+                         int is_signed, const double m[3][4])
+{
+    leap_error err = {{0}};
+    leap_grid_reader *rd = NULL;
+    CHECK_OK(leap_grid_reader_create(grid, &rd, &err), &err);
+    if (!rd) return;
+    int bad = 0;
+    double lo = INFINITY;
+    for (int z = 0; z < NZ; ++z)
+        for (int y = 0; y < NY; ++y)
+            for (int x = 0; x < NX; ++x) {
+                const double want = raw_value(x, y, z, is_signed) * scale * slope + inter;
+                lo = fmin(lo, want);
+                bad += leap_grid_reader_value(rd, x, y, z) != (float)want;
+            }
+    CHECK_MSG(bad == 0, "%s: %d voxels differ", what, bad);
+    const leap_grid_info *gi = leap_grid_get_info(grid);
+    CHECK_MSG(gi->background == (float)lo, "%s: background %g, smallest value %g", what, gi->background, lo);
+    /* Outside the file's box: the background. */
+    CHECK(leap_grid_reader_value(rd, -3, 0, 0) == (float)lo && leap_grid_reader_value(rd, NX + 20, 2, 2) == (float)lo);
+    int off = 0;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) off += fabs(gi->index_to_world[r][c] - m[r][c]) > 1e-6;
+    CHECK_MSG(off == 0, "%s: index->world [%g %g %g %g | %g %g %g %g | %g %g %g %g]", what, gi->index_to_world[0][0],
+              gi->index_to_world[0][1], gi->index_to_world[0][2], gi->index_to_world[0][3], gi->index_to_world[1][0],
+              gi->index_to_world[1][1], gi->index_to_world[1][2], gi->index_to_world[1][3], gi->index_to_world[2][0],
+              gi->index_to_world[2][1], gi->index_to_world[2][2], gi->index_to_world[2][3]);
+    leap_grid_reader_destroy(rd);
+}
+
+static const double pixdim_m[3][4] = {{0.5, 0, 0, 0}, {0, 0.75, 0, 0}, {0, 0, 2, 0}};
+
+static void test_types(void)
+{
+    const int types[] = {NIFTI_TYPE_UINT8,  NIFTI_TYPE_INT8,  NIFTI_TYPE_UINT16,  NIFTI_TYPE_INT16,
+                         NIFTI_TYPE_UINT32, NIFTI_TYPE_INT32, NIFTI_TYPE_UINT64,  NIFTI_TYPE_INT64,
+                         NIFTI_TYPE_FLOAT32, NIFTI_TYPE_FLOAT64};
+    for (size_t t = 0; t < sizeof types / sizeof types[0]; ++t) {
+        const int dt = types[t];
+        const int is_float = dt == NIFTI_TYPE_FLOAT32 || dt == NIFTI_TYPE_FLOAT64;
+        const int is_signed = dt == NIFTI_TYPE_INT8 || dt == NIFTI_TYPE_INT16 || dt == NIFTI_TYPE_INT32 ||
+                              dt == NIFTI_TYPE_INT64 || is_float;
+        char name[64];
+        snprintf(name, sizeof name, "type%d.nii", dt);
+        const char *path = tmp_file(name);
+        write_nii(path, &(nii_opts){.datatype = dt});
+        leap_error err = {{0}};
+        leap_input_info info;
+        leap_grid *g = load(path, NULL, &info, &err);
+        CHECK_MSG(g != NULL, "%s: %s", name, err.msg);
+        if (!g) continue;
+        CHECK_MSG(!strcmp(info.format, "NIfTI-1") && info.up[2] == 1 && info.up[1] == 0, "%s: %s up %g,%g,%g", name,
+                  info.format, info.up[0], info.up[1], info.up[2]);
+        CHECK_MSG(strstr(info.description, "pixdim") != NULL, "%s: %s", name, info.description);
+        CHECK(!leap_grid_has_labels(g)); /* intensities, not labels, without a label intent */
+        check_values(name, g, 1, 0, is_float ? 0.25 : 1, is_signed, pixdim_m);
+        leap_grid_destroy(g);
+    }
+}
+
+static void test_transforms_and_scaling(void)
+{
+    leap_error err = {{0}};
+    /* sform wins over qform. */
+    const char *path = tmp_file("sform.nii");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_INT16, .sform = 1, .qform = 1});
+    leap_input_info info;
+    leap_grid *g = load(path, NULL, &info, &err);
+    CHECK_MSG(g != NULL, "%s", err.msg);
+    if (g) check_values("sform", g, 1, 0, 1, 1, sform);
+    CHECK_MSG(strstr(info.description, "sform (code 4)") != NULL, "%s", info.description);
+    leap_grid_destroy(g);
+
+    /* qform only: R(90 degrees about z) * diag(pixdim) plus the offsets. */
+    path = tmp_file("qform.nii.gz");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_INT16, .qform = 1});
+    g = load(path, NULL, &info, &err);
+    CHECK_MSG(g != NULL, "%s", err.msg);
+    const double q[3][4] = {{0, -0.75, 0, 1}, {0.5, 0, 0, 2}, {0, 0, 2, 3}};
+    if (g) check_values("qform, gzip", g, 1, 0, 1, 1, q);
+    CHECK_MSG(strstr(info.description, "qform (code 1)") != NULL, "%s", info.description);
+    leap_grid_destroy(g);
+
+    /* scl_slope / scl_inter scale the stored integers into floats. */
+    path = tmp_file("scaled.nii");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_INT16, .slope = 2, .inter = -100});
+    g = load(path, NULL, &info, &err);
+    CHECK_MSG(g != NULL, "%s", err.msg);
+    if (g) check_values("scaled", g, 2, -100, 1, 1, pixdim_m);
+    CHECK(g && !leap_grid_has_labels(g));
+    leap_grid_destroy(g);
+
+    /* NIfTI-2. */
+    path = tmp_file("two.nii");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_FLOAT32, .sform = 1, .nifti2 = 1});
+    g = load(path, NULL, &info, &err);
+    CHECK_MSG(g != NULL, "%s", err.msg);
+    if (g) check_values("nifti-2", g, 1, 0, 0.25, 1, sform);
+    CHECK_MSG(!strcmp(info.format, "NIfTI-2"), "%s", info.format);
+    leap_grid_destroy(g);
+
+    /* A threshold makes the voxels below it background (inactive). */
+    path = tmp_file("threshold.nii");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_UINT8});
+    g = load(path, NULL, NULL, &err);
+    leap_grid *t = load(path, &(leap_input_options){.has_threshold = 1, .threshold = 40}, NULL, &err);
+    CHECK_MSG(g && t, "%s", err.msg);
+    if (g && t) {
+        uint64_t above = 0, nonzero = 0;
+        for (int z = 0; z < NZ; ++z)
+            for (int y = 0; y < NY; ++y)
+                for (int x = 0; x < NX; ++x) {
+                    above += raw_value(x, y, z, 0) >= 40;
+                    nonzero += raw_value(x, y, z, 0) != 0;
+                }
+        CHECK_MSG(leap_grid_get_info(g)->active_voxels == nonzero, "%llu active, %llu non-zero",
+                  (unsigned long long)leap_grid_get_info(g)->active_voxels, (unsigned long long)nonzero);
+        CHECK_MSG(leap_grid_get_info(t)->active_voxels == above && above > 0 && above < nonzero,
+                  "threshold: %llu active, %llu at or above 40", (unsigned long long)leap_grid_get_info(t)->active_voxels,
+                  (unsigned long long)above);
+        leap_grid_reader *rd = NULL;
+        CHECK_OK(leap_grid_reader_create(t, &rd, &err), &err);
+        int bad = 0;
+        for (int z = 0; rd && z < NZ; ++z)
+            for (int y = 0; y < NY; ++y)
+                for (int x = 0; x < NX; ++x) {
+                    const double v = raw_value(x, y, z, 0);
+                    bad += leap_grid_reader_value(rd, x, y, z) != (float)(v >= 40 ? v : 0);
+                }
+        CHECK_MSG(bad == 0, "threshold: %d voxels differ", bad);
+        leap_grid_reader_destroy(rd);
+    }
+    leap_grid_destroy(g);
+    leap_grid_destroy(t);
+}
+
+static void test_labels(void)
+{
+    /* A label map: int64 IDs above 2^32 stay exact; uint8 with a label intent too. */
+    int64_t ids[NX * NY * NZ];
+    for (int i = 0; i < NX * NY * NZ; ++i) ids[i] = (i % 3) ? (int64_t)1 << 40 | (int64_t)(i % 7) : 0;
+    const char *path = tmp_file("labels.nii.gz");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_INT64, .intent = NIFTI_INTENT_LABEL, .labels = ids});
+    leap_error err = {{0}};
+    leap_input_info info;
+    leap_grid *g = load(path, NULL, &info, &err);
+    CHECK_MSG(g != NULL, "%s", err.msg);
+    if (g) {
+        CHECK(leap_grid_has_labels(g) && leap_grid_background_label(g) == 0);
+        CHECK_MSG(strstr(info.description, "label map") != NULL, "%s", info.description);
+        leap_grid_reader *rd = NULL;
+        CHECK_OK(leap_grid_reader_create(g, &rd, &err), &err);
+        int64_t out[NX * NY * NZ];
+        if (rd) leap_grid_reader_labels(rd, (const int32_t[3]){0, 0, 0}, (const int32_t[3]){NX, NY, NZ}, out);
+        CHECK_MSG(rd && memcmp(out, ids, sizeof ids) == 0, "labels differ");
+        leap_grid_reader_destroy(rd);
+    }
+    leap_grid_destroy(g);
+
+    path = tmp_file("atlas.nii");
+    write_nii(path, &(nii_opts){.datatype = NIFTI_TYPE_UINT8, .intent = NIFTI_INTENT_LABEL});
+    g = load(path, NULL, &info, &err);
+    CHECK_MSG(g && leap_grid_has_labels(g), "uint8 label map: %s", g ? "not labels" : err.msg);
+    leap_grid_destroy(g);
+}
+
+/* Copies `n` bytes of `src` to `dst`, then optionally patches one 16-bit word. */
+static void copy_prefix(const char *src, const char *dst, long n, long patch_at, int16_t patch)
+{
+    FILE *f = fopen(src, "rb");
+    unsigned char *buf = malloc(1 << 20);
+    size_t got = f && buf ? fread(buf, 1, 1 << 20, f) : 0;
+    if (f) fclose(f);
+    if (n < 0 || (size_t)n > got) n = (long)got;
+    if (patch_at >= 0 && patch_at + 2 <= n) memcpy(buf + patch_at, &patch, 2);
+    FILE *o = fopen(dst, "wb");
+    if (o && buf) fwrite(buf, 1, (size_t)n, o);
+    if (o) fclose(o);
+    free(buf);
+}
+
+static void expect_error(const char *what, const char *path, leap_result code, const char *needle)
+{
+    leap_error err = {{0}};
+    leap_vdb_file *file = NULL;
+    leap_result r = leap_input_open(path, NULL, &file, NULL, &err);
+    CHECK_MSG(r == code && file == NULL && strstr(err.msg, needle) != NULL, "%s: %s: %s (wanted %s, '%s')", what,
+              leap_result_name(r), err.msg, leap_result_name(code), needle);
+    leap_vdb_close(file);
+}
+
+static void test_bad_files(void)
+{
+    const char *good = tmp_file("good.nii");
+    write_nii(good, &(nii_opts){.datatype = NIFTI_TYPE_INT16});
+    const char *cut = tmp_file("cut.nii");
+    copy_prefix(good, cut, 352 + NX * NY * NZ, -1, 0); /* half of the int16 voxels */
+    expect_error("truncated data", cut, LEAP_ERR_FORMAT, "truncated");
+    copy_prefix(good, cut, 200, -1, 0);
+    expect_error("truncated header", cut, LEAP_ERR_FORMAT, "not a readable NIfTI");
+    const char *lying = tmp_file("lying.nii");
+    copy_prefix(good, lying, -1, 42, 4000); /* dim[1] = 4000: far more voxels than the file holds */
+    expect_error("lying dimensions", lying, LEAP_ERR_FORMAT, "truncated");
+    copy_prefix(good, lying, -1, 42, 30000);
+    copy_prefix(lying, cut, -1, 44, 30000);
+    copy_prefix(cut, lying, -1, 46, 30000); /* 30000^3 voxels: 50 TiB, refused before any allocation */
+    expect_error("huge dimensions", lying, LEAP_ERR_OOM, "more than this machine");
+    copy_prefix(good, lying, -1, 40, 9); /* dim[0] = 9 */
+    expect_error("dim[0] = 9", lying, LEAP_ERR_FORMAT, "NIfTI");
+    const char *text = tmp_file("text.nii");
+    FILE *f = fopen(text, "w");
+    if (f) {
+        fputs("this is not a scan\n", f);
+        fclose(f);
+    }
+    expect_error("not NIfTI", text, LEAP_ERR_FORMAT, "not a readable NIfTI");
+    expect_error("missing", tmp_file("missing.nii"), LEAP_ERR_IO, "missing.nii");
+
+    /* gzip cut short inside the voxel data. */
+    const char *gz = tmp_file("good.nii.gz");
+    write_nii(gz, &(nii_opts){.datatype = NIFTI_TYPE_FLOAT64});
+    struct stat st;
+    const char *gzcut = tmp_file("cut.nii.gz");
+    if (stat(gz, &st) == 0) copy_prefix(gz, gzcut, (long)st.st_size / 2, -1, 0);
+    expect_error("truncated gzip", gzcut, LEAP_ERR_FORMAT, "ends early");
+
+    const char *series = tmp_file("series.nii");
+    write_nii(series, &(nii_opts){.datatype = NIFTI_TYPE_UINT8, .series = 3});
+    expect_error("4-D series", series, LEAP_ERR_UNSUPPORTED, "series of 3 volumes");
+
+    const char *complex = tmp_file("complex.nii");
+    write_nii(complex, &(nii_opts){.datatype = NIFTI_TYPE_COMPLEX64});
+    expect_error("complex", complex, LEAP_ERR_UNSUPPORTED, "complex64");
+
+    /* A threshold on an OpenVDB file is refused, not ignored. */
+    leap_error err = {{0}};
+    leap_vdb_file *file = NULL;
+    CHECK(leap_input_open(LEAP_VOLUMES "/sphere.vdb", &(leap_input_options){.has_threshold = 1, .threshold = 1}, &file,
+                          NULL, &err) == LEAP_ERR_USAGE &&
+          strstr(err.msg, "--threshold"));
+    leap_vdb_close(file);
+}
+
+static unsigned char *read_file(const char *path, long *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    *size = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *buf = *size > 0 ? malloc((size_t)*size) : NULL;
+    if (buf && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    return buf;
+}
+
+static int run(const char *args)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "%s %s >%s/out.txt 2>&1", LEAP_EXE, args, LEAP_TEST_TMP);
+    int status = system(cmd);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+/* leap convert: the .vdb holds the same grid; a broken input leaves no output. */
+static void test_convert(void)
+{
+    const char *nii = tmp_file("convert.nii.gz");
+    write_nii(nii, &(nii_opts){.datatype = NIFTI_TYPE_INT16, .sform = 1, .slope = 0.5, .inter = 3});
+    const char *vdb = tmp_file("convert.vdb");
+    remove(vdb);
+    char args[3072];
+    snprintf(args, sizeof args, "convert %s -o %s -q", nii, vdb);
+    CHECK(run(args) == 0);
+    leap_error err = {{0}};
+    leap_grid *a = load(nii, NULL, NULL, &err), *b = load(vdb, NULL, NULL, &err);
+    CHECK_MSG(a && b, "%s", err.msg);
+    if (a && b) {
+        check_values("converted", b, 0.5, 3, 1, 1, sform);
+        const leap_grid_info *ia = leap_grid_get_info(a), *ib = leap_grid_get_info(b);
+        CHECK(ia->active_voxels == ib->active_voxels && ia->background == ib->background);
+        CHECK(!strcmp(ib->value_type, "float"));
+        CHECK(ib->up[0] == 0 && ib->up[1] == 0 && ib->up[2] == 1);
+    }
+    leap_grid_destroy(a);
+    leap_grid_destroy(b);
+    /* OpenVDB's own tool reads it. */
+    if (access("/usr/bin/vdb_print", X_OK) == 0) {
+        snprintf(args, sizeof args, "/usr/bin/vdb_print %s >/dev/null 2>&1", vdb);
+        CHECK(system(args) == 0);
+    }
+    /* --labels on scaled values that are not all integers: a usage error, no file. */
+    const char *lab = tmp_file("convert_labels.vdb");
+    remove(lab);
+    snprintf(args, sizeof args, "convert %s -o %s --labels -q", nii, lab);
+    CHECK(run(args) == 2);
+    CHECK(access(lab, F_OK) != 0);
+    /* Integer values convert to an int64 label grid. */
+    const char *ints = tmp_file("ints.nii");
+    write_nii(ints, &(nii_opts){.datatype = NIFTI_TYPE_UINT16});
+    snprintf(args, sizeof args, "convert %s -o %s --labels -q", ints, lab);
+    CHECK(run(args) == 0);
+    leap_grid *l = load(lab, NULL, NULL, &err);
+    CHECK_MSG(l && leap_grid_has_labels(l) && !strcmp(leap_grid_get_info(l)->value_type, "int64"), "%s",
+              l ? leap_grid_get_info(l)->value_type : err.msg);
+    leap_grid_destroy(l);
+    /* Broken input: exit 1, nothing written; an existing output is left alone. */
+    const char *cut = tmp_file("cut.nii");
+    const char *out = tmp_file("cut.vdb");
+    remove(out);
+    snprintf(args, sizeof args, "convert %s -o %s -q", cut, out);
+    CHECK(run(args) == 1);
+    CHECK(access(out, F_OK) != 0);
+    snprintf(args, sizeof args, "convert %s -o %s -q", cut, vdb);
+    CHECK(run(args) == 1);
+    b = load(vdb, NULL, NULL, &err);
+    CHECK_MSG(b != NULL, "the earlier output was damaged: %s", err.msg);
+    leap_grid_destroy(b);
+    /* The converted file keeps the scan's up axis (metadata "up"), so it renders the image of
+     * the scan opened directly with the same options; the
+     * renders run on the GPU in child processes, whose driver is outside the leak checks. */
+    const char *png_a = tmp_file("direct.png"), *png_b = tmp_file("converted.png");
+    snprintf(args, sizeof args, "render %s -o %s --size 96x80 --orbit 30,20 -q", nii, png_a);
+    CHECK(setenv("ASAN_OPTIONS", "detect_leaks=0", 1) == 0);
+    CHECK(run(args) == 0);
+    snprintf(args, sizeof args, "render %s -o %s --size 96x80 --orbit 30,20 -q", vdb, png_b);
+    CHECK(run(args) == 0);
+    long na = 0, nb = 0;
+    unsigned char *da = read_file(png_a, &na), *db = read_file(png_b, &nb);
+    CHECK_MSG(da && db && na == nb && memcmp(da, db, (size_t)na) == 0, "direct and converted renders differ");
+    free(da);
+    free(db);
+
+    /* Usage errors: not .vdb, output = input. */
+    snprintf(args, sizeof args, "convert %s -o %s/x.png", nii, LEAP_TEST_TMP);
+    CHECK(run(args) == 2);
+    snprintf(args, sizeof args, "convert %s -o %s", vdb, vdb);
+    CHECK(run(args) == 2);
+}
+
+int main(void)
+{
+    test_types();
+    test_transforms_and_scaling();
+    test_labels();
+    test_bad_files();
+    test_convert();
+    return check_exit_code();
+}
