@@ -11,6 +11,9 @@
  *   or outside; 0 for label maps). Voxels equal to it become inactive, and with a threshold,
  *   so do those below the threshold (they then read as the background).
  * - The world is Z-up (RAS+): info->up is (0, 0, 1). OpenVDB files are Y-up.
+ * - --labels (options.labels) makes any integer data exact labels.
+ * Raw files follow the same rules (values as float, background the smallest value, labels
+ * with options.labels), with voxel sizes from options.voxel, Z-up (z is the slice index).
  */
 #ifndef LEAP_INPUT_H
 #define LEAP_INPUT_H
@@ -25,7 +28,23 @@ extern "C" {
 typedef struct leap_input_options {
     int has_threshold; /* imported formats: voxels below `threshold` become background */
     double threshold;
+    int labels;        /* imported integer data: exact int64 labels (a segmentation) */
+    const char *raw;   /* a header-less file: "WxHxD:TYPE[:le|be]" (leap_input_parse_raw) */
+    double voxel[3];   /* raw files: voxel size in world units (0 = 1) */
 } leap_input_options;
+
+/* Raw files: the layout "WxHxD:TYPE[:le|be]" (TYPE: uint8, int8, uint16, int16, uint32,
+ * int32, uint64, int64, float32, float64; little-endian by default). The file holds exactly
+ * W*H*D voxels, x fastest, then y, then z (slices). Returns LEAP_ERR_USAGE with the reason. */
+typedef struct leap_raw_layout {
+    int32_t dim[3];
+    int type;       /* LEAP_RAW_* */
+    int big_endian;
+    int bytes;      /* per voxel */
+} leap_raw_layout;
+enum { LEAP_RAW_UINT8, LEAP_RAW_INT8, LEAP_RAW_UINT16, LEAP_RAW_INT16, LEAP_RAW_UINT32, LEAP_RAW_INT32,
+       LEAP_RAW_UINT64, LEAP_RAW_INT64, LEAP_RAW_FLOAT32, LEAP_RAW_FLOAT64 };
+leap_result leap_input_parse_raw(const char *spec, leap_raw_layout *out, leap_error *err);
 
 typedef struct leap_input_info {
     char format[16];       /* "OpenVDB", "NIfTI-1", "NIfTI-2" */
@@ -36,7 +55,7 @@ typedef struct leap_input_info {
 /* 1 if `path` names a NIfTI file (by its name: .nii, .nii.gz, .hdr, .img, any case). */
 int leap_input_is_nifti(const char *path);
 
-/* Opens `path` as a leap_vdb_file (options may be NULL). Errors: LEAP_ERR_IO (missing,
+/* Opens `path` as a leap_vdb_file (options may be NULL; options->raw reads a raw file). Errors: LEAP_ERR_IO (missing,
  * unreadable), LEAP_ERR_FORMAT (not a supported format, truncated or inconsistent header;
  * the message names the file and the field), LEAP_ERR_UNSUPPORTED (a data type or shape leap
  * cannot render, e.g. complex or RGB data, a 4-D series), LEAP_ERR_OOM. info may be NULL. */

@@ -26,7 +26,11 @@ static int parse_size(const char *s, int *w, int *h)
 const char *cli_camera_options_help =
     "volume and look:\n"
     "  --grid NAME         grid to render (default: the first scalar grid)\n"
-    "  --threshold V       NIfTI: voxels below V become background (skipped as empty)\n"
+    "  --threshold V       scans (NIfTI, raw): voxels below V become background (skipped)\n"
+    "  --raw WxHxD:TYPE[:le|be]  the volume is a header-less file of W*H*D voxels, x fastest\n"
+    "                      (TYPE: uint8, int8, uint16, int16, uint32, int32, uint64, int64,\n"
+    "                      float32, float64; little-endian unless :be), opened Z-up\n"
+    "  --voxel X,Y,Z       raw files: voxel size in world units (default 1,1,1)\n"
     "  --tf PRESET|FILE    transfer function: grey, viridis, labels, hot, cloud, or a\n"
     "                      ParaView JSON colour map (default: viridis; labels for int grids)\n"
     "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
@@ -69,12 +73,51 @@ void cli_camera_options_init(cli_camera_options *o)
     o->scene.step = 0.5;
 }
 
+#define OPT(name) ((v = cli_option_value(argc, argv, i, name, &missing)) != NULL || missing)
+#define FAIL(...) return CLI_OPTION_ERROR + cli_usage_error(verb, __VA_ARGS__)
+
+int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input_options *io)
+{
+    const char *v;
+    int missing = 0;
+    if (OPT("--threshold")) {
+        double n;
+        if (missing || leap__parse_numbers(v, &n, 1, 1) != 1 || !isfinite(n))
+            FAIL("--threshold must be a number");
+        io->has_threshold = 1;
+        io->threshold = n;
+        return 1;
+    }
+    if (OPT("--raw")) {
+        leap_raw_layout layout;
+        leap_error e;
+        if (missing) FAIL("option --raw needs a value");
+        if (leap_input_parse_raw(v, &layout, &e)) FAIL("%s", e.msg);
+        io->raw = v;
+        return 1;
+    }
+    if (OPT("--voxel")) {
+        double *s = io->voxel;
+        if (missing || leap__parse_numbers(v, s, 3, 3) != 3 || !(s[0] > 0 && s[1] > 0 && s[2] > 0) ||
+            !(isfinite(s[0]) && isfinite(s[1]) && isfinite(s[2])))
+            FAIL("--voxel must be X,Y,Z with positive finite sizes");
+        return 1;
+    }
+    return 0;
+}
+
+int cli_input_options_check(const char *verb, const leap_input_options *io)
+{
+    if (io->voxel[0] > 0 && !io->raw) return cli_usage_error(verb, "--voxel applies to --raw files only");
+    return 0;
+}
+
 int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o)
 {
     const char *a = argv[*i], *v;
     int missing = 0;
-#define OPT(name) ((v = cli_option_value(argc, argv, i, name, &missing)) != NULL || missing)
-#define FAIL(...) return CLI_OPTION_ERROR + cli_usage_error(verb, __VA_ARGS__)
+    const int c = cli_input_option(argc, argv, i, verb, &o->scene.input);
+    if (c) return c;
     if (!strcmp(a, "--ortho")) {
         o->ortho = 1;
         return 1;
@@ -96,12 +139,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         return 1;
     }
     enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
-           FOV, THRESHOLD, COUNT };
+           FOV, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
-        [OPACITY] = "--label-opacity", [FOV] = "--fov", [THRESHOLD] = "--threshold"};
+        [OPACITY] = "--label-opacity", [FOV] = "--fov", };
     int which = -1;
     for (int k = 0; k < COUNT && which < 0; ++k)
         if (OPT(names[k])) which = k;
@@ -115,11 +158,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     double n;
     switch (which) {
     case GRID: o->scene.grid = v; break;
-    case THRESHOLD:
-        if (leap__parse_numbers(v, &n, 1, 1) != 1 || !isfinite(n)) FAIL("--threshold '%s' must be a number", v);
-        o->scene.input.has_threshold = 1;
-        o->scene.input.threshold = n;
-        break;
+
     case TF: o->scene.tf = v; break;
     case RANGE:
         if (leap__parse_numbers(v, o->scene.range, 2, 2) != 2 || !(o->scene.range[1] > o->scene.range[0]))
@@ -186,6 +225,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
 {
     if (!o->input) return cli_usage_error(verb, "no input volume given");
+    if (cli_input_options_check(verb, &o->scene.input)) return EXIT_USAGE;
     if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
     if (o->has_eye != o->has_target) return cli_usage_error(verb, "--eye and --target go together");
     if (o->has_up && !(o->up[0] * o->up[0] + o->up[1] * o->up[1] + o->up[2] * o->up[2] > 0))

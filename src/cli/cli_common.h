@@ -63,6 +63,11 @@ void cli_camera_options_init(cli_camera_options *o);
 int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camera_options *o);
 #define CLI_OPTION_ERROR 1000
 
+/* The options of imported formats (--threshold, --raw, --voxel), also taken by info and
+ * convert: returns as cli_camera_option does. cli_input_options_check: 0 or EXIT_USAGE. */
+int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input_options *io);
+int cli_input_options_check(const char *verb, const leap_input_options *io);
+
 /* Checks combinations once all options are read; returns 0 or EXIT_USAGE. */
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference);
 

@@ -10,7 +10,7 @@
 static const char *convert_help =
     "usage: leap convert VOLUME -o OUT.vdb [options]\n"
     "\n"
-    "Writes a volume leap opens (NIfTI .nii/.nii.gz, or .vdb) as an OpenVDB file: voxels equal\n"
+    "Writes a volume leap opens (NIfTI .nii/.nii.gz, raw, .vdb) as an OpenVDB file: voxels equal\n"
     "to the background (a scan's smallest value; 0 for label maps) become inactive, constant\n"
     "blocks become tiles, the voxel-to-world transform is kept. Label maps (integer NIfTI data\n"
     "with a label intent) and --labels write an int64 grid of exact IDs; the rest a float grid.\n"
@@ -19,6 +19,8 @@ static const char *convert_help =
     "options:\n"
     "  -o, --output OUT.vdb  the file to write (through a temporary file and a rename)\n"
     "  --threshold V       voxels below V become background (inactive)\n"
+    "  --raw WxHxD:TYPE[:le|be]  VOLUME is a header-less file (see 'leap render --help')\n"
+    "  --voxel X,Y,Z       raw files: voxel size in world units (default 1,1,1)\n"
     "  --labels            write integer values as a segmentation (int64 grid)\n"
     "  --grid NAME         grid to convert (default: the first scalar grid)\n"
     "  -q, --quiet         no progress or summary on stderr\n";
@@ -38,7 +40,7 @@ int cli_convert(int argc, char **argv)
 {
     const char *input = NULL, *output = NULL, *grid_name = NULL;
     leap_input_options io = {0};
-    int labels = 0, quiet = 0;
+    int labels = 0, quiet = 0, rc = 0;
     for (int i = 2; i < argc; ++i) {
         const char *a = argv[i], *v;
         int missing = 0;
@@ -53,12 +55,8 @@ int cli_convert(int argc, char **argv)
             if (missing) return cli_usage_error("convert", "option -o needs a value");
             if (output) return cli_usage_error("convert", "-o given twice ('%s', then '%s')", output, v);
             output = v;
-        } else if ((v = cli_option_value(argc, argv, &i, "--threshold", &missing)) || missing) {
-            double t;
-            if (missing || leap__parse_numbers(v, &t, 1, 1) != 1 || t != t || t - t != 0)
-                return cli_usage_error("convert", "--threshold must be a number");
-            io.has_threshold = 1;
-            io.threshold = t;
+        } else if ((rc = cli_input_option(argc, argv, &i, "convert", &io))) {
+            if (rc >= CLI_OPTION_ERROR) return rc - CLI_OPTION_ERROR;
         } else if ((v = cli_option_value(argc, argv, &i, "--grid", &missing)) || missing) {
             if (missing) return cli_usage_error("convert", "option --grid needs a value");
             grid_name = v;
@@ -71,12 +69,13 @@ int cli_convert(int argc, char **argv)
         }
     }
     if (!input) return cli_usage_error("convert", "no input volume given");
+    if (cli_input_options_check("convert", &io)) return EXIT_USAGE;
     if (!output) return cli_usage_error("convert", "no output file given (-o OUT.vdb)");
     const size_t n = strlen(output);
     if (n < 4 || strcasecmp(output + n - 4, ".vdb") != 0)
         return cli_usage_error("convert", "'%s': the output must be a .vdb file", output);
     const char *inputs[] = {input};
-    int rc = cli_check_outputs("convert", inputs, 1, &output, 1);
+    rc = cli_check_outputs("convert", inputs, 1, &output, 1);
     if (rc) return rc;
     if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
 
@@ -86,6 +85,7 @@ int cli_convert(int argc, char **argv)
     leap_input_info source;
     double t0 = leap__now_ms();
     stage(quiet, 0, "reading");
+    io.labels = labels;
     leap_result r = leap_input_open(input, &io, &file, &source, &err);
     const double t_read = leap__now_ms();
     int index = -1;

@@ -8,7 +8,7 @@
 #include "leap/input.h"
 
 static const char *info_help =
-    "usage: leap info VOLUME.vdb [--json] [--objects] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
+    "usage: leap info VOLUME [--json] [--objects] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
     "\n"
     "Lists every grid: value type, class, transform, active bounding box, voxel, leaf and\n"
     "tile counts, value range, memory. Scalar grids are loaded to count their contents.\n"
@@ -18,7 +18,8 @@ static const char *info_help =
     "  --tf T         for each transfer function (preset or JSON file), in order: cell\n"
     "                 classes, occupancy tree nodes, emitted boxes, and the time to\n"
     "                 re-classify and rebuild the boxes when switching to it\n"
-    "  --range LO,HI  value range for --tf (default: each grid's range)\n";
+    "  --range LO,HI  value range for --tf (default: each grid's range)\n"
+    "  --threshold V, --raw WxHxD:TYPE[:le|be], --voxel X,Y,Z   as for leap render\n";
 
 static cJSON *info_json(const leap_grid_info *gi, int loaded)
 {
@@ -99,11 +100,11 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
 
 /* Occupancy under each transfer function in turn: the first is a fresh build, each later
  * one a switch (re-classify the stored brick ranges, rebuild the boxes). */
-static int info_tfs(const char *path, const char *grid_name, const char *const *tfs, int ntf, const double *range,
-                    cJSON *json_grid)
+static int info_tfs(const char *path, const leap_input_options *io, const char *grid_name, const char *const *tfs,
+                    int ntf, const double *range, cJSON *json_grid)
 {
     leap_error err = {{0}};
-    leap_scene_desc sd = {.path = path, .grid = grid_name, .tf = tfs[0], .has_range = range != NULL};
+    leap_scene_desc sd = {.path = path, .input = *io, .grid = grid_name, .tf = tfs[0], .has_range = range != NULL};
     if (range) sd.range[0] = range[0], sd.range[1] = range[1];
     double t = leap__now_ms();
     leap_scene *s = NULL;
@@ -197,7 +198,8 @@ static int info_objects(const leap_grid *grid, int list, cJSON *json_grid)
 int cli_info(int argc, char **argv)
 {
     const char *input = NULL;
-    int json = 0, ntf = 0, has_range = 0, objects = 0;
+    int json = 0, ntf = 0, has_range = 0, objects = 0, c;
+    leap_input_options io = {0};
     const char *tfs[16];
     double range[2];
     for (int i = 2; i < argc; ++i) {
@@ -206,6 +208,8 @@ int cli_info(int argc, char **argv)
         if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
             fputs(info_help, stdout);
             return 0;
+        } else if ((c = cli_input_option(argc, argv, &i, "info", &io))) {
+            if (c >= CLI_OPTION_ERROR) return c - CLI_OPTION_ERROR;
         } else if ((v = cli_option_value(argc, argv, &i, "--tf", &missing)) || missing) {
             if (missing) return cli_usage_error("info", "option --tf needs a value");
             if (ntf == 16) return cli_usage_error("info", "at most 16 --tf options");
@@ -230,7 +234,9 @@ int cli_info(int argc, char **argv)
     leap_error err = {{0}};
     leap_vdb_file *file = NULL;
     leap_input_info source;
-    if (leap_input_open(input, NULL, &file, &source, &err)) return cli_runtime_error("%s", err.msg);
+    if (cli_input_options_check("info", &io)) return EXIT_USAGE;
+    leap_result r = leap_input_open(input, &io, &file, &source, &err);
+    if (r) return cli_input_error(input, NULL, r, err.msg);
     cJSON *root = json ? cJSON_CreateObject() : NULL;
     cJSON *grids = json ? cJSON_AddArrayToObject(root, "grids") : NULL;
     if (json) {
@@ -268,7 +274,7 @@ int cli_info(int argc, char **argv)
         if (jg) cJSON_AddItemToArray(grids, jg);
         else print_info_text(&gi, loaded);
         if (grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
-        if (!rc && grid && ntf) rc = info_tfs(input, gi.name, tfs, ntf, has_range ? range : NULL, jg);
+        if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, tfs, ntf, has_range ? range : NULL, jg);
         leap_grid_destroy(grid);
     }
     leap_vdb_close(file);

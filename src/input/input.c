@@ -3,14 +3,57 @@
 #include "input_internal.h"
 
 #include <errno.h>
+#include <math.h>
+#include <stdlib.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 static int ends_with(const char *s, const char *suffix)
 {
     const size_t n = strlen(s), k = strlen(suffix);
     return n >= k && strcasecmp(s + n - k, suffix) == 0;
+}
+
+leap_result leap__input_check_memory(const char *path, const int32_t dim[3], double bytes, leap_error *err)
+{
+    const double have = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGE_SIZE);
+    if (have > 0 && bytes > have)
+        return leap_fail(err, LEAP_ERR_OOM,
+                         "'%s': %d x %d x %d voxels need %.1f GiB to import, more than this machine's %.1f GiB "
+                         "(a wrong size or header, or a volume too large to open whole)",
+                         path, dim[0], dim[1], dim[2], bytes / 1073741824.0, have / 1073741824.0);
+    return LEAP_OK;
+}
+
+leap_result leap__input_finish(const char *path, const int32_t dim[3], const double index_to_world[4][4],
+                               float *values, int64_t *ids, const leap_input_options *o, leap_vdb_file **out,
+                               leap_error *err)
+{
+    if (!values && !ids)
+        return leap_fail(err, LEAP_ERR_OOM, "'%s': out of memory for %d x %d x %d voxels", path, dim[0], dim[1],
+                         dim[2]);
+    const size_t n = (size_t)dim[0] * (size_t)dim[1] * (size_t)dim[2];
+    leap_dense_volume dense = {.dim = {dim[0], dim[1], dim[2]}, .values = values, .labels = ids};
+    memcpy(dense.index_to_world, index_to_world, sizeof dense.index_to_world);
+    if (ids) {
+        for (size_t i = 0; o && o->has_threshold && i < n; ++i)
+            if ((double)ids[i] < o->threshold) ids[i] = 0;
+        dense.background = 0.0;
+    } else {
+        float lo = INFINITY;
+        for (size_t i = 0; i < n; ++i)
+            if (values[i] < lo) lo = values[i]; /* NaN never compares below */
+        if (!isfinite(lo)) lo = 0.0f;          /* no finite voxel at all */
+        for (size_t i = 0; o && o->has_threshold && i < n; ++i)
+            if (values[i] < o->threshold) values[i] = lo;
+        dense.background = lo;
+    }
+    leap_result r = leap_vdb_from_dense(path, &dense, out, err);
+    free(values);
+    free(ids);
+    return r;
 }
 
 int leap_input_is_nifti(const char *path)
@@ -25,6 +68,11 @@ leap_result leap_input_open(const char *path, const leap_input_options *options,
     if (out) *out = NULL;
     if (!path || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_input_open: NULL argument");
     if (info) memset(info, 0, sizeof *info);
+    if (options && options->raw) {
+        leap_result r = leap__input_open_raw(path, options, out, info, err);
+        if (!r && info) info->up[2] = 1.0;
+        return r;
+    }
     if (leap_input_is_nifti(path)) {
         FILE *f = fopen(path, "rb");
         if (!f) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));

@@ -134,14 +134,10 @@ static leap_result check_header(const char *path, const nifti_image *nim, int *i
     const int gz = len > 3 && strcmp(iname + len - 3, ".gz") == 0;
     const uint64_t bytes = (uint64_t)nim->nx * (uint64_t)nim->ny * (uint64_t)nim->nz * (uint64_t)nim->nbyper;
     /* The file's voxels plus their float (or int64) copy must fit this machine's memory. */
-    const double need = (double)bytes + (double)nim->nx * (double)nim->ny * (double)nim->nz * (*integer ? 8.0 : 4.0);
-    const double have = (double)sysconf(_SC_PHYS_PAGES) * (double)sysconf(_SC_PAGE_SIZE);
-    if (have > 0 && need > have)
-        return leap_fail(err, LEAP_ERR_OOM,
-                         "'%s': %lld x %lld x %lld voxels of %s need %.1f GiB to import, more than this machine's "
-                         "%.1f GiB (a corrupt header, or a scan too large to open whole)",
-                         path, (long long)nim->nx, (long long)nim->ny, (long long)nim->nz,
-                         type_name(nim->datatype), need / 1073741824.0, have / 1073741824.0);
+    const int32_t dims[3] = {(int32_t)nim->nx, (int32_t)nim->ny, (int32_t)nim->nz};
+    leap_result r = leap__input_check_memory(
+        path, dims, (double)bytes + (double)nim->nx * (double)nim->ny * (double)nim->nz * (*integer ? 8.0 : 4.0), err);
+    if (r) return r;
     if (!gz && stat(iname, &st) == 0 && (uint64_t)st.st_size < (uint64_t)nim->iname_offset + bytes)
         return leap_fail(err, LEAP_ERR_FORMAT,
                          "'%s' is truncated: its header promises %lld x %lld x %lld voxels of %s (%llu bytes from "
@@ -195,40 +191,28 @@ leap_result leap__input_open_nifti(const char *path, const leap_input_options *o
     const int scaled = nim->scl_slope != 0.0 && isfinite(nim->scl_slope) && isfinite(nim->scl_inter) &&
                        !(nim->scl_slope == 1.0 && nim->scl_inter == 0.0);
     const int labels = integer && !scaled &&
-                       (nim->intent_code == NIFTI_INTENT_LABEL || nim->intent_code == NIFTI_INTENT_NEURONAME);
-    leap_dense_volume dense = {.dim = {(int32_t)nim->nx, (int32_t)nim->ny, (int32_t)nim->nz}, .grid_name = NULL};
-    memcpy(dense.index_to_world, m, sizeof m);
+                       ((o && o->labels) || nim->intent_code == NIFTI_INTENT_LABEL ||
+                        nim->intent_code == NIFTI_INTENT_NEURONAME);
+    const int32_t dim[3] = {(int32_t)nim->nx, (int32_t)nim->ny, (int32_t)nim->nz};
     float *values = NULL;
     int64_t *ids = NULL;
     if (labels) {
         ids = malloc(n * sizeof *ids);
         int bad = 0;
-        for (size_t i = 0; ids && i < n; ++i) {
-            ids[i] = label(nim, i, &bad);
-            if (o && o->has_threshold && (double)ids[i] < o->threshold) ids[i] = 0;
-        }
+        for (size_t i = 0; ids && i < n; ++i) ids[i] = label(nim, i, &bad);
         if (bad) {
             nifti_image_free(nim);
             free(ids);
             return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': a label above 2^63 - 1 (uint64 labels must fit int64)",
                              path);
         }
-        dense.labels = ids;
-        dense.background = 0.0;
     } else {
         values = malloc(n * sizeof *values);
-        double lo = INFINITY;
         for (size_t i = 0; values && i < n; ++i) {
             double v = voxel(nim, i);
             if (scaled) v = v * nim->scl_slope + nim->scl_inter;
             values[i] = (float)v;
-            if (values[i] < lo) lo = values[i]; /* NaN never compares below */
         }
-        if (!isfinite(lo)) lo = 0.0; /* no finite voxel at all */
-        for (size_t i = 0; values && o && o->has_threshold && i < n; ++i)
-            if (values[i] < o->threshold) values[i] = (float)lo;
-        dense.values = values;
-        dense.background = lo;
     }
     if (info) {
         snprintf(info->format, sizeof info->format, "%s", version == 2 ? "NIfTI-2" : "NIfTI-1");
@@ -239,10 +223,5 @@ leap_result leap__input_open_nifti(const char *path, const leap_input_options *o
                  source, scaling, labels ? ", label map" : "");
     }
     nifti_image_free(nim); /* the converted copy is all that is needed from here */
-    if (!values && !ids)
-        return leap_fail(err, LEAP_ERR_OOM, "'%s': out of memory for %zu voxels", path, n);
-    r = leap_vdb_from_dense(path, &dense, out, err);
-    free(values);
-    free(ids);
-    return r;
+    return leap__input_finish(path, dim, m, values, ids, o, out, err);
 }

@@ -267,7 +267,9 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     s->merge = !desc->no_merge;
     s->exact_boxes = desc->exact_boxes;
     double t = leap__now_ms();
-    leap_result r = open_grid(desc->path, desc->grid, &desc->input, &s->input, &s->grid, err);
+    leap_input_options input = desc->input;
+    input.labels = desc->labels;
+    leap_result r = open_grid(desc->path, desc->grid, &input, &s->input, &s->grid, err);
     s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);

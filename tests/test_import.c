@@ -1,8 +1,8 @@
-/* NIfTI import: NIfTI files written with the NIfTI library itself (every data type, sform,
+/* Import of scans. NIfTI: NIfTI files written with the NIfTI library itself (every data type, sform,
  * qform only, pixdim only, scl scaling, label intent, NIfTI-2, gzip) open with the voxel
  * values, labels and transforms they hold; truncated and inconsistent files are clear
  * errors; `leap convert` writes an OpenVDB file with the same grid, and fails with exit 1
- * and no output on a broken file. */
+ * and no output on a broken file. Raw: both byte orders, exact labels, size checks. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -476,8 +476,80 @@ static void test_convert(void)
     CHECK(run(args) == 2);
 }
 
+/* Raw files: both byte orders give the same grid; labels stay exact; sizes are checked. */
+static void test_raw(void)
+{
+    const size_t n = NX * NY * NZ;
+    uint16_t *le = malloc(n * 2), *be = malloc(n * 2);
+    int64_t *ids = malloc(n * 8);
+    for (size_t i = 0; i < n; ++i) {
+        const int x = (int)(i % NX), y = (int)(i / NX % NY), z = (int)(i / (NX * NY));
+        const uint16_t v = (uint16_t)(raw_value(x, y, z, 0) * 300); /* above 255: both bytes matter */
+        le[i] = v; /* this host is little-endian (x86-64) */
+        be[i] = (uint16_t)(v >> 8 | v << 8);
+        ids[i] = raw_value(x, y, z, 0) ? ((int64_t)3 << 50) + (int64_t)raw_value(x, y, z, 0) : 0;
+    }
+    const char *p_le = tmp_file("le.raw"), *p_be = tmp_file("be.raw"), *p_ids = tmp_file("ids.raw");
+    FILE *f;
+    if ((f = fopen(p_le, "wb"))) fwrite(le, 2, n, f), fclose(f);
+    if ((f = fopen(p_be, "wb"))) fwrite(be, 2, n, f), fclose(f);
+    if ((f = fopen(p_ids, "wb"))) fwrite(ids, 8, n, f), fclose(f);
+    char spec[64];
+    snprintf(spec, sizeof spec, "%dx%dx%d:uint16", NX, NY, NZ);
+    leap_input_options o = {.raw = spec, .voxel = {0.5, 0.75, 2}};
+    leap_error err = {{0}};
+    leap_input_info info;
+    leap_grid *a = load(p_le, &o, &info, &err);
+    CHECK_MSG(a != NULL, "%s", err.msg);
+    if (a) check_values("raw le", a, 300, 0, 1, 0, pixdim_m);
+    CHECK_MSG(!strcmp(info.format, "raw") && info.up[2] == 1, "%s", info.format);
+    char spec_be[80];
+    snprintf(spec_be, sizeof spec_be, "%s:be", spec);
+    o.raw = spec_be;
+    leap_grid *b = load(p_be, &o, NULL, &err);
+    CHECK_MSG(b != NULL, "%s", err.msg);
+    if (b) check_values("raw be", b, 300, 0, 1, 0, pixdim_m);
+    leap_grid_destroy(a);
+    leap_grid_destroy(b);
+
+    char spec_ids[64];
+    snprintf(spec_ids, sizeof spec_ids, "%dx%dx%d:int64", NX, NY, NZ);
+    leap_input_options ol = {.raw = spec_ids, .labels = 1};
+    leap_grid *l = load(p_ids, &ol, NULL, &err);
+    CHECK_MSG(l && leap_grid_has_labels(l), "%s", l ? "not labels" : err.msg);
+    if (l) {
+        leap_grid_reader *rd = NULL;
+        CHECK_OK(leap_grid_reader_create(l, &rd, &err), &err);
+        int64_t *out = malloc(n * 8);
+        if (rd && out) leap_grid_reader_labels(rd, (const int32_t[3]){0, 0, 0}, (const int32_t[3]){NX, NY, NZ}, out);
+        CHECK_MSG(rd && out && memcmp(out, ids, n * 8) == 0, "raw labels differ");
+        free(out);
+        leap_grid_reader_destroy(rd);
+    }
+    leap_grid_destroy(l);
+
+    /* The file's size must be exactly the layout's. */
+    snprintf(spec, sizeof spec, "%dx%dx%d:uint16", NX, NY, NZ + 1);
+    o.raw = spec;
+    leap_vdb_file *file = NULL;
+    CHECK(leap_input_open(p_le, &o, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "needs exactly"));
+    snprintf(spec, sizeof spec, "%dx%dx%d:uint16", NX, NY, NZ - 1);
+    CHECK(leap_input_open(p_le, &o, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "a header?"));
+    leap_raw_layout layout;
+    const char *bad[] = {"10x10:uint8", "10x10x10", "10x10x10:uint12", "0x10x10:uint8", "10x10x10:uint8:xe",
+                         "10x10x-1:uint8"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
+        CHECK_MSG(leap_input_parse_raw(bad[i], &layout, &err) == LEAP_ERR_USAGE, "'%s' accepted", bad[i]);
+    CHECK(leap_input_parse_raw("4x5x6:float64:be", &layout, &err) == LEAP_OK && layout.bytes == 8 &&
+          layout.big_endian && layout.dim[2] == 6);
+    free(le);
+    free(be);
+    free(ids);
+}
+
 int main(void)
 {
+    test_raw();
     test_types();
     test_transforms_and_scaling();
     test_labels();
