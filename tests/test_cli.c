@@ -47,6 +47,22 @@ static int lines(const char *s)
     return n;
 }
 
+static unsigned char *slurp(const char *path, long *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    *size = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *buf = *size > 0 ? malloc((size_t)*size) : NULL;
+    if (buf && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
+        free(buf);
+        buf = NULL;
+    }
+    fclose(f);
+    return buf;
+}
+
 #define EXPECT_FAIL(code, args, needle, out)                                               \
     do {                                                                                   \
         remove(out);                                                                       \
@@ -221,6 +237,35 @@ int main(void)
         CHECK(cJSON_IsString(cJSON_GetObjectItem(root, "device")));
         CHECK(cJSON_IsString(cJSON_GetObjectItem(root, "driver")));
         cJSON_Delete(root);
+    }
+
+    /* A turntable: frame k is the single render of --orbit 35 + 360k/N, 25; folders are made. */
+    {
+        char frames[1024], single[1100], frame[1100];
+        snprintf(frames, sizeof frames, "%s/turn/sub", tmp);
+        snprintf(args, sizeof args, "render %s -o %s/f%%02d.png --size 40x32 --turntable 4", sphere, frames);
+        CHECK_MSG(run(args) == 0, "%s", out_text);
+        CHECK_MSG(strstr(out_text, "wrote 4 frames") != NULL, "%s", out_text);
+        for (int k = 0; k < 4; ++k) {
+            snprintf(frame, sizeof frame, "%s/f%02d.png", frames, k);
+            snprintf(single, sizeof single, "%s/single.png", tmp);
+            snprintf(args, sizeof args, "render %s -o %s --size 40x32 --orbit %d,25 -q", sphere, single, 35 + 90 * k);
+            CHECK_MSG(run(args) == 0, "%s", out_text);
+            long na = 0, nb = 0;
+            unsigned char *a = slurp(frame, &na), *b = slurp(single, &nb);
+            CHECK_MSG(a && b && na == nb && !memcmp(a, b, (size_t)na), "turntable frame %d differs from --orbit %d,25",
+                      k, 35 + 90 * k);
+            free(a);
+            free(b);
+        }
+        snprintf(args, sizeof args, "render %s -o %s/x.png --turntable 4", sphere, tmp);
+        EXPECT_FAIL(2, args, "frame number", out);
+        snprintf(args, sizeof args, "render %s -o %s/%%d%%d.png --turntable 4", sphere, tmp);
+        EXPECT_FAIL(2, args, "frame number", out);
+        snprintf(args, sizeof args, "render %s -o %s/%%d.png --turntable 4 --stats %s/s.json", sphere, tmp, tmp);
+        EXPECT_FAIL(2, args, "--turntable", out);
+        snprintf(args, sizeof args, "render %s -o %s/%%d.png --turntable 0", sphere, tmp);
+        EXPECT_FAIL(2, args, "--turntable", out);
     }
 
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */

@@ -68,6 +68,14 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input_options *io);
 int cli_input_options_check(const char *verb, const leap_input_options *io);
 
+/* Writes one rendered image (render, turntable): PNG/TIFF over black, EXR with depth, samples
+ * and, for segmentations, the object channels. */
+leap_result cli_write_image(const char *path, int w, int h, const float *rgba, const float *depth, const float *samples,
+                            const int64_t *objects, const leap_label_object *objs, leap_error *err);
+/* Turntables (cli_turntable.c): a frame-name pattern holds exactly one %d (%0Nd); the frames. */
+int cli_frame_pattern_ok(const char *pattern);
+int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, int quiet);
+
 /* Checks combinations once all options are read; returns 0 or EXIT_USAGE. */
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference);
 

@@ -31,6 +31,10 @@ static const char *render_help_tail =
     "                      all three where the ray meets no object)\n"
     "  --stats FILE.json   per-stage times, samples, events and segments per pixel,\n"
     "                      occupancy, memory, device ('-': standard output)\n"
+    "  --turntable N       N frames orbiting once about the up axis from --orbit AZ,EL\n"
+    "                      (default 35,25), the volume loaded once: -o names them with a\n"
+    "                      frame number, e.g. -o frames/%03d.png (folders are created);\n"
+    "                      frame k is the image of --orbit AZ+360k/N,EL\n"
     "  -q, --quiet         no summary line on stderr\n";
 
 typedef struct stage_times {
@@ -38,7 +42,7 @@ typedef struct stage_times {
 } stage_times;
 
 /* objects: per pixel the first object's index into objs (-1: none), or NULL. */
-static leap_result write_output(const char *path, int w, int h, const float *rgba, const float *depth,
+leap_result cli_write_image(const char *path, int w, int h, const float *rgba, const float *depth,
                                 const float *samples, const int64_t *objects, const leap_label_object *objs,
                                 leap_error *err)
 {
@@ -151,7 +155,7 @@ int cli_render(int argc, char **argv)
     cli_camera_options o;
     cli_camera_options_init(&o);
     const char *output = NULL, *stats = NULL;
-    int quiet = 0;
+    int quiet = 0, turntable = 0;
     for (int i = 2; i < argc; ++i) {
         const char *a = argv[i], *v;
         int missing = 0;
@@ -168,6 +172,13 @@ int cli_render(int argc, char **argv)
             if (missing) return cli_usage_error("render", "option %s needs a value", a);
             if (output) return cli_usage_error("render", "output given twice (-o '%s', then '%s')", output, v);
             output = v;
+            continue;
+        }
+        if ((v = cli_option_value(argc, argv, &i, "--turntable", &missing)) || missing) {
+            double f;
+            if (missing || leap__parse_numbers(v, &f, 1, 1) != 1 || f != (int)f || f < 1 || f > 100000)
+                return cli_usage_error("render", "--turntable needs a number of frames, 1 to 100000");
+            turntable = (int)f;
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--stats", &missing)) || missing) {
@@ -188,6 +199,16 @@ int cli_render(int argc, char **argv)
     if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
     if (!leap_image_can_write(output))
         return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+    if (turntable) {
+        if (!cli_frame_pattern_ok(output))
+            return cli_usage_error("render", "with --turntable, -o '%s' needs one frame number, e.g. frames/%%03d.png",
+                                   output);
+        if (stats) return cli_usage_error("render", "--stats describes one image; it does not go with --turntable");
+        if (o.has_eye) return cli_usage_error("render", "--turntable orbits; it does not go with --eye/--target");
+        if (leap_mode_from_name(o.mode_name) < 0)
+            return cli_usage_error("render", "--turntable renders on the GPU modes, not --mode reference");
+        return cli_turntable(&o, turntable, output, quiet);
+    }
     const int stats_to_stdout = stats && strcmp(stats, "-") == 0;
     if (stats_to_stdout) stats = NULL;
     if (stats && leap_file_same(stats, output))
@@ -282,7 +303,7 @@ int cli_render(int argc, char **argv)
         }
     }
     double t = leap__now_ms();
-    if (write_output(output, o.width, o.height, rgba, depth, samples, ids,
+    if (cli_write_image(output, o.width, o.height, rgba, depth, samples, ids,
                      scene->labels ? leap_labels_objects(scene->labels) : NULL, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;
