@@ -28,7 +28,7 @@ static int is_zero(const void *p, size_t n)
 }
 
 /* Virtual size of this process in bytes, from /proc/self/statm (pages). */
-static unsigned long long vm_size(void)
+static __attribute__((unused)) unsigned long long vm_size(void)
 {
     FILE *f = fopen("/proc/self/statm", "r");
     unsigned long long pages = 0;

@@ -21,6 +21,15 @@ static const char *info_help =
     "  --range LO,HI  value range for --tf (default: each grid's range)\n"
     "  --threshold V, --raw WxHxD:TYPE[:le|be], --voxel X,Y,Z   as for leap render\n";
 
+/* The active box in world space and its bounding sphere. */
+static void world_box(const leap_grid_info *gi, double lo[3], double hi[3], double centre[3], double *radius)
+{
+    double m[4][4];
+    memcpy(m, gi->index_to_world, sizeof m); /* a copy: GCC's object-size check misreads the member */
+    leap_camera_world_box(m, gi->bbox_min, gi->bbox_max, lo, hi);
+    leap_camera_bounds(m, gi->bbox_min, gi->bbox_max, centre, radius);
+}
+
 static cJSON *info_json(const leap_grid_info *gi, int loaded)
 {
     cJSON *g = cJSON_CreateObject();
@@ -40,8 +49,7 @@ static cJSON *info_json(const leap_grid_info *gi, int loaded)
     cJSON_AddItemToObject(g, "bbox_max", cJSON_CreateIntArray(gi->bbox_max, 3));
     if (gi->bbox_min[0] <= gi->bbox_max[0]) {
         double lo[3], hi[3], centre[3], radius;
-        leap_camera_world_box(gi->index_to_world, gi->bbox_min, gi->bbox_max, lo, hi);
-        leap_camera_bounds(gi->index_to_world, gi->bbox_min, gi->bbox_max, centre, &radius);
+        world_box(gi, lo, hi, centre, &radius);
         cJSON_AddItemToObject(g, "world_min", cJSON_CreateDoubleArray(lo, 3));
         cJSON_AddItemToObject(g, "world_max", cJSON_CreateDoubleArray(hi, 3));
         cJSON_AddItemToObject(g, "world_center", cJSON_CreateDoubleArray(centre, 3));
@@ -81,8 +89,7 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
                (long long)gi->bbox_max[2] - gi->bbox_min[2] + 1);
     if (gi->bbox_min[0] <= gi->bbox_max[0]) {
         double lo[3], hi[3], centre[3], radius;
-        leap_camera_world_box(gi->index_to_world, gi->bbox_min, gi->bbox_max, lo, hi);
-        leap_camera_bounds(gi->index_to_world, gi->bbox_min, gi->bbox_max, centre, &radius);
+        world_box(gi, lo, hi, centre, &radius);
         printf("  world box      [%g %g %g] .. [%g %g %g] (voxel extents, world units)\n", lo[0], lo[1], lo[2], hi[0],
                hi[1], hi[2]);
         printf("  world centre   %g,%g,%g (bounding radius %g)\n", centre[0], centre[1], centre[2], radius);

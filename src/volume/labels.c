@@ -174,7 +174,7 @@ leap_result leap_labels_select(leap_labels *l, const char *list, int visible, si
     } else {
         for (;;) {
             const char *start = p;
-            int64_t lo, hi;
+            int64_t lo = 0, hi;
             int ok = parse_id(&p, &lo);
             hi = lo;
             if (ok && *p == '-') {
