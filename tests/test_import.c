@@ -2,7 +2,8 @@
  * qform only, pixdim only, scl scaling, label intent, NIfTI-2, gzip) open with the voxel
  * values, labels and transforms they hold; truncated and inconsistent files are clear
  * errors; `leap convert` writes an OpenVDB file with the same grid, and fails with exit 1
- * and no output on a broken file. Raw: both byte orders, exact labels, size checks. */
+ * and no output on a broken file. Raw: both byte orders, exact labels, size checks. Image
+ * stacks: TIFF pages, folders and patterns of slices. */
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -547,8 +548,95 @@ static void test_raw(void)
     free(ids);
 }
 
+/* Image stacks: a multi-page TIFF, a folder and a pattern of single slices (made with
+ * OpenImageIO's oiiotool) give the same voxels, in natural name order, row 0 on top. */
+static void oiio(const char *args)
+{
+    char cmd[4096];
+    snprintf(cmd, sizeof cmd, "oiiotool %s >/dev/null 2>&1", args);
+    CHECK_MSG(system(cmd) == 0, "oiiotool %s failed", args);
+}
+
+static void test_slices(void)
+{
+    const char *dir = tmp_file("slices");
+    char args[4096], path[2048];
+    snprintf(args, sizeof args, "rm -rf %s && mkdir -p %s", dir, dir);
+    CHECK(system(args) == 0);
+    /* Slice k (k = 0..11, named without padding) is constant 1000 k, except a top-to-bottom ramp in slice 0. */
+    for (int k = 0; k < 12; ++k) {
+        if (k == 0)
+            snprintf(args, sizeof args, "--pattern fill:top=0:bottom=1 8x6 1 -d uint16 -o %s/s%d.tif", dir, k);
+        else
+            snprintf(args, sizeof args, "--pattern constant:color=%.9f 8x6 1 -d uint16 -o %s/s%d.tif",
+                     1000.0 * k / 65535.0, dir, k);
+        oiio(args);
+    }
+    snprintf(args, sizeof args, "%s/s0.tif %s/s1.tif %s/s2.tif --siappendall -o %s/../stack.tif", dir, dir, dir, dir);
+    oiio(args);
+    leap_error err = {{0}};
+    leap_input_info info;
+    leap_grid *folder = load(dir, NULL, &info, &err);
+    CHECK_MSG(folder != NULL, "%s", err.msg);
+    CHECK_MSG(!strcmp(info.format, "image slices") && info.up[2] == 1, "%s", info.format);
+    snprintf(path, sizeof path, "%s/s*.tif", dir);
+    leap_grid *pattern = load(path, &(leap_input_options){.voxel = {0.5, 0.5, 2}}, NULL, &err);
+    CHECK_MSG(pattern != NULL, "%s", err.msg);
+    snprintf(path, sizeof path, "%s/../stack.tif", dir);
+    leap_grid *stack = load(path, NULL, NULL, &err);
+    CHECK_MSG(stack != NULL, "%s", err.msg);
+    if (folder && pattern && stack) {
+        leap_grid_reader *a = NULL, *b = NULL, *c = NULL;
+        leap_grid_reader_create(folder, &a, &err);
+        leap_grid_reader_create(pattern, &b, &err);
+        leap_grid_reader_create(stack, &c, &err);
+        int order = 0, same = 0, ramp = 0;
+        for (int z = 0; z < 12; ++z)
+            for (int y = 0; y < 6; ++y)
+                for (int x = 0; x < 8; ++x) {
+                    const float v = leap_grid_reader_value(a, x, y, z);
+                    same += v != leap_grid_reader_value(b, x, y, z) || (z < 3 && v != leap_grid_reader_value(c, x, y, z));
+                    if (z > 0) order += v != 1000.0f * z;
+                }
+        /* Row 0 of the image (its top, value 0) is the largest y; the bottom row is the brightest. */
+        ramp = leap_grid_reader_value(a, 3, 5, 0) == 0.0f && leap_grid_reader_value(a, 3, 0, 0) > 60000.0f;
+        CHECK_MSG(same == 0, "folder, pattern and stack differ at %d voxels", same);
+        CHECK_MSG(order == 0, "%d voxels out of natural order (s10 after s9)", order);
+        CHECK_MSG(ramp, "row order: top %g, bottom %g", leap_grid_reader_value(a, 3, 5, 0),
+                  leap_grid_reader_value(a, 3, 0, 0));
+        CHECK(leap_grid_get_info(pattern)->index_to_world[2][2] == 2 && leap_grid_get_info(pattern)->index_to_world[0][0] == 0.5);
+        leap_grid_reader_destroy(a);
+        leap_grid_reader_destroy(b);
+        leap_grid_reader_destroy(c);
+    }
+    leap_grid_destroy(folder);
+    leap_grid_destroy(pattern);
+    leap_grid_destroy(stack);
+
+    /* A slice of another size, an RGB slice, an empty folder, a pattern matching nothing. */
+    snprintf(args, sizeof args, "--pattern constant:color=0.5 9x6 1 -d uint16 -o %s/s12.tif", dir);
+    oiio(args);
+    leap_vdb_file *file = NULL;
+    CHECK_MSG(leap_input_open(dir, NULL, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "s12.tif") &&
+                  strstr(err.msg, "9 x 6"),
+              "%s", err.msg);
+    snprintf(args, sizeof args, "--pattern constant:color=0.5,0.2,0.1 8x6 3 -d uint8 -o %s/s12.tif", dir);
+    oiio(args);
+    CHECK_MSG(leap_input_open(dir, NULL, &file, NULL, &err) == LEAP_ERR_UNSUPPORTED && strstr(err.msg, "3 channels"),
+              "%s", err.msg);
+    const char *empty = tmp_file("empty_folder");
+    mkdir(empty, 0755);
+    CHECK_MSG(leap_input_open(empty, NULL, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "no .tif"), "%s",
+              err.msg);
+    snprintf(path, sizeof path, "%s/nothing*.tif", dir);
+    CHECK_MSG(leap_input_open(path, NULL, &file, NULL, &err) == LEAP_ERR_IO && strstr(err.msg, "no file matches"),
+              "%s", err.msg);
+    leap_vdb_close(file);
+}
+
 int main(void)
 {
+    test_slices();
     test_raw();
     test_types();
     test_transforms_and_scaling();

@@ -55,6 +55,12 @@ typedef struct leap_input_info {
 /* 1 if `path` names a NIfTI file (by its name: .nii, .nii.gz, .hdr, .img, any case). */
 int leap_input_is_nifti(const char *path);
 
+/* 1 if `path` is an image stack: a .tif/.tiff file (every page a z slice), a folder of
+ * .tif/.tiff/.png slices, or a file pattern (with * or ?); files in natural name order. Slices
+ * are single-channel 8- to 32-bit integer or float images of one size; their values keep
+ * their stored scale; row 0 (the top) is the largest y; Z-up, voxel sizes from --voxel. */
+int leap_input_is_slices(const char *path);
+
 /* Opens `path` as a leap_vdb_file (options may be NULL; options->raw reads a raw file). Errors: LEAP_ERR_IO (missing,
  * unreadable), LEAP_ERR_FORMAT (not a supported format, truncated or inconsistent header;
  * the message names the file and the field), LEAP_ERR_UNSUPPORTED (a data type or shape leap

@@ -29,7 +29,8 @@ static const char *main_help =
     "  pick SEGMENTATION.vdb --pixel X,Y        the object a pixel shows (ID, depth, position)\n"
     "  convert SCAN.nii.gz -o OUT.vdb           write a volume as an OpenVDB file\n"
     "\n"
-    "VOLUME: an OpenVDB file (.vdb) or a NIfTI-1/2 scan (.nii, .nii.gz), opened Z-up.\n"
+    "VOLUME: an OpenVDB file (.vdb); a NIfTI-1/2 scan (.nii, .nii.gz), a TIFF stack, a folder of\n"
+    "slices or a raw file (--raw), opened Z-up.\n"
     "\n"
     "Run 'leap <command> --help' for the options of a command.\n"
     "Exit codes: 0 success, 1 runtime failure, 2 usage error.\n";

@@ -73,6 +73,11 @@ leap_result leap_input_open(const char *path, const leap_input_options *options,
         if (!r && info) info->up[2] = 1.0;
         return r;
     }
+    if (leap_input_is_slices(path)) {
+        leap_result r = leap__input_open_slices(path, options, out, info, err);
+        if (!r && info) info->up[2] = 1.0;
+        return r;
+    }
     if (leap_input_is_nifti(path)) {
         FILE *f = fopen(path, "rb");
         if (!f) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
@@ -92,7 +97,8 @@ leap_result leap_input_open(const char *path, const leap_input_options *options,
         char msg[sizeof err->msg];
         memcpy(msg, err->msg, sizeof msg);
         msg[sizeof msg - 1] = '\0';
-        return leap_fail(err, r, "%.180s; leap opens OpenVDB (.vdb) and NIfTI (.nii, .nii.gz) files", msg);
+        return leap_fail(err, r, "%.150s; leap opens OpenVDB (.vdb), NIfTI (.nii, .nii.gz), TIFF stacks and "
+                         "folders of slices, and raw files (--raw)", msg);
     }
     if (!r && info) {
         snprintf(info->format, sizeof info->format, "OpenVDB");
