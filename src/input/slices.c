@@ -27,8 +27,8 @@ int leap_input_is_slices(const char *path)
 {
     struct stat st;
     if (!path) return 0;
-    if (strpbrk(path, "*?[")) return 1;
-    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) return 1;
+    if (stat(path, &st) != 0) return strpbrk(path, "*?[") != NULL; /* a pattern; an existing name never is */
+    if (S_ISDIR(st.st_mode)) return 1;
     const char *dot = strrchr(path, '.');
     return dot && (!strcasecmp(dot, ".tif") || !strcasecmp(dot, ".tiff"));
 }
@@ -41,7 +41,7 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
     glob_t g = {0};
     int globbed = 0;
     struct stat st;
-    if (strpbrk(path, "*?[")) {
+    if (stat(path, &st) != 0 && strpbrk(path, "*?[")) {
         const int rc = glob(path, 0, NULL, &g);
         globbed = 1;
         if (rc == GLOB_NOMATCH || g.gl_pathc == 0) {
