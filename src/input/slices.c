@@ -56,7 +56,7 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
         count = g.gl_pathc;
     } else if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
         DIR *d = opendir(path);
-        if (!d) return leap_fail(err, LEAP_ERR_IO, "cannot open the folder '%s': %s", path, strerror(errno));
+        if (!d) return leap_fail(err, LEAP_ERR_IO, "cannot open the directory '%s': %s", path, strerror(errno));
         size_t cap = 0;
         for (struct dirent *e; (e = readdir(d));) {
             if (e->d_name[0] == '.' || !is_image_name(e->d_name)) continue;
@@ -73,7 +73,10 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
         closedir(d);
         if (!count) {
             free(files);
-            return leap_fail(err, LEAP_ERR_FORMAT, "the folder '%s' holds no .tif, .tiff or .png slices", path);
+            return leap_fail(err, LEAP_ERR_FORMAT,
+                             "'%s' is a directory with no .tif, .tiff or .png slices (leap opens .vdb and NIfTI "
+                             "files, TIFF stacks, directories of image slices and raw files)",
+                             path);
         }
     } else {
         FILE *f = fopen(path, "rb");
