@@ -8,5 +8,5 @@ build="${LEAP_BUILD_DIR:-$root/build}"
 bash "$root/scripts/setup-deps.sh"
 cmake -S "$root" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build "$build" -j"$(nproc)"
-"$build/leap" render "$root/volumes/blobs.vdb" -o "$build/blobs.png" --stats "$build/blobs.json"
-echo "setup: rendered $build/blobs.png (stats in $build/blobs.json)"
+"$build/leap" render "$root/volumes/tubes.vdb" -o "$build/tubes.png" --stats "$build/tubes.json"
+echo "setup: rendered $build/tubes.png (stats in $build/tubes.json)"
