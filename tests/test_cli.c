@@ -268,6 +268,36 @@ int main(void)
         EXPECT_FAIL(2, args, "--turntable", out);
     }
 
+    /* --alpha and --background: the corner pixel shows no volume, so it is the background. */
+    {
+        const char *looks[][2] = {{"--alpha", "transparent"},
+                                  {"--background 1,0.5,0", "orange"},
+                                  {"--background 0,0,1,0.5 --alpha", "half blue"}};
+        const float want[][4] = {{0, 0, 0, 0}, {1, 0.5f, 0, -1}, {0, 0, 1, 0.5f}};
+        for (int k = 0; k < 3; ++k) {
+            remove(out);
+            snprintf(args, sizeof args, "render %s -o %s --size 24x20 %s -q", sphere, out, looks[k][0]);
+            CHECK_MSG(run(args) == 0, "%s", out_text);
+            int lw = 0, lh = 0, lc = 0;
+            float *lp = NULL;
+            leap_error le = {{0}};
+            CHECK_OK(leap_image_read(out, &lw, &lh, &lc, &lp, &le), &le);
+            const int channels = want[k][3] < 0 ? 3 : 4;
+            CHECK_MSG(lp && lc == channels, "%s: %d channels", looks[k][1], lc);
+            int off = 0, lit = 0;
+            for (int c = 0; lp && lc == channels && c < channels; ++c) off += fabsf(lp[c] - want[k][c]) > 0.01f;
+            /* OpenImageIO reads straight-alpha PNGs back premultiplied: compare what was written. */
+            if (lp && lc == 4 && k == 2) off = fabsf(lp[2] - 0.5f) > 0.01f || fabsf(lp[3] - 0.5f) > 0.01f;
+            for (int i = 0; lp && i < lw * lh; ++i) lit += lc == 4 ? lp[4 * i + 3] > 0.6f : lp[3 * i + 2] > 0.05f;
+            CHECK_MSG(off == 0, "%s corner: %g %g %g %g", looks[k][1], lp ? lp[0] : -1, lp ? lp[1] : -1,
+                      lp ? lp[2] : -1, lp && lc == 4 ? lp[3] : -1);
+            CHECK_MSG(lit > 0, "%s: the volume does not show", looks[k][1]);
+            free(lp);
+        }
+        snprintf(args, sizeof args, "render %s -o %s --background 2,0,0", sphere, out);
+        EXPECT_FAIL(2, args, "--background", out);
+    }
+
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
     CHECK_MSG(run(args) == 0, "%s", out_text);

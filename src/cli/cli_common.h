@@ -51,6 +51,9 @@ typedef struct cli_camera_options {
     double fov;
     int has_orbit, has_eye, has_target, has_up, orbit_n;
     double orbit[3], eye[3], target[3], up[3];
+    /* The written image (render): --background R,G,B[,A] under the volume, --alpha. */
+    double background[4];
+    int has_background, alpha;
 } cli_camera_options;
 
 /* Help text for the shared options. */
@@ -68,10 +71,13 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input_options *io);
 int cli_input_options_check(const char *verb, const leap_input_options *io);
 
-/* Writes one rendered image (render, turntable): PNG/TIFF over black, EXR with depth, samples
- * and, for segmentations, the object channels. */
-leap_result cli_write_image(const char *path, int w, int h, const float *rgba, const float *depth, const float *samples,
-                            const int64_t *objects, const leap_label_object *objs, leap_error *err);
+/* Writes one rendered image of o->width x o->height (render, turntable): the volume over
+ * o->background (default black, transparent with o->alpha); PNG/TIFF as RGB, or RGBA with
+ * straight alpha (o->alpha); EXR premultiplied RGBA with depth, samples and, for
+ * segmentations, the object channels. */
+leap_result cli_write_image(const cli_camera_options *o, const char *path, const float *rgba, const float *depth,
+                            const float *samples, const int64_t *objects, const leap_label_object *objs,
+                            leap_error *err);
 /* Turntables (cli_turntable.c): a frame-name pattern holds exactly one %d (%0Nd); the frames. */
 int cli_frame_pattern_ok(const char *pattern);
 int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, int quiet);

@@ -35,6 +35,10 @@ static const char *render_help_tail =
     "                      (default 35,25), the volume loaded once: -o names them with a\n"
     "                      frame number, e.g. -o frames/%03d.png (folders are created);\n"
     "                      frame k is the image of --orbit AZ+360k/N,EL\n"
+    "  --background R,G,B[,A]  colour under the volume, components in [0, 1] (default\n"
+    "                      black; A: its opacity, default 1)\n"
+    "  --alpha             PNG/TIFF with an alpha channel (straight colour; the volume over\n"
+    "                      a transparent background unless --background is given)\n"
     "  -q, --quiet         no summary line on stderr\n";
 
 typedef struct stage_times {
@@ -42,20 +46,29 @@ typedef struct stage_times {
 } stage_times;
 
 /* objects: per pixel the first object's index into objs (-1: none), or NULL. */
-leap_result cli_write_image(const char *path, int w, int h, const float *rgba, const float *depth,
-                                const float *samples, const int64_t *objects, const leap_label_object *objs,
-                                leap_error *err)
+leap_result cli_write_image(const cli_camera_options *o, const char *path, const float *rgba, const float *depth,
+                            const float *samples, const int64_t *objects, const leap_label_object *objs,
+                            leap_error *err)
 {
+    const int w = o->width, h = o->height;
     size_t n = (size_t)w * h;
     const char *ext = strrchr(path, '.');
     int exr = ext && !strcasecmp(ext, ".exr");
-    int channels = exr ? (objects ? 9 : 6) : 3;
+    int channels = exr ? (objects ? 9 : 6) : o->alpha ? 4 : 3;
+    /* The background under the volume: premultiplied colour bg[0..2], coverage bg[3]. */
+    const double bga = o->has_background ? o->background[3] : (o->alpha || exr ? 0.0 : 1.0);
+    const double bg[4] = {o->has_background ? o->background[0] * bga : 0, o->has_background ? o->background[1] * bga : 0,
+                          o->has_background ? o->background[2] * bga : 0, bga};
     float *px = malloc(n * channels * sizeof(float));
     if (!px) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the output image");
     for (size_t i = 0; i < n; ++i) {
+        const float *c = rgba + 4 * i;
+        const double a = c[3], out_a = a + (1 - a) * bg[3];
+        const float over[4] = {(float)(c[0] + (1 - a) * bg[0]), (float)(c[1] + (1 - a) * bg[1]),
+                               (float)(c[2] + (1 - a) * bg[2]), (float)out_a};
         if (exr) {
             float *p = px + (size_t)channels * i;
-            memcpy(p, rgba + 4 * i, 4 * sizeof(float));
+            memcpy(p, o->has_background ? over : c, 4 * sizeof(float));
             p[4] = depth[i];
             p[5] = samples[i];
             if (objects) { /* the ID's bits as unsigned 24-bit pieces: exact in float */
@@ -64,8 +77,12 @@ leap_result cli_write_image(const char *path, int w, int h, const float *rgba, c
                 p[7] = objects[i] < 0 ? -1.0f : (float)(id >> 24 & 0xffffffu);
                 p[8] = objects[i] < 0 ? -1.0f : (float)(id >> 48);
             }
+        } else if (o->alpha) { /* straight colour: PNG defines it so; TIFF is marked unassociated */
+            float *p = px + 4 * i;
+            for (int k = 0; k < 3; ++k) p[k] = out_a > 0 ? (float)(over[k] / out_a) : 0.0f;
+            p[3] = (float)out_a;
         } else {
-            memcpy(px + 3 * i, rgba + 4 * i, 3 * sizeof(float)); /* premultiplied over black */
+            memcpy(px + 3 * i, over, 3 * sizeof(float)); /* over the background, then black */
         }
     }
     static const char *exr_names[] = {"R", "G", "B", "A", "depth", "samples", "object.lo", "object.mid", "object.hi"};
@@ -172,6 +189,20 @@ int cli_render(int argc, char **argv)
             if (missing) return cli_usage_error("render", "option %s needs a value", a);
             if (output) return cli_usage_error("render", "output given twice (-o '%s', then '%s')", output, v);
             output = v;
+            continue;
+        }
+        if (!strcmp(a, "--alpha")) {
+            o.alpha = 1;
+            continue;
+        }
+        if ((v = cli_option_value(argc, argv, &i, "--background", &missing)) || missing) {
+            o.background[3] = 1.0;
+            const int k = missing ? -1 : leap__parse_numbers(v, o.background, 3, 4);
+            int ok = k >= 3;
+            for (int c = 0; c < 4 && ok; ++c) ok = o.background[c] >= 0 && o.background[c] <= 1;
+            if (!ok) return cli_usage_error("render", "--background must be R,G,B[,A] with components in [0, 1]");
+            if (k == 3) o.background[3] = 1.0;
+            o.has_background = 1;
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--turntable", &missing)) || missing) {
@@ -303,7 +334,7 @@ int cli_render(int argc, char **argv)
         }
     }
     double t = leap__now_ms();
-    if (cli_write_image(output, o.width, o.height, rgba, depth, samples, ids,
+    if (cli_write_image(&o, output, rgba, depth, samples, ids,
                      scene->labels ? leap_labels_objects(scene->labels) : NULL, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;

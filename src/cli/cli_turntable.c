@@ -117,7 +117,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
             cli_runtime_error("the object channel of frame %d could not be read", k);
             goto done;
         }
-        if ((r = cli_write_image(path, o->width, o->height, rgba, depth, samples, ids,
+        if ((r = cli_write_image(o, path, rgba, depth, samples, ids,
                                  scene->labels ? leap_labels_objects(scene->labels) : NULL, &err))) {
             if (!quiet) fputc('\n', stderr);
             cli_runtime_error("%s", err.msg);
