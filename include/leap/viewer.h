@@ -348,6 +348,7 @@ typedef void (*leap_viewer_note_fn)(void *user, leap_viewer_note kind, const cha
 typedef struct leap_viewer_session_desc {
     const char *volume_path;  /* its base name goes into the title; the path into render lines */
     const char *grid;         /* the grid the volume was opened with (NULL: the default) */
+    const char *open_options; /* options that open the volume the same way (" --raw ..."), or NULL */
     const char *script_path;  /* names the script in messages (NULL: none) */
     const char *device_name;  /* as leap_renderer_desc */
     uint32_t max_segments;    /* as leap_renderer_desc */

@@ -181,8 +181,18 @@ static int load_script(const view_options *o, leap_viewer_script *script)
 /* Set-up in the order the failures are reported; returns the exit code. */
 static int run_session(const view_options *o, leap_scene *scene, const leap_viewer_script *script, int scripted)
 {
+    const leap_input_options *io = &o->view.scene.input;
+    char open_options[512] = "";
+    int len = 0;
+    if (io->raw) len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --raw %s", io->raw);
+    if (io->voxel[0] > 0)
+        len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --voxel %.17g,%.17g,%.17g",
+                        io->voxel[0], io->voxel[1], io->voxel[2]);
+    if (io->has_threshold)
+        snprintf(open_options + len, sizeof open_options - (size_t)len, " --threshold %.17g", io->threshold);
     leap_viewer_session_desc d = {
         .volume_path = o->view.input,
+        .open_options = open_options,
         .grid = o->view.scene.grid,
         .script_path = o->script,
         .device_name = o->view.device,

@@ -338,9 +338,9 @@ static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char 
                            : st->show_heat                 ? " (overlay: heat map)"
                                                            : "";
     const char *grid = s->desc.grid;
-    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s --size %ux%u %s%s", path,
-                 overlays, s->desc.volume_path, grid ? " --grid " : "", grid ? grid : "", (unsigned)s->width,
-                 (unsigned)s->height, args, objects);
+    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s%s --size %ux%u %s%s", path,
+                 overlays, s->desc.volume_path, s->desc.open_options ? s->desc.open_options : "", grid ? " --grid " : "",
+                 grid ? grid : "", (unsigned)s->width, (unsigned)s->height, args, objects);
 }
 
 void *session_render_thread(void *arg)
