@@ -258,6 +258,48 @@ int main(void)
             free(a);
             free(b);
         }
+        /* Videos through ffmpeg (a dependency of the setup script): every frame encoded, no
+         * temporary frames left; without ffmpeg on PATH a clear error and no file. */
+        const char *videos[] = {"spin.gif", "spin.mp4"};
+        for (int k = 0; k < 2; ++k) {
+            char video[1100], probe[2400];
+            snprintf(video, sizeof video, "%s/%s", tmp, videos[k]);
+            remove(video);
+            snprintf(args, sizeof args, "render %s -o %s --size 41x31 --turntable 5 -q", sphere, video);
+            CHECK_MSG(run(args) == 0, "%s", out_text);
+            snprintf(probe, sizeof probe,
+                     "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames "
+                     "-of csv=p=0 %s",
+                     video);
+            FILE *p = popen(probe, "r");
+            char counted[64] = "";
+            if (p) {
+                if (!fgets(counted, sizeof counted, p)) counted[0] = '\0';
+                pclose(p);
+            }
+            CHECK_MSG(atoi(counted) == 5, "%s: ffprobe counts '%s' frames, not 5", videos[k], counted);
+        }
+        snprintf(args, sizeof args, "ls -a %s | grep -c leap-tmp-frames", tmp);
+        FILE *ls = popen(args, "r");
+        char left[16] = "";
+        if (ls) {
+            if (!fgets(left, sizeof left, ls)) left[0] = '\0';
+            pclose(ls);
+        }
+        CHECK_MSG(atoi(left) == 0, "%s temporary frame folders left", left);
+        const char *saved_path = getenv("PATH");
+        char path_copy[4096];
+        snprintf(path_copy, sizeof path_copy, "%s", saved_path ? saved_path : "/usr/bin:/bin");
+        setenv("PATH", "/nonexistent", 1);
+        snprintf(args, sizeof args, "render %s -o %s/none.mp4 --turntable 3", sphere, tmp);
+        int no_ffmpeg = run(args);
+        setenv("PATH", path_copy, 1);
+        CHECK_MSG(no_ffmpeg == 1 && strstr(out_text, "needs ffmpeg"), "exit %d: %s", no_ffmpeg, out_text);
+        snprintf(path, sizeof path, "%s/none.mp4", tmp);
+        CHECK(!exists(path));
+        snprintf(args, sizeof args, "render %s -o %s/one.mp4", sphere, tmp);
+        EXPECT_FAIL(2, args, "--turntable", out);
+
         snprintf(args, sizeof args, "render %s -o %s/x.png --turntable 4", sphere, tmp);
         EXPECT_FAIL(2, args, "frame number", out);
         snprintf(args, sizeof args, "render %s -o %s/%%d%%d.png --turntable 4", sphere, tmp);

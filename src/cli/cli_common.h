@@ -81,6 +81,9 @@ leap_result cli_write_image(const cli_camera_options *o, const char *path, const
 /* Turntables (cli_turntable.c): a frame-name pattern holds exactly one %d (%0Nd); the frames. */
 int cli_frame_pattern_ok(const char *pattern);
 int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, int quiet);
+/* Videos of turntables (cli_video.c): .mp4/.gif names, encoded by ffmpeg from PATH. */
+int cli_is_video(const char *path);
+int cli_turntable_video(const cli_camera_options *o, int frames, const char *output, int quiet);
 
 /* Checks combinations once all options are read; returns 0 or EXIT_USAGE. */
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference);

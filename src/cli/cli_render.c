@@ -34,7 +34,8 @@ static const char *render_help_tail =
     "  --turntable N       N frames orbiting once about the up axis from --orbit AZ,EL\n"
     "                      (default 35,25), the volume loaded once: -o names them with a\n"
     "                      frame number, e.g. -o frames/%03d.png (folders are created);\n"
-    "                      frame k is the image of --orbit AZ+360k/N,EL\n"
+    "                      frame k is the image of --orbit AZ+360k/N,EL; -o spin.mp4 or\n"
+    "                      spin.gif encodes them (24 per second) with an installed ffmpeg\n"
     "  --background R,G,B[,A]  colour under the volume, components in [0, 1] (default\n"
     "                      black; A: its opacity, default 1)\n"
     "  --alpha             PNG/TIFF with an alpha channel (straight colour; the volume over\n"
@@ -228,16 +229,23 @@ int cli_render(int argc, char **argv)
     int rc = cli_camera_options_check("render", &o, 1);
     if (rc) return rc;
     if (!output) return cli_usage_error("render", "no output file given (-o OUT.png)");
-    if (!leap_image_can_write(output))
-        return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
     if (turntable) {
-        if (!cli_frame_pattern_ok(output))
-            return cli_usage_error("render", "with --turntable, -o '%s' needs one frame number, e.g. frames/%%03d.png",
-                                   output);
         if (stats) return cli_usage_error("render", "--stats describes one image; it does not go with --turntable");
         if (o.has_eye) return cli_usage_error("render", "--turntable orbits; it does not go with --eye/--target");
         if (leap_mode_from_name(o.mode_name) < 0)
             return cli_usage_error("render", "--turntable renders on the GPU modes, not --mode reference");
+        if (cli_is_video(output)) return cli_turntable_video(&o, turntable, output, quiet);
+    } else if (cli_is_video(output)) {
+        return cli_usage_error("render", "'%s': a video needs --turntable N (one image: .png, .exr or .tif)", output);
+    }
+    if (!leap_image_can_write(output))
+        return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+    if (turntable) {
+        if (!cli_frame_pattern_ok(output))
+            return cli_usage_error("render",
+                                   "with --turntable, -o '%s' needs one frame number, e.g. frames/%%03d.png (or a "
+                                   ".mp4/.gif video)",
+                                   output);
         return cli_turntable(&o, turntable, output, quiet);
     }
     const int stats_to_stdout = stats && strcmp(stats, "-") == 0;
