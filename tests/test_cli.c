@@ -47,6 +47,16 @@ static int lines(const char *s)
     return n;
 }
 
+/* The first line a shell command prints ("" if none). */
+static void first_line(const char *cmd, char *buf, size_t cap)
+{
+    buf[0] = '\0';
+    FILE *p = popen(cmd, "r");
+    if (!p) return;
+    if (!fgets(buf, (int)cap, p)) buf[0] = '\0';
+    pclose(p);
+}
+
 static unsigned char *slurp(const char *path, long *size)
 {
     FILE *f = fopen(path, "rb");
@@ -271,21 +281,13 @@ int main(void)
                      "ffprobe -v error -count_frames -select_streams v:0 -show_entries stream=nb_read_frames "
                      "-of csv=p=0 %s",
                      video);
-            FILE *p = popen(probe, "r");
-            char counted[64] = "";
-            if (p) {
-                if (!fgets(counted, sizeof counted, p)) counted[0] = '\0';
-                pclose(p);
-            }
+            char counted[64];
+            first_line(probe, counted, sizeof counted);
             CHECK_MSG(atoi(counted) == 5, "%s: ffprobe counts '%s' frames, not 5", videos[k], counted);
         }
         snprintf(args, sizeof args, "ls -a %s | grep -c leap-tmp-frames", tmp);
-        FILE *ls = popen(args, "r");
-        char left[16] = "";
-        if (ls) {
-            if (!fgets(left, sizeof left, ls)) left[0] = '\0';
-            pclose(ls);
-        }
+        char left[16];
+        first_line(args, left, sizeof left);
         CHECK_MSG(atoi(left) == 0, "%s temporary frame folders left", left);
         const char *saved_path = getenv("PATH");
         char path_copy[4096];
