@@ -236,7 +236,8 @@ int cli_render(int argc, char **argv)
             return cli_usage_error("render", "--turntable renders on the GPU modes, not --mode reference");
         if (cli_is_video(output)) return cli_turntable_video(&o, turntable, output, quiet);
     } else if (cli_is_video(output)) {
-        return cli_usage_error("render", "'%s': a video needs --turntable N (one image: .png, .exr or .tif)", output);
+        return cli_usage_error("render", "'%s': a video format, written only with --turntable N (one image: .png, "
+                               ".exr or .tif)", output);
     }
     if (!leap_image_can_write(output))
         return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
