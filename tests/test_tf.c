@@ -46,6 +46,32 @@ static void test_presets(void)
         CHECK_MSG(strcmp(tf.name, *p) == 0, "preset %s named '%s'", *p, tf.name);
     }
     CHECK(count >= 3);
+    for (const char *const *p = leap_tf_preset_names(); *p; ++p)
+        CHECK_MSG(leap_tf_preset_note(*p) && *leap_tf_preset_note(*p), "preset %s has no note", *p);
+    CHECK(leap_tf_preset_note("no-such-map") == NULL);
+
+    /* The colour maps: their published ends, transparent low end, opacity rising. */
+    static const struct {
+        const char *name;
+        float lo[3], hi[3];
+    } maps[] = {{"cool-to-warm", {0.2298f, 0.2987f, 0.7537f}, {0.7057f, 0.0156f, 0.1502f}},
+                {"inferno", {0.001462f, 0.000466f, 0.013866f}, {0.988362f, 0.998364f, 0.644924f}},
+                {"black-body", {0, 0, 0}, {1, 1, 1}}};
+    for (size_t m = 0; m < sizeof maps / sizeof maps[0]; ++m) {
+        CHECK_OK(leap_tf_preset(maps[m].name, 1, &tf, &err), &err);
+        for (int c = 0; c < 3; ++c)
+            CHECK_MSG(fabsf(tf.rgba[0][c] - maps[m].lo[c]) < 1e-5f && fabsf(tf.rgba[N - 1][c] - maps[m].hi[c]) < 1e-5f,
+                      "%s: channel %d ends %g .. %g", maps[m].name, c, tf.rgba[0][c], tf.rgba[N - 1][c]);
+        CHECK(tf.rgba[(int)(0.04 * (N - 1))][3] == 0.0f && tf.rgba[N - 1][3] > 0.7f);
+    }
+    /* ct over -1000..2000 HU: air and fat transparent, soft tissue faint, bone opaque. */
+    CHECK_OK(leap_tf_preset("ct", 1, &tf, &err), &err);
+    const double hu[] = {-1000, -200, 40, 700, 1500};
+    float alpha[5];
+    for (int k = 0; k < 5; ++k) alpha[k] = tf.rgba[(int)((hu[k] + 1000) / 3000 * (N - 1))][3];
+    CHECK_MSG(alpha[0] == 0 && alpha[1] == 0 && alpha[2] > 0 && alpha[2] < 0.1f && alpha[3] > 0.5f && alpha[4] > alpha[3],
+              "ct opacities at -1000, -200, 40, 700, 1500 HU: %g %g %g %g %g", alpha[0], alpha[1], alpha[2], alpha[3],
+              alpha[4]);
 
     /* grey: black -> white, opacity ramp from 0 */
     CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);

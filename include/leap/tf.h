@@ -28,6 +28,9 @@ typedef struct leap_tf {
  * colours per integer label, label 0 transparent). */
 const char *const *leap_tf_preset_names(void);
 
+/* One line saying what a preset is for, or NULL for a name that is no preset. */
+const char *leap_tf_preset_note(const char *name);
+
 /* Fills *out from a preset. `label_count` (>= 1) is used by "labels" only: the number of
  * integer values spanned by the range, so that each integer gets its own colour.
  * Errors: LEAP_ERR_USAGE for an unknown name (message lists the presets). */

@@ -62,11 +62,33 @@ static void set_name(leap_tf *out, const char *name)
 
 /* ---- presets ------------------------------------------------------------------------- */
 
-static const char *const preset_names[] = {"grey", "viridis", "labels", "hot", "cloud", NULL};
+static const char *const preset_names[] = {"grey",         "viridis", "labels", "hot", "cloud",
+                                           "cool-to-warm", "inferno", "black-body", "ct", NULL};
+
+/* One line per preset, in the order of preset_names (leap render --list-tf). */
+static const char *const preset_notes[] = {
+    "grey ramp, opacity rising with the value",
+    "perceptual colour map (blue-green-yellow), transparent below 5 % of the range",
+    "one colour per integer value, 0 transparent (float label maps; real segmentations use --labels)",
+    "black-red-yellow-white, opacity rising with the value",
+    "white, low opacity rising with the value (smoke, fog)",
+    "ParaView's default diverging map (blue-grey-red), transparent below 5 % of the range",
+    "black-purple-orange-yellow perceptual map, transparent below 5 % of the range",
+    "ParaView's black-body radiation (black-red-yellow-white), transparent below 5 % of the range",
+    "CT in Hounsfield units with --range -1000,2000: air and fat transparent, soft tissue faint red, bone ivory",
+    NULL,
+};
 
 const char *const *leap_tf_preset_names(void)
 {
     return preset_names;
+}
+
+const char *leap_tf_preset_note(const char *name)
+{
+    for (int i = 0; name && preset_names[i]; ++i)
+        if (!strcmp(name, preset_names[i])) return preset_notes[i];
+    return NULL;
 }
 
 /* Viridis sampled at u = 0, 0.1, ..., 1 (linear RGB interpolation in between). */
@@ -78,6 +100,68 @@ static const double viridis_knots[11][3] = {
     {0.477504, 0.821444, 0.318195}, {0.741388, 0.873449, 0.149561},
     {0.993248, 0.906157, 0.143936},
 };
+
+/* Colour maps given by knots (position, r, g, b), with viridis's opacity: transparent up to
+ * u = 0.05, then a linear ramp to 0.8. */
+typedef struct colour_map {
+    const char *name;
+    int count;
+    double knots[12][4];
+} colour_map;
+
+static const colour_map colour_maps[] = {
+    /* Moreland's diverging map as ParaView ships it, sampled at quarters. */
+    {"cool-to-warm", 5, {{0.00, 0.2298, 0.2987, 0.7537}, {0.25, 0.5543, 0.6901, 0.9955}, {0.50, 0.8654, 0.8654, 0.8654},
+                         {0.75, 0.9567, 0.5980, 0.4773}, {1.00, 0.7057, 0.0156, 0.1502}}},
+    /* matplotlib's inferno at tenths. */
+    {"inferno", 11, {{0.0, 0.001462, 0.000466, 0.013866}, {0.1, 0.087411, 0.044556, 0.224813},
+                     {0.2, 0.258234, 0.038571, 0.406485}, {0.3, 0.416331, 0.090203, 0.432943},
+                     {0.4, 0.578304, 0.148039, 0.404411}, {0.5, 0.735683, 0.215906, 0.330245},
+                     {0.6, 0.865006, 0.316822, 0.226055}, {0.7, 0.954506, 0.468744, 0.099874},
+                     {0.8, 0.987622, 0.645320, 0.039886}, {0.9, 0.964394, 0.843848, 0.273391},
+                     {1.0, 0.988362, 0.998364, 0.644924}}},
+    /* ParaView's "Black-Body Radiation". */
+    {"black-body", 4, {{0.00, 0, 0, 0}, {0.39, 0.901961, 0, 0}, {0.58, 0.901961, 0.901961, 0}, {1.00, 1, 1, 1}}},
+};
+
+static const colour_map *find_colour_map(const char *name)
+{
+    for (size_t i = 0; i < sizeof colour_maps / sizeof colour_maps[0]; ++i)
+        if (!strcmp(name, colour_maps[i].name)) return &colour_maps[i];
+    return NULL;
+}
+
+static void fill_colour_map(const colour_map *m, leap_tf *out)
+{
+    double xs[12], rgb[12][3];
+    for (int k = 0; k < m->count; ++k) {
+        xs[k] = m->knots[k][0];
+        for (int c = 0; c < 3; ++c) rgb[k][c] = m->knots[k][1 + c];
+    }
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double u = table_u(i);
+        double c[3];
+        pwl_eval(xs, &rgb[0][0], m->count, 3, u, c);
+        const double a = u <= 0.05 ? 0.0 : 0.8 * (u - 0.05) / 0.95;
+        for (int k = 0; k < 3; ++k) out->rgba[i][k] = clamp01f(c[k]);
+        out->rgba[i][3] = clamp01f(a);
+    }
+}
+
+/* CT over --range -1000,2000 (u = (HU + 1000) / 3000): air and fat (below -100 HU)
+ * transparent, soft tissue (-100..200 HU) a faint red, bone (from 300 HU) ivory to white
+ * and much more opaque. */
+static void fill_ct(leap_tf *out)
+{
+    static const double xs[6] = {0.0, 0.30, 0.34, 0.40, 0.50, 1.0};
+    static const double rgba[6][4] = {{0, 0, 0, 0},          {0.73, 0.25, 0.30, 0},    {0.80, 0.35, 0.33, 0.04},
+                                      {0.85, 0.60, 0.45, 0.06}, {0.91, 0.82, 0.55, 0.55}, {1, 1, 1, 0.75}};
+    for (int i = 0; i < N_TABLE; ++i) {
+        double c[4];
+        pwl_eval(xs, &rgba[0][0], 6, 4, table_u(i), c);
+        for (int k = 0; k < 4; ++k) out->rgba[i][k] = clamp01f(c[k]);
+    }
+}
 
 /* Qualitative palette for label volumes; labels cycle through it. Neighbouring entries
  * (including last -> first) differ clearly. */
@@ -191,8 +275,14 @@ leap_result leap_tf_preset(const char *name, int label_count, leap_tf *out, leap
     } else if (strcmp(name, "cloud") == 0) {
         fill_cloud(out);
         set_name(out, "cloud");
+    } else if (strcmp(name, "ct") == 0) {
+        fill_ct(out);
+        set_name(out, "ct");
+    } else if (find_colour_map(name)) {
+        fill_colour_map(find_colour_map(name), out);
+        set_name(out, name);
     } else {
-        char list[160] = "";
+        char list[200] = "";
         size_t len = 0;
         for (const char *const *p = preset_names; *p; ++p) {
             int w = snprintf(list + len, sizeof list - len, "%s%s", p == preset_names ? "" : ", ",
