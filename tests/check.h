@@ -5,6 +5,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 #ifdef LEAP_CHECK_SHARED
 /* A test program of several translation units (the hard cases): one of them defines the
@@ -47,6 +48,26 @@ static int check_count = 0;
         CHECK_MSG(check_r_ == LEAP_OK, "%s -> %s: %s", #call, leap_result_name(check_r_),   \
                   (errp)->msg);                                                            \
     } while (0)
+
+/* The whole file, malloc'ed and NUL-terminated (so text can be searched); *size (optional)
+ * gets its length. NULL if it cannot be read. */
+static __attribute__((unused)) void *read_whole_file(const char *path, long *size)
+{
+    if (size) *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    long n = fseek(f, 0, SEEK_END) == 0 ? ftell(f) : -1;
+    char *data = n >= 0 && fseek(f, 0, SEEK_SET) == 0 ? malloc((size_t)n + 1) : NULL;
+    if (data && fread(data, 1, (size_t)n, f) != (size_t)n) {
+        free(data);
+        data = NULL;
+    }
+    fclose(f);
+    if (!data) return NULL;
+    data[n] = '\0';
+    if (size) *size = n;
+    return data;
+}
 
 static inline int check_exit_code(void)
 {

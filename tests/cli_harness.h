@@ -210,24 +210,6 @@ static __attribute__((unused)) const char *out_path(const char *name)
     return p;
 }
 
-static __attribute__((unused)) unsigned char *read_all(const char *path, long *size)
-{
-    *size = 0;
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *data = n > 0 ? malloc((size_t)n) : NULL;
-    if (data && fread(data, 1, (size_t)n, f) != (size_t)n) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    if (data) *size = n;
-    return data;
-}
-
 static __attribute__((unused)) void write_bytes(const char *path, const void *data, size_t n)
 {
     FILE *f = fopen(path, "wb");

@@ -176,7 +176,7 @@ static void render_or_clean_error(const char *label, const char *vdb, const char
 static void bad_volumes(void)
 {
     long size = 0;
-    unsigned char *data = read_all(sphere, &size);
+    unsigned char *data = read_whole_file(sphere, &size);
     CHECK_MSG(data != NULL && size > 4096, "cannot read %s", sphere);
     if (!data) return;
     vdb_layout l = parse_layout(data, size);
@@ -266,7 +266,7 @@ static void bad_volumes(void)
         const long at[2] = {l.block_pos + 8, l.block_pos + 9};
         free(copy);
         long n = 0;
-        unsigned char *streamed = read_all(in_path("stream.vdb"), &n);
+        unsigned char *streamed = read_whole_file(in_path("stream.vdb"), &n);
         if (streamed) write_flipped(in_path("stream_flip.vdb"), streamed, n, at, 2);
         free(streamed);
         FAIL("stream_cut.vdb", 1, "stream_cut.vdb", "truncated", "render", in_path("stream_cut.vdb"), "-o", png);
@@ -311,7 +311,7 @@ static void bad_volumes(void)
                 }
         save(nw, in_path("one_leaf.vdb"));
         long n = 0;
-        unsigned char *leaf = read_all(in_path("one_leaf.vdb"), &n);
+        unsigned char *leaf = read_whole_file(in_path("one_leaf.vdb"), &n);
         vdb_layout ll = leaf ? parse_layout(leaf, n) : (vdb_layout){0};
         /* The only leaf's buffer: its mask (64 bytes), a flag byte (all active: 0), the chunk. */
         const long chunk = ll.block_pos + 64 + 1;

@@ -14,21 +14,6 @@
 #include "check.h"
 #include "leap/image.h"
 
-static char *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *buf = malloc((size_t)n + 1);
-    if (buf && fread(buf, 1, (size_t)n, f) != (size_t)n) n = 0;
-    if (buf) buf[n] = '\0';
-    fclose(f);
-    if (len) *len = (size_t)n;
-    return buf;
-}
-
 /* Field `index` (0-based) of a CSV line without quoting, into out. */
 static void csv_field(const char *line, int index, char *out, size_t n)
 {
@@ -87,7 +72,7 @@ static void check_config_bad_option(void)
     int rc = run_status(cmd);
     CHECK_MSG(rc == 2, "bad option in a config: exit status %d, expected 2", rc);
     snprintf(path, sizeof path, "%s/bad_option.err", LEAP_TEST_TMP);
-    char *err = slurp(path, NULL);
+    char *err = read_whole_file(path, NULL);
     CHECK_MSG(err && strstr(err, "--warmup 'many'"), "stderr: %s", err ? err : "(none)");
     free(err);
 }
@@ -113,11 +98,11 @@ static void check_config_large_and_nested_output(void)
              LEAP_EXE, cfg, LEAP_TEST_TMP, LEAP_TEST_TMP);
     int rc = run_status(cmd);
     snprintf(path, sizeof path, "%s/large.err", LEAP_TEST_TMP);
-    char *err = slurp(path, NULL);
+    char *err = read_whole_file(path, NULL);
     CHECK_MSG(rc == 0, "config over 64 KiB, -o nested/a/b: exit status %d; stderr: %s", rc, err ? err : "(none)");
     free(err);
     snprintf(path, sizeof path, "%s/nested/a/b/results.csv", LEAP_TEST_TMP);
-    char *csv = slurp(path, NULL);
+    char *csv = read_whole_file(path, NULL);
     int rows = 0;
     for (const char *c = csv; c && (c = strchr(c, '\n')); ++c) ++rows;
     /* the header, then 1 view x 2 steps x 2 modes (two steps: gnuplot warns on a single point) */
@@ -140,7 +125,7 @@ static void check_image_out_of_memory(void)
              LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
     int rc = run_status(cmd);
     snprintf(path, sizeof path, "%s/oom.err", LEAP_TEST_TMP);
-    char *err = slurp(path, NULL);
+    char *err = read_whole_file(path, NULL);
     CHECK_MSG(rc == 1 && err && strstr(err, "out of memory") && strstr(err, "16384x16384"),
               "image buffers out of memory: exit status %d, stderr: %s", rc, err ? err : "(none)");
     free(err);
@@ -162,7 +147,7 @@ static void check_vdb_render_missing(const char *path_env)
     CHECK_MSG(WIFEXITED(rc) && WEXITSTATUS(rc) == 2, "PATH=%s: exit status %d, expected 2", path_env,
               WIFEXITED(rc) ? WEXITSTATUS(rc) : -1);
     snprintf(path, sizeof path, "%s/novdb.err", LEAP_TEST_TMP);
-    char *err = slurp(path, NULL);
+    char *err = read_whole_file(path, NULL);
     CHECK_MSG(err && strstr(err, "vdb_render not found on PATH"), "stderr: %s", err ? err : "(none)");
     free(err);
     snprintf(path, sizeof path, "%s/novdb/results.csv", LEAP_TEST_TMP);
@@ -187,7 +172,7 @@ static void check_vdb_render_rows(void)
     CHECK_MSG(dir_entries(tmp) == 0, "%s holds %d entries after the bench", tmp, dir_entries(tmp));
 
     snprintf(path, sizeof path, "%s/results.csv", dir);
-    char *csv = slurp(path, NULL);
+    char *csv = read_whole_file(path, NULL);
     CHECK(csv != NULL);
     int vdb_rows = 0, leap_rows = 0, bad = 0;
     if (csv) {
@@ -232,14 +217,14 @@ static void check_vdb_render_rows(void)
     CHECK_MSG(bad == 0, "%d bad rows", bad);
 
     snprintf(path, sizeof path, "%s/report.md", dir);
-    char *md = slurp(path, NULL);
+    char *md = read_whole_file(path, NULL);
     CHECK(md && strstr(md, "| vdb_render | 0.5 |") && strstr(md, "different shading model") &&
           strstr(md, "vdb_render reads float grids only"));
     free(md);
     /* The progress bar counts the vdb_render runs: per volume 2 views x (reference + 2 steps
      * x 2 modes) + the fixed-cost run, plus 2 views x 2 steps of vdb_render for the sphere. */
     snprintf(path, sizeof path, "%s/vdb.err", LEAP_TEST_TMP);
-    char *err = slurp(path, NULL);
+    char *err = read_whole_file(path, NULL);
     CHECK_MSG(err && strstr(err, "vdb_render") && strstr(err, "26/26 done"), "stderr: %s", err ? err : "(none)");
     free(err);
 }
@@ -256,7 +241,7 @@ int main(void)
     CHECK(system(cmd) == 0);
 
     snprintf(path, sizeof path, "%s/results.csv", dir);
-    char *csv = slurp(path, NULL);
+    char *csv = read_whole_file(path, NULL);
     CHECK(csv != NULL);
     int rows = 0, columns = 0, bad = 0;
     if (csv) {
@@ -286,7 +271,7 @@ int main(void)
     CHECK_MSG(bad == 0, "%d malformed rows", bad);
 
     snprintf(path, sizeof path, "%s/report.md", dir);
-    char *md = slurp(path, NULL);
+    char *md = read_whole_file(path, NULL);
     CHECK(md && strstr(md, "sparseleap") && strstr(md, "speedup"));
     /* The per-configuration figures and the fixed per-pixel cost of each skipping mode. */
     CHECK(md && strstr(md, "| ns/sample | events/px | segments/px | frame / floor |") && strstr(md, "lists % of frame"));
@@ -303,8 +288,8 @@ int main(void)
         CHECK_MSG(w > 100 && h > 100, "%s: %dx%d", path, w, h);
         free(px);
         snprintf(path, sizeof path, "%s/%s.svg", dir, plots[i]);
-        size_t len = 0;
-        char *svg = slurp(path, &len);
+        long len = 0;
+        char *svg = read_whole_file(path, &len);
         CHECK_MSG(svg && strstr(svg, "<svg") && strstr(svg, "</svg>"), "%s is not a complete SVG", path);
         free(svg);
     }

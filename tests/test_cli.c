@@ -57,22 +57,6 @@ static void first_line(const char *cmd, char *buf, size_t cap)
     pclose(p);
 }
 
-static unsigned char *slurp(const char *path, long *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *size = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = *size > 0 ? malloc((size_t)*size) : NULL;
-    if (buf && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    return buf;
-}
-
 #define EXPECT_FAIL(code, args, needle, out)                                               \
     do {                                                                                   \
         remove(out);                                                                       \
@@ -83,6 +67,50 @@ static unsigned char *slurp(const char *path, long *size)
         CHECK_MSG(!exists(out), "leap %s left %s behind", args, out);                       \
     } while (0)
 
+/* The one pipeline cache file in `dir`, or 0. */
+static int cache_file(const char *dir, char *path, size_t cap)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "ls %s/pipelines-*.bin 2>/dev/null", dir);
+    FILE *p = popen(cmd, "r");
+    path[0] = '\0';
+    if (p && fgets(path, (int)cap, p)) path[strcspn(path, "\n")] = '\0';
+    if (p) pclose(p);
+    return path[0] != '\0';
+}
+
+/* The pipeline cache: written where LEAP_CACHE_DIR says, a corrupt file ignored with a warning
+ * and rewritten, none at all with LEAP_PIPELINE_CACHE=0. */
+static void check_pipeline_cache(const char *tmp, const char *sphere)
+{
+    char dir[1024], args[4096], path[2048], out[1100];
+    snprintf(dir, sizeof dir, "%s/cache", tmp);
+    snprintf(out, sizeof out, "%s/cached.png", tmp);
+    snprintf(args, sizeof args, "rm -rf %s", dir);
+    CHECK(system(args) == 0);
+    setenv("LEAP_CACHE_DIR", dir, 1);
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32", sphere, out);
+    CHECK(run(args) == 0 && !strstr(out_text, "warning"));
+    CHECK_MSG(cache_file(dir, path, sizeof path), "no pipeline cache file in %s", dir);
+    long size = 0;
+    char *data = read_whole_file(path, &size);
+    CHECK(data && size >= 8 + 16 + 32 && !memcmp(data, "LEAPPC01", 8));
+    free(data);
+    write_file(path, "not a cache at all, just words", 30);
+    CHECK(run(args) == 0 && strstr(out_text, "warning: ignoring the pipeline cache"));
+    data = read_whole_file(path, &size);
+    CHECK_MSG(data && size >= 56 && !memcmp(data, "LEAPPC01", 8), "the corrupt cache was not rewritten");
+    free(data);
+    CHECK(run(args) == 0 && !strstr(out_text, "warning"));
+    snprintf(args, sizeof args, "rm -rf %s", dir);
+    CHECK(system(args) == 0);
+    setenv("LEAP_PIPELINE_CACHE", "0", 1);
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32", sphere, out);
+    CHECK(run(args) == 0 && !cache_file(dir, path, sizeof path));
+    unsetenv("LEAP_PIPELINE_CACHE");
+    unsetenv("LEAP_CACHE_DIR");
+}
+
 int main(void)
 {
     const char *tmp = LEAP_TEST_TMP;
@@ -91,10 +119,14 @@ int main(void)
     snprintf(sphere, sizeof sphere, "%s/sphere.vdb", LEAP_VOLUMES);
     snprintf(out, sizeof out, "%s/out.png", tmp);
 
+    check_pipeline_cache(tmp, sphere);
+
     /* Help. */
     CHECK(run("--help") == 0 && strstr(out_text, "render") && strstr(out_text, "info"));
     CHECK(run("render --help") == 0 && strstr(out_text, "--orbit") && strstr(out_text, "--stats"));
     CHECK(run("info --help") == 0 && strstr(out_text, "--json"));
+    CHECK(run("render --list-tf") == 0 && strstr(out_text, "inferno ") && strstr(out_text, "ct ") &&
+          strstr(out_text, "cool-to-warm ") && strstr(out_text, "Hounsfield"));
     CHECK(run("") == 2);
     CHECK(run("frobnicate") == 2 && strstr(out_text, "frobnicate"));
 
@@ -262,7 +294,7 @@ int main(void)
             snprintf(args, sizeof args, "render %s -o %s --size 40x32 --orbit %d,25 -q", sphere, single, 35 + 90 * k);
             CHECK_MSG(run(args) == 0, "%s", out_text);
             long na = 0, nb = 0;
-            unsigned char *a = slurp(frame, &na), *b = slurp(single, &nb);
+            unsigned char *a = read_whole_file(frame, &na), *b = read_whole_file(single, &nb);
             CHECK_MSG(a && b && na == nb && !memcmp(a, b, (size_t)na), "turntable frame %d differs from --orbit %d,25",
                       k, 35 + 90 * k);
             free(a);
@@ -298,6 +330,15 @@ int main(void)
         setenv("PATH", path_copy, 1);
         CHECK_MSG(no_ffmpeg == 1 && strstr(out_text, "needs ffmpeg"), "exit %d: %s", no_ffmpeg, out_text);
         snprintf(path, sizeof path, "%s/none.mp4", tmp);
+        CHECK(!exists(path));
+        /* Without its image module, leap says so and writes nothing. */
+        setenv("LEAP_IMAGE_MODULE", "/nonexistent/libleap_oiio.so", 1);
+        snprintf(args, sizeof args, "render %s -o %s/none.png", sphere, tmp);
+        int no_module = run(args);
+        unsetenv("LEAP_IMAGE_MODULE");
+        CHECK_MSG(no_module == 1 && strstr(out_text, "image module") && strstr(out_text, "/nonexistent/libleap_oiio.so"),
+                  "exit %d: %s", no_module, out_text);
+        snprintf(path, sizeof path, "%s/none.png", tmp);
         CHECK(!exists(path));
         snprintf(args, sizeof args, "render %s -o %s/one.mp4", sphere, tmp);
         EXPECT_FAIL(2, args, "--turntable", out);

@@ -377,22 +377,6 @@ static void test_bad_files(void)
     leap_vdb_close(file);
 }
 
-static unsigned char *read_file(const char *path, long *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    fseek(f, 0, SEEK_END);
-    *size = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    unsigned char *buf = *size > 0 ? malloc((size_t)*size) : NULL;
-    if (buf && fread(buf, 1, (size_t)*size, f) != (size_t)*size) {
-        free(buf);
-        buf = NULL;
-    }
-    fclose(f);
-    return buf;
-}
-
 static int run(const char *args)
 {
     char cmd[4096];
@@ -465,7 +449,7 @@ static void test_convert(void)
     snprintf(args, sizeof args, "render %s -o %s --size 96x80 --orbit 30,20 -q", vdb, png_b);
     CHECK(run(args) == 0);
     long na = 0, nb = 0;
-    unsigned char *da = read_file(png_a, &na), *db = read_file(png_b, &nb);
+    unsigned char *da = read_whole_file(png_a, &na), *db = read_whole_file(png_b, &nb);
     CHECK_MSG(da && db && na == nb && memcmp(da, db, (size_t)na) == 0, "direct and converted renders differ");
     free(da);
     free(db);

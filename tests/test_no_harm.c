@@ -16,7 +16,7 @@
 static int same_bytes(const char *a, const char *b)
 {
     long na = 0, nb = 0;
-    unsigned char *da = read_all(a, &na), *db = read_all(b, &nb);
+    unsigned char *da = read_whole_file(a, &na), *db = read_whole_file(b, &nb);
     int same = da && db && na == nb && memcmp(da, db, (size_t)na) == 0;
     free(da);
     free(db);
@@ -26,7 +26,7 @@ static int same_bytes(const char *a, const char *b)
 static void copy_file(const char *from, const char *to)
 {
     long n = 0;
-    unsigned char *d = read_all(from, &n);
+    unsigned char *d = read_whole_file(from, &n);
     CHECK_MSG(d != NULL, "cannot read %s", from);
     if (d) write_bytes(to, d, (size_t)n);
     free(d);

@@ -32,31 +32,6 @@
 static char *out_text;    /* stdout of the last run */
 static char err_text[8192]; /* stderr of the last run */
 
-static char *read_all(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) return NULL;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap);
-    for (size_t got; buf && (got = fread(buf + n, 1, cap - n - 1, f)) > 0;) {
-        n += got;
-        if (cap - n - 1 == 0) {
-            char *b = realloc(buf, cap * 2);
-            if (!b) {
-                free(buf);
-                buf = NULL;
-                break;
-            }
-            buf = b;
-            cap *= 2;
-        }
-    }
-    fclose(f);
-    if (buf) buf[n] = '\0';
-    if (size) *size = n;
-    return buf;
-}
-
 /* Runs `leap ARGS`; stdout into out_text, stderr into err_text; returns the exit code. */
 static int run(const char *args)
 {
@@ -66,9 +41,9 @@ static int run(const char *args)
     snprintf(cmd, sizeof cmd, "%s %s >%s 2>%s", LEAP_EXE, args, so, se);
     int status = system(cmd);
     free(out_text);
-    out_text = read_all(so, NULL);
+    out_text = read_whole_file(so, NULL);
     if (!out_text) out_text = calloc(1, 1);
-    char *e = read_all(se, NULL);
+    char *e = read_whole_file(se, NULL);
     snprintf(err_text, sizeof err_text, "%s", e ? e : "");
     free(e);
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
@@ -324,7 +299,7 @@ static float get_f32(const unsigned char *p)
 /* OBJ: counts `v` and `f` lines; every face must be a quad of existing vertices. */
 static void check_obj(const char *path, int boxes)
 {
-    char *text = read_all(path, NULL);
+    char *text = read_whole_file(path, NULL);
     CHECK_MSG(text != NULL, "cannot read %s", path);
     if (!text) return;
     int v = 0, f = 0, bad = 0;
@@ -349,7 +324,7 @@ static void check_obj(const char *path, int boxes)
 /* PLY: header counts, then exactly that many vertex and face lines. */
 static void check_ply(const char *path, int boxes)
 {
-    char *text = read_all(path, NULL);
+    char *text = read_whole_file(path, NULL);
     CHECK_MSG(text != NULL, "cannot read %s", path);
     if (!text) return;
     long nv = -1, nf = -1;
@@ -423,7 +398,7 @@ static void test_dump(const char *vol, const char *tf)
     CHECK_MSG(dir_entries(dir) == (int)DUMP_FILES, "%s holds %d entries", dir, dir_entries(dir));
 
     snprintf(path, sizeof path, "%s/summary.json", dir);
-    char *text = read_all(path, NULL);
+    char *text = read_whole_file(path, NULL);
     cJSON *summary = text ? cJSON_Parse(text) : NULL;
     free(text);
     CHECK(summary != NULL);
@@ -435,7 +410,7 @@ static void test_dump(const char *vol, const char *tf)
     check_ply(path, boxes);
 
     snprintf(path, sizeof path, "%s/heatmaps.json", dir);
-    text = read_all(path, NULL);
+    text = read_whole_file(path, NULL);
     cJSON *hm = text ? cJSON_Parse(text) : NULL;
     free(text);
     CHECK(hm != NULL);
@@ -443,8 +418,9 @@ static void test_dump(const char *vol, const char *tf)
 
     /* The per-pixel dump. */
     snprintf(path, sizeof path, "%s/segments.bin", dir);
-    size_t size = 0;
-    unsigned char *bin = (unsigned char *)read_all(path, &size);
+    long length = 0;
+    unsigned char *bin = read_whole_file(path, &length);
+    const size_t size = (size_t)length;
     CHECK(bin && size >= LEAP_DUMP_HEADER_BYTES);
     if (!bin || size < LEAP_DUMP_HEADER_BYTES) goto done;
     CHECK(!memcmp(bin, "LEAPSEGS", 8) && get_u32(bin + 8) == 1 && get_u32(bin + 12) == 128);

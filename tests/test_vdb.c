@@ -758,23 +758,6 @@ static long file_size(const char *path)
     return stat(path, &st) == 0 ? (long)st.st_size : -1;
 }
 
-static unsigned char *read_all(const char *path, long *size)
-{
-    *size = file_size(path);
-    FILE *f = fopen(path, "rb");
-    if (!f || *size <= 0) {
-        if (f) fclose(f);
-        return NULL;
-    }
-    unsigned char *data = malloc((size_t)*size);
-    if (fread(data, 1, (size_t)*size, f) != (size_t)*size) {
-        free(data);
-        data = NULL;
-    }
-    fclose(f);
-    return data;
-}
-
 static void write_all(const char *path, const void *data, size_t n)
 {
     FILE *f = fopen(path, "wb");
@@ -865,7 +848,7 @@ static void test_bad_files(void)
     CHECK(try_everything(good, msg, sizeof msg) == LEAP_OK);
 
     long size = 0;
-    unsigned char *data = read_all(good, &size);
+    unsigned char *data = read_whole_file(good, &size);
     CHECK(data != NULL && size > 64);
     if (!data) return;
 
@@ -928,7 +911,7 @@ static void test_bad_files(void)
     }
     leap_vdb_writer_fill(w, g2, lo, hi, 1.0, 1);
     if (!save(w, one)) return;
-    data = read_all(one, &size);
+    data = read_whole_file(one, &size);
     CHECK(data != NULL && size > 4096);
     if (!data) return;
     unsigned seed = 7u;

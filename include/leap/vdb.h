@@ -57,6 +57,11 @@ typedef struct leap_grid_info {
 /* Opens a .vdb file and reads the grid descriptors (not the voxel data).
  * Errors: LEAP_ERR_IO (missing, a directory, unreadable), LEAP_ERR_FORMAT (not a VDB
  * file, truncated, corrupt). *out is NULL on failure. Close with leap_vdb_close. */
+/* Initialises OpenVDB and starts its thread pool now rather than on first use. Both load
+ * libraries, which waits for any library another thread is loading: call it before starting
+ * such threads. Optional; every function below initialises on its own. */
+void leap_vdb_init(void);
+
 leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err);
 void leap_vdb_close(leap_vdb_file *file); /* accepts NULL */
 

@@ -60,12 +60,7 @@ static const char *bench_help =
 static void progress(int done, int total, const char *what, void *user)
 {
     (void)user;
-    int width = 30, filled = total ? done * width / total : width;
-    fprintf(stderr, "\r[");
-    for (int i = 0; i < width; ++i) fputc(i < filled ? '#' : ' ', stderr);
-    fprintf(stderr, "] %d/%d %-50.50s", done, total, what);
-    if (done == total) fputc('\n', stderr);
-    fflush(stderr);
+    cli_progress(done, total, what);
 }
 
 static void message(leap_bench_message_kind kind, const char *text, void *user)

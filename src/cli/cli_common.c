@@ -183,3 +183,13 @@ void cli_print_help(const char *head, const char *tail)
     }
     fputs(tail, stdout);
 }
+
+void cli_progress(int done, int total, const char *what)
+{
+    const int width = 30, filled = total ? done * width / total : width;
+    fprintf(stderr, "\r[");
+    for (int i = 0; i < width; ++i) fputc(i < filled ? '#' : ' ', stderr);
+    fprintf(stderr, "] %d/%d %-50.50s", done, total, what);
+    if (done == total) fputc('\n', stderr);
+    fflush(stderr);
+}

@@ -94,4 +94,8 @@ void cli_up(const cli_camera_options *o, const leap_scene *scene, double up[3]);
 /* Camera for the options (orbit framing by default). Returns a leap_result. */
 leap_result cli_camera(const cli_camera_options *o, const leap_scene *scene, leap_camera *cam, leap_error *err);
 
+/* A progress bar on stderr, redrawn in place: "[####    ] done/total what"; the line ends
+ * when done == total. Callers show it on a terminal only. */
+void cli_progress(int done, int total, const char *what);
+
 #endif

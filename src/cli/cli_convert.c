@@ -29,12 +29,7 @@ static const char *convert_help =
 /* The stage bar on stderr (only on a terminal: a log gets the summary line alone). */
 static void stage(int quiet, int done, const char *what)
 {
-    if (quiet || !isatty(2)) return;
-    fprintf(stderr, "\r[");
-    for (int i = 0; i < 3; ++i) fputs(i < done ? "##########" : "          ", stderr);
-    fprintf(stderr, "] %d/3 %-40.40s", done, what);
-    if (done == 3) fputc('\n', stderr);
-    fflush(stderr);
+    if (!quiet && isatty(2)) cli_progress(done, 3, what);
 }
 
 int cli_convert(int argc, char **argv)

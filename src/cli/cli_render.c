@@ -2,6 +2,7 @@
 #include <cjson/cJSON.h>
 #include <limits.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -12,6 +13,54 @@
 #include "leap/files.h"
 #include "leap/image.h"
 #include "leap/reference.h"
+#include "leap/vdb.h"
+
+/* The Vulkan device, made on a worker while the volume loads (most of it is loading the
+ * driver). OpenVDB's thread pool starts first: starting it loads a library too, and two
+ * library loads in one process wait for each other. */
+typedef struct device_start {
+    leap_renderer_desc desc;
+    leap_renderer *renderer;
+    leap_result result;
+    leap_error err;
+    double ms;
+    pthread_t thread;
+    int running;
+} device_start;
+
+static void *device_start_run(void *arg)
+{
+    device_start *d = arg;
+    const double t = leap__now_ms();
+    d->result = leap_renderer_create(&d->desc, &d->renderer, &d->err);
+    d->ms = leap__now_ms() - t;
+    return NULL;
+}
+
+static void device_start_begin(device_start *d)
+{
+    leap_vdb_init();
+    d->running = pthread_create(&d->thread, NULL, device_start_run, d) == 0;
+    if (!d->running) device_start_run(d);
+}
+
+/* The device, or its error (in d->err). */
+static leap_result device_start_finish(device_start *d, leap_renderer **out)
+{
+    if (d->running) pthread_join(d->thread, NULL);
+    d->running = 0;
+    *out = d->renderer;
+    d->renderer = NULL;
+    return d->result;
+}
+
+/* On an early error: wait for the worker and drop what it made. */
+static void device_start_cancel(device_start *d)
+{
+    leap_renderer *unused = NULL;
+    device_start_finish(d, &unused);
+    leap_renderer_destroy(unused);
+}
 
 static const char *render_help_head =
     "usage: leap render VOLUME.vdb -o OUT.{png,exr,tif} [options]\n"
@@ -38,6 +87,7 @@ static const char *render_help_tail =
     "                      spin.gif encodes them (24 per second) with an installed ffmpeg\n"
     "  --background R,G,B[,A]  colour under the volume, components in [0, 1] (default\n"
     "                      black; A: its opacity, default 1)\n"
+    "  --list-tf           print the transfer-function presets and what each is for\n"
     "  --alpha             PNG/TIFF with an alpha channel (straight colour; the volume over\n"
     "                      a transparent background unless --background is given)\n"
     "  -q, --quiet         no summary line on stderr\n";
@@ -181,6 +231,11 @@ int cli_render(int argc, char **argv)
             cli_print_help(render_help_head, render_help_tail);
             return 0;
         }
+        if (!strcmp(a, "--list-tf")) {
+            for (const char *const *p = leap_tf_preset_names(); *p; ++p)
+                printf("%-13s %s\n", *p, leap_tf_preset_note(*p));
+            return 0;
+        }
         if (!strcmp(a, "-q") || !strcmp(a, "--quiet")) {
             quiet = 1;
             continue;
@@ -267,8 +322,17 @@ int cli_render(int argc, char **argv)
     int64_t *ids = NULL;
     leap_frame_stats fs = {0};
     stage_times times = {0};
+    const int mode = leap_mode_from_name(o.mode_name);
+    /* Start-up work overlaps: the image writer loads the image library in its own process,
+     * the device is made on a worker, and the volume loads here. */
+    leap_image_preload(); /* before any thread starts */
+    device_start device = {.desc = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments}};
+    if (mode >= 0) device_start_begin(&device);
     leap_result r = leap_scene_create(&o.scene, &scene, &err);
-    if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
+    if (r) {
+        rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
+        goto done;
+    }
     times.load = scene->load_ms;
     times.atlas = scene->atlas_ms;
     times.occupancy = scene->bricks_ms + scene->occupancy_ms;
@@ -291,7 +355,6 @@ int cli_render(int argc, char **argv)
         cli_runtime_error("out of memory for a %dx%d image", o.width, o.height);
         goto done;
     }
-    int mode = leap_mode_from_name(o.mode_name);
     if (mode < 0) { /* reference */
         double t = leap__now_ms();
         leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &view, .march = &scene->march, .labels = scene->labels};
@@ -307,14 +370,12 @@ int cli_render(int argc, char **argv)
         }
         fs.samples_mean = (double)fs.total_samples / n;
     } else {
-        double t = leap__now_ms();
-        leap_renderer_desc rd = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments};
-        if (leap_renderer_create(&rd, &renderer, &err)) {
-            cli_runtime_error("%s", err.msg);
+        if (device_start_finish(&device, &renderer)) {
+            cli_runtime_error("%s", device.err.msg);
             goto done;
         }
-        times.setup = leap__now_ms() - t;
-        t = leap__now_ms();
+        times.setup = device.ms;
+        double t = leap__now_ms();
         if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
             cli_input_error(o.input, o.scene.tf, r, err.msg);
             goto done;
@@ -367,6 +428,7 @@ int cli_render(int argc, char **argv)
                 o.mode_name, times.render, fs.samples_mean);
     rc = 0;
 done:
+    device_start_cancel(&device);
     free(rgba);
     free(depth);
     free(samples);

@@ -7,6 +7,7 @@
 
 #include "cli_common.h"
 #include "leap/files.h"
+#include "leap/image.h"
 
 /* 1 if `pattern` holds exactly one %d (optionally %0Nd, N < 10) and no other % but %%. */
 int cli_frame_pattern_ok(const char *pattern)
@@ -31,16 +32,6 @@ static void frame_path(const char *pattern, int k, char *out, size_t cap)
 #pragma GCC diagnostic ignored "-Wformat-nonliteral"
     snprintf(out, cap, pattern, k); /* checked by cli_frame_pattern_ok */
 #pragma GCC diagnostic pop
-}
-
-static void progress(int done, int total, const char *path)
-{
-    const int width = 30, filled = total ? done * width / total : width;
-    fprintf(stderr, "\r[");
-    for (int i = 0; i < width; ++i) fputc(i < filled ? '#' : ' ', stderr);
-    fprintf(stderr, "] %d/%d %-40.40s", done, total, path);
-    if (done == total) fputc('\n', stderr);
-    fflush(stderr);
 }
 
 int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, int quiet)
@@ -77,6 +68,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
     int rc = EXIT_RUNTIME, written = 0;
     const double t0 = leap__now_ms();
     double render_ms = 0;
+    leap_image_preload();
     leap_result r = leap_scene_create(&o->scene, &scene, &err);
     if (r) {
         rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
@@ -124,7 +116,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
             goto done;
         }
         ++written;
-        if (!quiet && isatty(2)) progress(k + 1, frames, path);
+        if (!quiet && isatty(2)) cli_progress(k + 1, frames, path);
     }
     if (!quiet)
         fprintf(stderr,

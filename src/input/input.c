@@ -1,5 +1,7 @@
-/* Format dispatch: a NIfTI file by its name, everything else as OpenVDB (a file of another
- * name that OpenVDB cannot read is told which formats leap opens). */
+/* Format dispatch: raw files when --raw says so, image stacks (folders, patterns, TIFFs) and
+ * NIfTI files by their names, everything else as OpenVDB (a file of another name that OpenVDB
+ * cannot read is told which formats leap opens). Imported scans are Z-up (RAS+ world, image
+ * stacks' slice axis); an OpenVDB file says its own up axis or is Y-up. */
 #include "input_internal.h"
 
 #include <errno.h>
@@ -68,25 +70,23 @@ leap_result leap_input_open(const char *path, const leap_input_options *options,
     if (out) *out = NULL;
     if (!path || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_input_open: NULL argument");
     if (info) memset(info, 0, sizeof *info);
+    leap_result r = LEAP_OK;
+    const int imported = (options && options->raw) || leap_input_is_slices(path) || leap_input_is_nifti(path);
     if (options && options->raw) {
-        leap_result r = leap__input_open_raw(path, options, out, info, err);
-        if (!r && info) info->up[2] = 1.0;
-        return r;
-    }
-    if (leap_input_is_slices(path)) {
-        leap_result r = leap__input_open_slices(path, options, out, info, err);
-        if (!r && info) info->up[2] = 1.0;
-        return r;
-    }
-    if (leap_input_is_nifti(path)) {
+        r = leap__input_open_raw(path, options, out, info, err);
+    } else if (leap_input_is_slices(path)) {
+        r = leap__input_open_slices(path, options, out, info, err);
+    } else if (leap_input_is_nifti(path)) {
         FILE *f = fopen(path, "rb");
         if (!f) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
         fclose(f);
-        leap_result r = leap__input_open_nifti(path, options, out, info, err);
+        r = leap__input_open_nifti(path, options, out, info, err);
+    }
+    if (imported) {
         if (!r && info) info->up[2] = 1.0;
         return r;
     }
-    leap_result r = leap_vdb_open(path, out, err);
+    r = leap_vdb_open(path, out, err);
     if (!r && options && options->has_threshold) {
         leap_vdb_close(*out);
         *out = NULL;

@@ -22,11 +22,6 @@ leap_result leap__input_finish(const char *path, const int32_t dim[3], const dou
 /* Fails with LEAP_ERR_OOM unless `bytes` fit this machine's memory. */
 leap_result leap__input_check_memory(const char *path, const int32_t dim[3], double bytes, leap_error *err);
 
-/* Slices (slices_shim.cpp, OpenImageIO): every page of `files`, in order, as z slices. */
-leap_result leap__read_slices(const char *what, const char *const *files, size_t file_count, int labels, float **values,
-                              int64_t **ids, int32_t dim[3], char *description, size_t description_cap,
-                              leap_error *err);
-
 leap_result leap__input_open_nifti(const char *path, const leap_input_options *options, leap_vdb_file **out,
                                    leap_input_info *info, leap_error *err);
 

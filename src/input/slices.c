@@ -2,6 +2,7 @@
  * files in natural name order (slice2 before slice10), each page one z slice. */
 #define _GNU_SOURCE /* strverscmp */
 #include "input_internal.h"
+#include "leap/image.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -41,7 +42,8 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
     glob_t g = {0};
     int globbed = 0;
     struct stat st;
-    if (stat(path, &st) != 0 && strpbrk(path, "*?[")) {
+    const int exists = stat(path, &st) == 0;
+    if (!exists && strpbrk(path, "*?[")) {
         const int rc = glob(path, 0, NULL, &g);
         globbed = 1;
         if (rc == GLOB_NOMATCH || g.gl_pathc == 0) {
@@ -54,7 +56,7 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
         }
         files = g.gl_pathv;
         count = g.gl_pathc;
-    } else if (stat(path, &st) == 0 && S_ISDIR(st.st_mode)) {
+    } else if (exists && S_ISDIR(st.st_mode)) {
         DIR *d = opendir(path);
         if (!d) return leap_fail(err, LEAP_ERR_IO, "cannot open the directory '%s': %s", path, strerror(errno));
         size_t cap = 0;
@@ -86,12 +88,10 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
         count = 1;
     }
     if (count > 1) qsort(files, count, sizeof *files, natural_order);
-    float *values = NULL;
-    int64_t *ids = NULL;
-    int32_t dim[3];
-    char description[200] = "";
-    leap_result r = leap__read_slices(path, (const char *const *)files, count, o && o->labels, &values, &ids, dim,
-                                      description, sizeof description, err);
+    const leap_image_slices_request request = {.what = path, .files = (const char *const *)files, .file_count = count,
+                                               .labels = o && o->labels, .check_memory = leap__input_check_memory};
+    leap_image_slices slices;
+    leap_result r = leap_image_read_slices(&request, &slices, err);
     const int folder = !globbed && count >= 1 && files != (char **)&path;
     if (folder)
         for (size_t i = 0; i < count; ++i) free(files[i]);
@@ -103,8 +103,8 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
     m[3][3] = 1.0;
     if (info) {
         snprintf(info->format, sizeof info->format, "image slices");
-        snprintf(info->description, sizeof info->description, "%s, voxel %g x %g x %g", description, m[0][0], m[1][1],
+        snprintf(info->description, sizeof info->description, "%s, voxel %g x %g x %g", slices.description, m[0][0], m[1][1],
                  m[2][2]);
     }
-    return leap__input_finish(path, dim, m, values, ids, o, out, err);
+    return leap__input_finish(path, slices.dim, m, slices.values, slices.ids, o, out, err);
 }

@@ -209,6 +209,7 @@ static leap_result create_context(leap_gpu *gpu, const leap_gpu_desc *desc, leap
         LEAP_VK_CHECK(vkCreateQueryPool(gpu->device, &qpci, NULL, &gpu->timestamps));
         gpu->timestamp_count = LEAP_GPU_MAX_TIMESTAMPS;
     }
+    leap_gpu_cache_open(gpu);
     return LEAP_OK;
 }
 
@@ -235,6 +236,10 @@ void leap_gpu_destroy(leap_gpu *gpu)
         if (gpu->timestamps) vkDestroyQueryPool(gpu->device, gpu->timestamps, NULL);
         if (gpu->fence) vkDestroyFence(gpu->device, gpu->fence, NULL);
         if (gpu->command_pool) vkDestroyCommandPool(gpu->device, gpu->command_pool, NULL);
+        if (gpu->pipeline_cache) {
+            leap_gpu_cache_save(gpu);
+            vkDestroyPipelineCache(gpu->device, gpu->pipeline_cache, NULL);
+        }
         vkDestroyDevice(gpu->device, NULL);
     }
     if (gpu->instance) vkDestroyInstance(gpu->instance, NULL);

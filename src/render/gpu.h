@@ -42,7 +42,14 @@ typedef struct leap_gpu {
     VkPhysicalDeviceMemoryProperties memory;
     uint64_t allocated_bytes; /* live device memory made through this context */
     VkDeviceSize storage_buffer_range; /* the device's maxStorageBufferRange */
+    VkPipelineCache pipeline_cache;    /* kept between runs (pipeline_cache.c); may be null */
+    uint64_t pipeline_cache_hash;      /* of the data read at start: saved only when it changed */
 } leap_gpu;
+
+/* The pipeline cache file (pipeline_cache.c): read when the context is made, written back
+ * when it is destroyed. Neither fails: a missing or bad file means an empty cache. */
+void leap_gpu_cache_open(leap_gpu *gpu);
+void leap_gpu_cache_save(leap_gpu *gpu);
 
 #define LEAP_GPU_MAX_TIMESTAMPS 32
 

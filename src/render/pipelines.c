@@ -97,7 +97,7 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .layout = r->pipeline_layout,
         .renderPass = r->render_pass,
     };
-    if (vr == VK_SUCCESS) vr = vkCreateGraphicsPipelines(dev, VK_NULL_HANDLE, 1, &gpci, NULL, &r->events);
+    if (vr == VK_SUCCESS) vr = vkCreateGraphicsPipelines(dev, r->gpu->pipeline_cache, 1, &gpci, NULL, &r->events);
     if (vs) vkDestroyShaderModule(dev, vs, NULL);
     if (fs) vkDestroyShaderModule(dev, fs, NULL);
     if (vr != VK_SUCCESS)
@@ -128,7 +128,7 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
                   .module = module, .pName = "main", .pSpecializationInfo = &spec},
         .layout = r->pipeline_layout,
     };
-    VkResult vr = vkCreateComputePipelines(r->gpu->device, VK_NULL_HANDLE, 1, &cpci, NULL, out);
+    VkResult vr = vkCreateComputePipelines(r->gpu->device, r->gpu->pipeline_cache, 1, &cpci, NULL, out);
     if (vr != VK_SUCCESS)
         return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a compute pipeline: %s", leap_vk_result_name(vr));
     return LEAP_OK;

@@ -28,6 +28,12 @@ std::string one_line(const char *s)
 
 using namespace leap_vdb_detail;
 
+extern "C" void leap_vdb_init(void)
+{
+    init_openvdb();
+    tbb::parallel_for(0, 2, [](int) {}); // the pool's first use loads its allocator library
+}
+
 namespace {
 
 void copy_str(char *dst, size_t cap, const std::string &s)

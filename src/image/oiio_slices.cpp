@@ -1,7 +1,7 @@
 // Image slices through OpenImageIO: the pages of multi-page TIFFs and single-page images,
 // in order, as the z slices of one volume. Values keep their stored scale (an 8- or 16-bit
 // integer reads as that integer, never normalised). No exception crosses this file.
-#include "input_internal.h"
+#include "oiio_module.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -58,12 +58,12 @@ bool supported(OIIO::TypeDesc t, bool *integer)
 
 } // namespace
 
-extern "C" leap_result leap__read_slices(const char *what, const char *const *files, size_t file_count, int labels,
-                                         float **values, int64_t **ids, int32_t dim[3], char *description,
-                                         size_t description_cap, leap_error *err)
+leap_result read_slices(const leap_image_slices_request *request, leap_image_slices *out, leap_error *err)
 {
-    *values = nullptr;
-    *ids = nullptr;
+    const char *what = request->what;
+    const char *const *files = request->files;
+    const size_t file_count = request->file_count;
+    int32_t *dim = out->dim;
     try {
         struct Page {
             size_t file;
@@ -78,21 +78,21 @@ extern "C" leap_result leap__read_slices(const char *what, const char *const *fi
             auto in = OIIO::ImageInput::open(files[f]);
             if (!in) {
                 std::string e = OIIO::geterror();
-                return leap_fail(err, LEAP_ERR_FORMAT, "'%s': not a readable image (%s)", files[f],
+                return host->fail(err, LEAP_ERR_FORMAT, "'%s': not a readable image (%s)", files[f],
                                  e.empty() ? "unknown format" : e.c_str());
             }
             for (int s = 0; in->seek_subimage(s, 0); ++s) {
                 const OIIO::ImageSpec &spec = in->spec();
                 if (spec.depth > 1)
-                    return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s', page %d: a 3-D image; leap reads 2-D slices",
+                    return host->fail(err, LEAP_ERR_UNSUPPORTED, "'%s', page %d: a 3-D image; leap reads 2-D slices",
                                      files[f], s);
                 if (spec.nchannels != 1)
-                    return leap_fail(err, LEAP_ERR_UNSUPPORTED,
+                    return host->fail(err, LEAP_ERR_UNSUPPORTED,
                                      "'%s', page %d: %d channels; leap reads single-channel (grey) slices", files[f],
                                      s, spec.nchannels);
                 bool page_integer;
                 if (!supported(spec.format, &page_integer))
-                    return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s', page %d: pixels of type %s cannot be read",
+                    return host->fail(err, LEAP_ERR_UNSUPPORTED, "'%s', page %d: pixels of type %s cannot be read",
                                      files[f], s, spec.format.c_str());
                 if (pages.empty()) {
                     width = spec.width;
@@ -100,26 +100,26 @@ extern "C" leap_result leap__read_slices(const char *what, const char *const *fi
                     type = spec.format;
                     integer = page_integer;
                 } else if (spec.width != width || spec.height != height) {
-                    return leap_fail(err, LEAP_ERR_FORMAT, "'%s', page %d: %d x %d pixels, but the first slice has %d x %d",
+                    return host->fail(err, LEAP_ERR_FORMAT, "'%s', page %d: %d x %d pixels, but the first slice has %d x %d",
                                      files[f], s, spec.width, spec.height, width, height);
                 } else if (spec.format != type) {
-                    return leap_fail(err, LEAP_ERR_FORMAT, "'%s', page %d: pixels of type %s, but the first slice has %s",
+                    return host->fail(err, LEAP_ERR_FORMAT, "'%s', page %d: pixels of type %s, but the first slice has %s",
                                      files[f], s, spec.format.c_str(), type.c_str());
                 }
                 pages.push_back(Page{f, s});
             }
         }
-        if (pages.empty()) return leap_fail(err, LEAP_ERR_FORMAT, "%s: no image slices", what);
+        if (pages.empty()) return host->fail(err, LEAP_ERR_FORMAT, "%s: no image slices", what);
         if (pages.size() > size_t(INT32_MAX / 2) || width > INT32_MAX / 2 || height > INT32_MAX / 2)
-            return leap_fail(err, LEAP_ERR_FORMAT, "%s: too many slices or pixels", what);
+            return host->fail(err, LEAP_ERR_FORMAT, "%s: too many slices or pixels", what);
         dim[0] = width;
         dim[1] = height;
         dim[2] = int32_t(pages.size());
         const size_t slice = size_t(width) * size_t(height);
-        const bool as_labels = labels && integer;
-        leap_result r = leap__input_check_memory(what, dim, double(slice) * pages.size() * (as_labels ? 8.0 : 4.0), err);
+        const bool as_labels = request->labels && integer;
+        leap_result r = request->check_memory(what, dim, double(slice) * pages.size() * (as_labels ? 8.0 : 4.0), err);
         if (r) return r;
-        // malloc: leap__input_finish frees them.
+        // malloc: the caller frees them.
         std::unique_ptr<float, decltype(&std::free)> v(
             as_labels ? nullptr : static_cast<float *>(std::malloc(slice * pages.size() * sizeof(float))), &std::free);
         std::unique_ptr<int64_t, decltype(&std::free)> l(
@@ -134,11 +134,11 @@ extern "C" leap_result leap__read_slices(const char *what, const char *const *fi
             if (pages[z].file != open_file) {
                 in = OIIO::ImageInput::open(files[pages[z].file]);
                 open_file = pages[z].file;
-                if (!in) return leap_fail(err, LEAP_ERR_IO, "'%s': cannot be read again", files[open_file]);
+                if (!in) return host->fail(err, LEAP_ERR_IO, "'%s': cannot be read again", files[open_file]);
             }
             if (!in->read_image(pages[z].subimage, 0, 0, 1, type, buf.data())) {
                 std::string e = in->geterror();
-                return leap_fail(err, LEAP_ERR_FORMAT, "'%s', page %d: %s", files[open_file], pages[z].subimage,
+                return host->fail(err, LEAP_ERR_FORMAT, "'%s', page %d: %s", files[open_file], pages[z].subimage,
                                  e.empty() ? "pixels cannot be read (truncated or corrupt)" : e.c_str());
             }
             std::vector<unsigned char> flipped(buf.size());
@@ -147,14 +147,14 @@ extern "C" leap_result leap__read_slices(const char *what, const char *const *fi
                 std::memcpy(flipped.data() + size_t(height - 1 - y) * row, buf.data() + size_t(y) * row, row);
             convert(type, flipped, slice, v ? v.get() + z * slice : nullptr, l ? l.get() + z * slice : nullptr);
         }
-        std::snprintf(description, description_cap, "%s, %d x %d x %d slices from %zu file%s%s", type.c_str(), width,
+        std::snprintf(out->description, sizeof out->description, "%s, %d x %d x %d slices from %zu file%s%s", type.c_str(), width,
                       height, dim[2], file_count, file_count == 1 ? "" : "s", as_labels ? ", labels" : "");
-        *values = v.release();
-        *ids = l.release();
+        out->values = v.release();
+        out->ids = l.release();
         return LEAP_OK;
     } catch (const std::bad_alloc &) {
-        return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory for the slices", what);
+        return host->fail(err, LEAP_ERR_OOM, "%s: out of memory for the slices", what);
     } catch (const std::exception &e) {
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s", what, e.what());
+        return host->fail(err, LEAP_ERR_FORMAT, "%s: %s", what, e.what());
     }
 }

@@ -1,6 +1,6 @@
-// OpenImageIO behind the C API of include/leap/image.h. No exception crosses the boundary.
-#include "leap/image.h"
-#include "leap/files.h"
+// The image module: OpenImageIO behind the table of image_module.h (writing and reading single
+// images here, slices in oiio_slices.cpp). No exception crosses the boundary.
+#include "oiio_module.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -47,30 +47,17 @@ std::string io_reason(const std::string &oiio_message)
 
 } // namespace
 
-extern "C" int leap_image_can_write(const char *path)
-{
-    std::string ext = extension_of(path ? path : "");
-    if (!supported_extension(ext)) return 0;
-    try {
-        auto out = ImageOutput::create(ext.substr(1));
-        return out ? 1 : 0;
-    } catch (...) {
-        return 0;
-    }
-}
-
-extern "C" leap_result leap_image_write(const char *path, int width, int height, int channels,
-                                        const char *const *names, const float *pixels,
-                                        leap_error *err)
+static leap_result write_image(const char *path, int width, int height, int channels, const char *const *names,
+                        const float *pixels, leap_error *err)
 {
     if (!path || !pixels || width <= 0 || height <= 0 || channels <= 0)
-        return leap_fail(err, LEAP_ERR_USAGE, "image: invalid arguments for '%s'", path ? path : "(null)");
+        return host->fail(err, LEAP_ERR_USAGE, "image: invalid arguments for '%s'", path ? path : "(null)");
     try {
         std::string target(path);
         std::string ext = extension_of(target);
         std::unique_ptr<ImageOutput> out = supported_extension(ext) ? ImageOutput::create(ext.substr(1)) : nullptr;
         if (!out)
-            return leap_fail(err, LEAP_ERR_USAGE,
+            return host->fail(err, LEAP_ERR_USAGE,
                              "%s: unknown image file extension '%s' (use .png, .exr or .tif)", path,
                              ext.c_str());
         TypeDesc format = TypeDesc::UINT8;
@@ -89,12 +76,12 @@ extern "C" leap_result leap_image_write(const char *path, int width, int height,
             spec.attribute("oiio:UnassociatedAlpha", 1); // we pass straight colour for 8/16-bit files
         // The temporary keeps the extension, so OpenImageIO still picks the right format.
         leap_publish pub;
-        if (leap_result lr = leap_publish_begin(&pub, path, err)) return lr;
+        if (leap_result lr = host->publish_begin(&pub, path, err)) return lr;
         const std::string tmp(pub.tmp);
         // Messages name the user's path; the temporary name would mean nothing to them.
         auto fail = [&](const char *what, const std::string &why) {
-            leap_publish_abort(&pub);
-            return leap_fail(err, LEAP_ERR_IO, "%s: %s: %s", path, what, why.c_str());
+            host->publish_abort(&pub);
+            return host->fail(err, LEAP_ERR_IO, "%s: %s: %s", path, what, why.c_str());
         };
         errno = 0;
         if (!out->open(tmp, spec)) return fail("cannot write", io_reason(out->geterror()));
@@ -111,33 +98,32 @@ extern "C" leap_result leap_image_write(const char *path, int width, int height,
             return fail("write failed", std::string("the written file does not read back") +
                                             (errno ? std::string(": ") + std::strerror(errno) : std::string("")));
         check->close();
-        return leap_publish_commit(&pub, err);
+        return host->publish_commit(&pub, err);
     } catch (const std::exception &e) {
-        return leap_fail(err, LEAP_ERR_IO, "%s: %s", path, e.what());
+        return host->fail(err, LEAP_ERR_IO, "%s: %s", path, e.what());
     } catch (...) {
-        return leap_fail(err, LEAP_ERR_IO, "%s: unknown image library error", path);
+        return host->fail(err, LEAP_ERR_IO, "%s: unknown image library error", path);
     }
 }
 
-extern "C" leap_result leap_image_read(const char *path, int *width, int *height, int *channels,
-                                       float **pixels, leap_error *err)
+static leap_result read_image(const char *path, int *width, int *height, int *channels, float **pixels, leap_error *err)
 {
     if (!path || !width || !height || !channels || !pixels)
-        return leap_fail(err, LEAP_ERR_USAGE, "image: invalid arguments");
+        return host->fail(err, LEAP_ERR_USAGE, "image: invalid arguments");
     *pixels = nullptr;
     try {
         auto in = ImageInput::open(path);
         if (!in)
-            return leap_fail(err, LEAP_ERR_IO, "%s: cannot read image: %s", path, OIIO::geterror().c_str());
+            return host->fail(err, LEAP_ERR_IO, "%s: cannot read image: %s", path, OIIO::geterror().c_str());
         const ImageSpec &spec = in->spec();
         size_t count = (size_t)spec.width * spec.height * spec.nchannels;
         if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0 || count > (size_t)1 << 31)
-            return leap_fail(err, LEAP_ERR_FORMAT, "%s: unsupported image size", path);
+            return host->fail(err, LEAP_ERR_FORMAT, "%s: unsupported image size", path);
         float *data = static_cast<float *>(std::malloc(count * sizeof(float)));
-        if (!data) return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
+        if (!data) return host->fail(err, LEAP_ERR_OOM, "%s: out of memory", path);
         if (!in->read_image(0, 0, 0, spec.nchannels, TypeDesc::FLOAT, data)) {
             std::free(data);
-            return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s", path, in->geterror().c_str());
+            return host->fail(err, LEAP_ERR_FORMAT, "%s: %s", path, in->geterror().c_str());
         }
         *width = spec.width;
         *height = spec.height;
@@ -145,8 +131,17 @@ extern "C" leap_result leap_image_read(const char *path, int *width, int *height
         *pixels = data;
         return LEAP_OK;
     } catch (const std::exception &e) {
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s", path, e.what());
+        return host->fail(err, LEAP_ERR_FORMAT, "%s: %s", path, e.what());
     } catch (...) {
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: unknown image library error", path);
+        return host->fail(err, LEAP_ERR_FORMAT, "%s: unknown image library error", path);
     }
+}
+
+const leap_image_host *host;
+
+extern "C" __attribute__((visibility("default"))) const leap_image_module *leap_image_module_open(const leap_image_host *h)
+{
+    static const leap_image_module table = {write_image, read_image, read_slices};
+    host = h;
+    return &table;
 }
