@@ -69,7 +69,8 @@ void main()
     leap_accum acc = leap_accum_init();
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
     bool finished = true;
-    if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit)) {
+    if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit) &&
+        leap_clip_keep(ray, t_enter, t_exit)) {
         leap_lattice lat = leap_lattice_make(t_enter);
         // This chunk takes lattice indices [j_lo, j_hi): every mode marches only [ca, cb],
         // bounded half a step away from the neighbouring chunks' samples.

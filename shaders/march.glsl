@@ -127,6 +127,24 @@ bool leap_accum_done(leap_accum a)
     return a.transmittance < frame.limits.x;
 }
 
+// Cuts [t0, t1] to where the ray keeps the clipping planes (frame.keep); false if nothing is
+// left. Every mode calls it on the domain interval, so all take the same samples.
+bool leap_clip_keep(leap_ray r, inout float t0, inout float t1)
+{
+    for (uint k = 0u; k < frame.keep_count.x; ++k) {
+        vec4 p = frame.keep[k];
+        float at_origin = dot(p.xyz, r.origin) + p.w, along = dot(p.xyz, r.dir);
+        if (along == 0.0) {
+            if (at_origin < 0.0) return false;
+        } else {
+            float t = -at_origin / along;
+            if (along > 0.0) t0 = max(t0, t);
+            else t1 = min(t1, t);
+        }
+    }
+    return t0 <= t1;
+}
+
 // The ray's sample lattice t_j = t0 + j * dt, j = 0, 1, ...: t0 is the lattice point k * dt
 // (k integer) at or just below where the ray enters the domain, computed the same way in
 // every mode, so j stays small and exact in float even far from the grid's origin.

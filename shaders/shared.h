@@ -167,7 +167,10 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,
                                  w = occupancy tree depth (root edge = 2^w cells) */
     LEAP_UVEC4 labels;        /* 400: label volumes: x = first label word in pages[], y = objects */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 416 bytes */
+    LEAP_VEC4 keep[4];        /* 416: clipping planes (a, b, c, d), relative index space: a ray keeps
+                                 the points where a x + b y + c z + d >= 0 for every plane in use */
+    LEAP_UVEC4 keep_count;    /* 480: x = planes in use (0..4) */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 496 bytes */
 
 
 #endif

@@ -146,6 +146,10 @@ int main(void)
         {"--eye 1,2,3 --target 1,2,3", "eye"},
         {"--eye 0,0,10 --target 0,0,0 --up 0,0,1", "parallel"},
         {"--tf nosuchpreset", "nosuchpreset"},
+        {"--clip 'w<3'", "--clip 'w<3'"},
+        {"--clip 'x=3'", "AXIS<VALUE"},
+        {"--clip-plane 0,0,0,1", "--clip-plane"},
+        {"--clip 'x<1' --clip 'x<2' --clip 'x<3' --clip 'x<4' --clip 'x<5'", "at most 4"},
     };
     for (size_t i = 0; i < sizeof usage_errors / sizeof usage_errors[0]; ++i) {
         snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, usage_errors[i].opts);
@@ -383,6 +387,24 @@ int main(void)
         EXPECT_FAIL(2, args, "--background", out);
     }
 
+    /* Clipping: fewer samples, the planes in the stats as given. */
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q --clip 'x<0' --clip-plane 0,1,0,2", sphere, out);
+    CHECK(run(args) == 0);
+    {
+        cJSON *clipped = cJSON_Parse(out_text);
+        cJSON *planes = cJSON_GetObjectItem(clipped, "clip_planes");
+        CHECK_MSG(cJSON_GetArraySize(planes) == 2 &&
+                      cJSON_GetArrayItem(cJSON_GetArrayItem(planes, 0), 0)->valuedouble == -1 &&
+                      cJSON_GetArrayItem(cJSON_GetArrayItem(planes, 1), 3)->valuedouble == 2,
+                  "clip planes in the stats: %s", out_text);
+        const double clipped_samples = cJSON_GetObjectItem(clipped, "total_samples")->valuedouble;
+        snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q", sphere, out);
+        CHECK(run(args) == 0);
+        cJSON *full = cJSON_Parse(out_text);
+        CHECK(clipped_samples < cJSON_GetObjectItem(full, "total_samples")->valuedouble);
+        cJSON_Delete(clipped);
+        cJSON_Delete(full);
+    }
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
     CHECK_MSG(run(args) == 0, "%s", out_text);

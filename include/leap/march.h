@@ -25,11 +25,18 @@ extern "C" {
 #define LEAP_ERT_TRANSMITTANCE 0.002
 #define LEAP_DEPTH_OPACITY 0.05
 
+#define LEAP_MAX_CLIPS 4
+
 typedef struct leap_march {
     double index_origin[3];            /* absolute index coordinate of relative (0,0,0); integers */
     double domain_min[3], domain_max[3]; /* relative index space; min > max on an axis = empty */
     double step;                       /* voxels, > 0 */
     double range_lo, range_hi;         /* value range mapped onto the transfer function */
+    /* Clipping: a sample is taken only where a x + b y + c z + d >= 0 (relative index space)
+     * for each plane (a, b, c, d); the ray's domain interval is cut to that before marching,
+     * the same way in every mode (the plane itself is kept). */
+    int clip_count;
+    double clip[LEAP_MAX_CLIPS][4];
 } leap_march;
 
 #ifdef __cplusplus

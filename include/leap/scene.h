@@ -35,6 +35,8 @@ typedef struct leap_scene_desc {
     const char *objects;   /* segmentations: a file of the objects to show (leap_labels_load_objects) */
     const char *show;      /* segmentations: show only these objects ("12,57,300-400") */
     const char *hide;      /* segmentations: hide these objects (after show / objects) */
+    int clip_count;        /* clipping planes in world units: keep a x + b y + c z + d >= 0 */
+    double clip[LEAP_MAX_CLIPS][4];
 } leap_scene_desc;
 
 typedef struct leap_scene {

@@ -2,6 +2,7 @@
  * text, and the camera they describe. */
 #include "cli_common.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
@@ -35,6 +36,10 @@ const char *cli_camera_options_help =
     "                      cool-to-warm, black-body, ct, labels; see --list-tf) or a ParaView\n"
     "                      JSON colour map (default: viridis; segmentations: object colours)\n"
     "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
+    "  --clip AXIS<V       keep only world x, y or z below V (AXIS>V: above); quote it in a\n"
+    "                      shell: --clip 'x<12.5'; up to 4 planes with --clip-plane\n"
+    "  --clip-plane A,B,C,D  keep only A x + B y + C z + D >= 0 (world units); the clipped\n"
+    "                      side is skipped, no sample is taken there\n"
     "  --step S            sample spacing in voxels (default 0.5)\n"
     "  --size WxH          image size in pixels (default 512x512)\n"
     "  --mode MODE         sparseleap (default: march only each pixel's non-empty ray\n"
@@ -140,12 +145,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         return 1;
     }
     enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
-           FOV, COUNT };
+           FOV, CLIP, CLIP_PLANE, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
-        [OPACITY] = "--label-opacity", [FOV] = "--fov", };
+        [OPACITY] = "--label-opacity", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane", };
     int which = -1;
     for (int k = 0; k < COUNT && which < 0; ++k)
         if (OPT(names[k])) which = k;
@@ -212,6 +217,28 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
             FAIL("--label-opacity '%s' must be a number in (0, 1]", v);
         o->scene.label_opacity = n;
         break;
+    case CLIP:
+    case CLIP_PLANE: {
+        if (o->scene.clip_count == LEAP_MAX_CLIPS) FAIL("at most %d clipping planes", LEAP_MAX_CLIPS);
+        double *p = o->scene.clip[o->scene.clip_count];
+        const char axis = (char)tolower((unsigned char)v[0]);
+        if (which == CLIP) {
+            /* AXIS<VALUE keeps the side below VALUE, AXIS>VALUE the side above, in world units. */
+            if (!(axis == 'x' || axis == 'y' || axis == 'z') || (v[1] != '<' && v[1] != '>') ||
+                leap__parse_numbers(v + 2, &n, 1, 1) != 1 || !isfinite(n))
+                FAIL("--clip '%s' must be AXIS<VALUE or AXIS>VALUE (x, y or z; world units; quote it in a shell)", v);
+            const double side = v[1] == '<' ? -1.0 : 1.0;
+            p[0] = p[1] = p[2] = 0.0;
+            p[axis - 'x'] = side;
+            p[3] = -side * n;
+        } else {
+            if (leap__parse_numbers(v, p, 4, 4) != 4 || !(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] > 0) ||
+                !isfinite(p[3]))
+                FAIL("--clip-plane '%s' must be A,B,C,D (keeps A x + B y + C z + D >= 0; A,B,C not all 0)", v);
+        }
+        o->scene.clip_count++;
+        break;
+    }
     case FOV:
     default:
         if (leap__parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))

@@ -153,6 +153,11 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(root, "width", o->width);
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "step", s->march.step);
+    if (o->scene.clip_count) { /* as given: world units, keep a x + b y + c z + d >= 0 */
+        cJSON *planes = cJSON_AddArrayToObject(root, "clip_planes");
+        for (int k = 0; k < o->scene.clip_count; ++k)
+            cJSON_AddItemToArray(planes, cJSON_CreateDoubleArray(o->scene.clip[k], 4));
+    }
     cJSON *ms = cJSON_AddObjectToObject(root, "ms");
     const char *names[] = {"load", "atlas", "occupancy_build", "classify", "boxes", "device_setup", "upload",
                            "order", "render", "readback", "write"};

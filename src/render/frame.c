@@ -245,6 +245,10 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     f->world_row2 = v4(view->index_to_world_linear[2], 0);
     f->domain_min = v4(m->domain_min, 0);
     f->domain_max = v4(m->domain_max, 0);
+    const int clips = m->clip_count < 0 ? 0 : m->clip_count > LEAP_MAX_CLIPS ? LEAP_MAX_CLIPS : m->clip_count;
+    for (int k = 0; k < clips; ++k)
+        f->keep[k] = (leap_vec4){(float)m->clip[k][0], (float)m->clip[k][1], (float)m->clip[k][2], (float)m->clip[k][3]};
+    f->keep_count = (leap_uvec4){(uint32_t)clips, 0, 0, 0};
     f->atlas_inv_size = (leap_vec4){1.0f / r->atlas.extent[0], 1.0f / r->atlas.extent[1],
                                     1.0f / r->atlas.extent[2], 0};
     double range = m->range_hi - m->range_lo;

@@ -190,11 +190,13 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
                              "%g,%g,%g, uploaded volume's %g,%g,%g)", view->index_origin[0], view->index_origin[1],
                              view->index_origin[2], r->domain.index_origin[0], r->domain.index_origin[1],
                              r->domain.index_origin[2]);
-    /* Step and range are the caller's; the marching box is the uploaded atlas's. */
+    /* Step, range and clipping planes are the caller's; the marching box is the uploaded atlas's. */
     leap_march domain_march = r->domain;
     domain_march.step = march_in->step;
     domain_march.range_lo = march_in->range_lo;
     domain_march.range_hi = march_in->range_hi;
+    domain_march.clip_count = march_in->clip_count;
+    memcpy(domain_march.clip, march_in->clip, sizeof domain_march.clip);
     const leap_march *march = &domain_march;
     if ((int)mode < 0 || mode >= LEAP_RENDER_MODE_COUNT)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: unknown mode %d", (int)mode);

@@ -69,6 +69,9 @@ static int lattice_inside(const leap_march *m, const double o[3], const double d
     for (int c = 0; c < 3; ++c)
         if (!(p[c] >= m->domain_min[c] && p[c] <= m->domain_max[c]))
             return 0;
+    for (int k = 0; k < m->clip_count && k < LEAP_MAX_CLIPS; ++k)
+        if (!(m->clip[k][0] * p[0] + m->clip[k][1] * p[1] + m->clip[k][2] * p[2] + m->clip[k][3] >= 0.0))
+            return 0;
     return 1;
 }
 
@@ -97,6 +100,18 @@ static int lattice_range(const leap_march *m, const double o[3], const double d[
             tmin = t1;
         if (t2 < tmax)
             tmax = t2;
+    }
+    for (int k = 0; k < m->clip_count && k < LEAP_MAX_CLIPS; ++k) {
+        const double *q = m->clip[k];
+        const double at_origin = q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3];
+        const double along = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
+        if (along == 0.0) {
+            if (!(at_origin >= 0.0)) return 0;
+        } else if (along > 0.0) {
+            tmin = fmax(tmin, -at_origin / along);
+        } else {
+            tmax = fmin(tmax, -at_origin / along);
+        }
     }
     if (!(tmin <= tmax) || !isfinite(tmax))
         return 0;

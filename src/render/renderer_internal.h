@@ -9,7 +9,7 @@
 #include "shared.h"
 
 
-_Static_assert(sizeof(leap_frame_gpu) == 416, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 496, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 14
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
