@@ -2,6 +2,7 @@
 #include <stddef.h>
 
 #include "check.h"
+#include "leap/march.h"
 #include "shared.h"
 
 int main(void)
@@ -34,7 +35,10 @@ int main(void)
     CHECK(offsetof(leap_frame_gpu, bbox_max) == 368);
     CHECK(offsetof(leap_frame_gpu, lists) == 384);
     CHECK(offsetof(leap_frame_gpu, labels) == 400);
-    CHECK(sizeof(leap_frame_gpu) == 416);
+    CHECK(offsetof(leap_frame_gpu, keep) == 416);
+    CHECK(offsetof(leap_frame_gpu, keep_count) == 480);
+    CHECK(sizeof(leap_frame_gpu) == 496);
+    CHECK(sizeof(((leap_frame_gpu *)0)->keep) / sizeof(leap_vec4) == LEAP_MAX_CLIPS);
     CHECK(sizeof(leap_push_gpu) == 16 && offsetof(leap_push_gpu, chunk) == 0);
     CHECK(offsetof(leap_box_gpu, lo) == 0);
     CHECK(offsetof(leap_box_gpu, hi) == 16);

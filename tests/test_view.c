@@ -178,7 +178,7 @@ int main(void)
     const char *size = "320x240"; /* not square: catches transposed images */
 
     /* The scripted session. */
-    static const char *shots[] = {"orbit", "naive", "bbox", "octree", "sparseleap", "drag", "zoompan", "tf",
+    static const char *shots[] = {"orbit", "naive", "bbox", "octree", "sparseleap", "clipped", "drag", "zoompan", "tf",
                                   "window", "boxes", "heat", "resized", "only", "hidden"};
     enum { N_SHOTS = sizeof shots / sizeof shots[0] };
     char text[8192];
@@ -194,6 +194,10 @@ int main(void)
              "screenshot @/octree.png\n"
              "key 4\n"
              "screenshot @/sparseleap.png\n"
+             "key c\n"
+             "key .\n"
+             "screenshot @/clipped.png\n"
+             "key c\n"
              "drag left 100 100 140 80\n"
              "repeat 3 rotate 5 2\n"
              "screenshot @/drag.png\n"
@@ -264,6 +268,8 @@ int main(void)
             snprintf(want, sizeof want, "--mode %s ", shots[i]);
             CHECK_MSG(strstr(args, want) != NULL, "%s: %s", shots[i], args);
         }
+        if (!strcmp(shots[i], "clipped")) CHECK_MSG(strstr(args, "--clip-plane ") != NULL, "c: no plane in %s", args);
+        else CHECK_MSG(strstr(args, "--clip-plane") == NULL, "%s: a plane after c was pressed again: %s", shots[i], args);
         if (!strcmp(shots[i], "tf")) CHECK_MSG(strstr(args, "--tf labels") == NULL, "t did not change the tf: %s", args);
         if (!strcmp(shots[i], "window")) CHECK_MSG(strstr(args, "--step 0.625 ") != NULL, "+ did not raise the step: %s", args);
         if (!strcmp(shots[i], "only")) CHECK_MSG(strstr(args, "--show ") != NULL, "i did not isolate an object: %s", args);
@@ -289,7 +295,14 @@ int main(void)
     long edges = count_colour(shot, nonempty);
     CHECK_MSG(edges > 50, "boxes overlay: %ld pixels in the NONEMPTY colour", edges);
 
-    /* The mouse moved the camera: the drag frame differs from the orbit frame. */
+    /* The mouse moved the camera: the drag frame differs from the orbit frame; c cut the picture. */
+    {
+        char a1[1024], a2[1024];
+        snprintf(a1, sizeof a1, "%s/sparseleap.png", tmp);
+        snprintf(a2, sizeof a2, "%s/clipped.png", tmp);
+        cmp_result c = compare(a1, a2);
+        CHECK_MSG(c.ok && c.differing > 1000, "c did not clip the picture (%ld values differ)", c.differing);
+    }
     {
         char a1[1024], a2[1024];
         snprintf(a1, sizeof a1, "%s/orbit.png", tmp);

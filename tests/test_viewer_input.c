@@ -535,8 +535,37 @@ static void test_up_axis(void)
     CHECK_MSG(fabs(c.eye[2] - d.camera.eye[2]) < 1e-9, "an azimuth drag changed the height above the Z plane");
 }
 
+/* Key c: a plane facing the view through the target, kept side away from the eye; , and .
+ * move it; it stays where it is while the camera orbits; c again switches it off. */
+static void test_clip_keys(void)
+{
+    leap_viewer_desc d = orbit_desc();
+    leap_viewer v;
+    init(&v, &d);
+    CHECK(leap_viewer_char(&v, '.') == 0 && !v.clip_on); /* nothing to move yet */
+    CHECK(leap_viewer_char(&v, 'c') == LEAP_VIEWER_CLIP && v.clip_on);
+    leap_camera cam;
+    leap_error err;
+    CHECK_OK(leap_viewer_camera(&v, &cam, &err), &err);
+    double at_target = v.clip[3], at_eye = v.clip[3], n2 = 0;
+    for (int i = 0; i < 3; ++i) {
+        at_target += v.clip[i] * cam.target[i];
+        at_eye += v.clip[i] * cam.eye[i];
+        n2 += v.clip[i] * v.clip[i];
+    }
+    CHECK(fabs(at_target) < 1e-9 * v.radius && at_eye < 0 && fabs(n2 - 1) < 1e-12);
+    const double plane[4] = {v.clip[0], v.clip[1], v.clip[2], v.clip[3]};
+    CHECK(leap_viewer_char(&v, '.') == LEAP_VIEWER_CLIP);
+    CHECK(fabs(v.clip[3] - (plane[3] - LEAP_VIEWER_CLIP_MOVE * v.radius)) < 1e-12 * v.radius);
+    CHECK(leap_viewer_char(&v, ',') == LEAP_VIEWER_CLIP && fabs(v.clip[3] - plane[3]) < 1e-12 * v.radius);
+    leap_viewer_rotate(&v, 40, 10);
+    CHECK(!memcmp(plane, v.clip, sizeof plane));
+    CHECK(leap_viewer_char(&v, 'c') == LEAP_VIEWER_CLIP && !v.clip_on);
+}
+
 int main(void)
 {
+    test_clip_keys();
     test_up_axis();
     test_camera_events();
     test_ortho_and_explicit();

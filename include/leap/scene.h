@@ -87,6 +87,10 @@ leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err)
 /* Number of distinct integer values in the scene's range (for the label preset). */
 int leap_scene_label_count(double range_lo, double range_hi);
 
+/* A clipping plane in world units (keep a x + b y + c z + d >= 0) as the plane of relative
+ * index space that leap_march.clip holds. */
+void leap_scene_clip_to_index(const leap_scene *s, const double world[4], double index[4]);
+
 /* A view of the scene for a camera (index origin from the atlas). */
 leap_result leap_scene_rays(const leap_scene *scene, const leap_camera *cam, int width, int height,
                             leap_rays *out, leap_error *err);

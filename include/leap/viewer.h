@@ -85,7 +85,8 @@ enum {
     LEAP_VIEWER_QUIT = 1u << 6,
     LEAP_VIEWER_HELP = 1u << 7,       /* the key list should be shown */
     LEAP_VIEWER_PICK = 1u << 8,       /* a click asks which object a pixel shows */
-    LEAP_VIEWER_OBJECTS = 1u << 9     /* segmentations: objects shown or hidden: re-classify */
+    LEAP_VIEWER_OBJECTS = 1u << 9,    /* segmentations: objects shown or hidden: re-classify */
+    LEAP_VIEWER_CLIP = 1u << 10       /* the clipping plane moved or was switched */
 };
 
 /* Object operations of a segmentation (keys x, i, a), on the last picked object. */
@@ -99,6 +100,7 @@ enum { LEAP_VIEWER_DRAG_NONE = 0, LEAP_VIEWER_DRAG_ORBIT, LEAP_VIEWER_DRAG_PAN, 
 #define LEAP_VIEWER_ARROW_DEG 5.0
 #define LEAP_VIEWER_ZOOM_PER_CLICK 0.9      /* distance factor per wheel click towards the scene */
 #define LEAP_VIEWER_STEP_FACTOR 1.25
+#define LEAP_VIEWER_CLIP_MOVE 0.05 /* of the radius, per , or . */
 #define LEAP_VIEWER_STEP_MIN 0.01
 #define LEAP_VIEWER_STEP_MAX 64.0
 #define LEAP_VIEWER_RANGE_SHIFT 0.1         /* of the window width */
@@ -144,6 +146,8 @@ typedef struct leap_viewer {
     double range[2];
     double value_min, value_max;
     int show_boxes, show_heat, show_help;
+    int clip_on;                 /* key c: one more clipping plane, world units, */
+    double clip[4];              /* keeping clip . (x, y, z, 1) >= 0 */
     int quit;
     unsigned screenshots;        /* screenshot requests so far */
     /* viewport and mouse */

@@ -259,24 +259,26 @@ static leap_result choose_objects(leap_scene *s, const leap_scene_desc *d, leap_
     return r;
 }
 
-/* World planes n.w + d >= 0 as planes of relative index space: w = M (rel + origin) + T, so
- * the plane becomes (M^T n) . rel + n . (M origin + T) + d >= 0. */
-static void clip_to_index_space(leap_scene *s, const leap_scene_desc *desc)
+/* A world plane n.w + d >= 0 as a plane of relative index space: w = M (rel + origin) + T, so
+ * it becomes (M^T n) . rel + n . (M origin + T) + d >= 0. */
+void leap_scene_clip_to_index(const leap_scene *s, const double world[4], double index[4])
 {
     const double (*m)[4] = s->info->index_to_world;
+    double d = world[3];
+    for (int row = 0; row < 3; ++row) {
+        double w = m[row][3];
+        for (int c = 0; c < 3; ++c) w += m[row][c] * s->march.index_origin[c];
+        d += world[row] * w;
+    }
+    for (int c = 0; c < 3; ++c) index[c] = world[0] * m[0][c] + world[1] * m[1][c] + world[2] * m[2][c];
+    index[3] = d;
+}
+
+static void clip_to_index_space(leap_scene *s, const leap_scene_desc *desc)
+{
     const int count = desc->clip_count < 0 ? 0 : desc->clip_count > LEAP_MAX_CLIPS ? LEAP_MAX_CLIPS : desc->clip_count;
     s->march.clip_count = count;
-    for (int k = 0; k < count; ++k) {
-        const double *n = desc->clip[k];
-        double d = n[3];
-        for (int row = 0; row < 3; ++row) {
-            double w = m[row][3];
-            for (int c = 0; c < 3; ++c) w += m[row][c] * s->march.index_origin[c];
-            d += n[row] * w;
-        }
-        for (int c = 0; c < 3; ++c) s->march.clip[k][c] = n[0] * m[0][c] + n[1] * m[1][c] + n[2] * m[2][c];
-        s->march.clip[k][3] = d;
-    }
+    for (int k = 0; k < count; ++k) leap_scene_clip_to_index(s, desc->clip[k], s->march.clip[k]);
 }
 
 leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err)

@@ -144,6 +144,8 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     s->samples = s->rgba + band * 4;
     leap_march march = s->scene->march;
     march.step = st->step;
+    if (st->clip_on && march.clip_count < LEAP_MAX_CLIPS)
+        leap_scene_clip_to_index(s->scene, st->clip, march.clip[march.clip_count++]);
     int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
     leap_frame_stats fs;
     double t0 = leap__now_ms();

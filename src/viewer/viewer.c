@@ -28,6 +28,8 @@ static const char *help_text =
     "  h                    heat-map overlay (segments per pixel; samples in other modes)\n"
     "  s                    screenshot to PNG\n"
     "  u                    up axis: +Y -> +Z -> +X (the orbit turns about it)\n"
+    "  c                    clipping plane on / off: facing the view, through the target\n"
+    "  , .                  move the clipping plane nearer / farther (a twentieth of the radius)\n"
     "  r                    reset the camera\n"
     "segmentations:\n"
     "  left click           pick the object under the cursor (shown in the title)\n"
@@ -335,6 +337,36 @@ static unsigned scale_range(leap_viewer *v, double factor)
 
 /* ---- events --------------------------------------------------------------------------------- */
 
+/* The plane faces the current view through the orbit target and keeps the far side, so the
+ * picture becomes a cut at the target; it stays put while the camera orbits around it. */
+static unsigned toggle_clip(leap_viewer *v)
+{
+    leap_camera cam;
+    leap_error err;
+    if (v->clip_on || leap_viewer_camera(v, &cam, &err)) {
+        v->clip_on = 0;
+        return LEAP_VIEWER_CLIP;
+    }
+    double d[3], len = 0, at_target = 0;
+    for (int i = 0; i < 3; ++i) {
+        d[i] = cam.target[i] - cam.eye[i];
+        len += d[i] * d[i];
+    }
+    len = sqrt(len);
+    if (!(len > 0)) return 0;
+    for (int i = 0; i < 3; ++i) at_target += (v->clip[i] = d[i] / len) * cam.target[i];
+    v->clip[3] = -at_target;
+    v->clip_on = 1;
+    return LEAP_VIEWER_CLIP;
+}
+
+static unsigned move_clip(leap_viewer *v, double sign)
+{
+    if (!v->clip_on) return 0;
+    v->clip[3] -= sign * LEAP_VIEWER_CLIP_MOVE * v->radius;
+    return LEAP_VIEWER_CLIP;
+}
+
 static unsigned object_op(leap_viewer *v, int op)
 {
     v->object_op = op;
@@ -361,6 +393,9 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 's': case 'S': ++v->screenshots; return LEAP_VIEWER_SCREENSHOT;
     case 'r': case 'R': return leap_viewer_reset(v);
     case 'u': case 'U': return leap_viewer_next_up(v);
+    case 'c': case 'C': return toggle_clip(v);
+    case ',': return move_clip(v, -1.0);
+    case '.': return move_clip(v, 1.0);
     case 'q': case 'Q': v->quit = 1; return LEAP_VIEWER_QUIT;
     case '?': v->show_help = !v->show_help; return LEAP_VIEWER_HELP;
     case 'x': case 'X': return object_op(v, LEAP_VIEWER_OBJECTS_TOGGLE);
@@ -446,10 +481,14 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     leap_camera cam;
     leap_error ignore;
     if (leap_viewer_camera(v, &cam, &ignore)) return snprintf(buf, size, "(no camera)");
+    char clip[160] = "";
+    if (v->clip_on)
+        snprintf(clip, sizeof clip, " --clip-plane %.17g,%.17g,%.17g,%.17g", v->clip[0], v->clip[1], v->clip[2],
+                 v->clip[3]);
     return snprintf(buf, size,
                     "--mode %s --tf %s --range %.17g,%.17g --step %.17g --eye %.17g,%.17g,%.17g "
-                    "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s",
+                    "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s",
                     leap_mode_name(v->mode), v->tf, v->range[0], v->range[1], v->step, cam.eye[0], cam.eye[1],
                     cam.eye[2], cam.target[0], cam.target[1], cam.target[2], cam.up[0], cam.up[1], cam.up[2],
-                    cam.fov_deg, cam.ortho ? " --ortho" : "");
+                    cam.fov_deg, cam.ortho ? " --ortho" : "", clip);
 }
