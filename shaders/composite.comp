@@ -67,6 +67,7 @@ void main()
     if (push.chunk > 0u && out_aux[pixel].w != 1.0) return;
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
+    if (leap_mip) acc.color.r = -1.0;
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
     bool finished = true;
     if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit) &&
@@ -118,6 +119,12 @@ void main()
         return;
     }
 
+    if (leap_mip) { // the colour of the largest value, premultiplied; a depth only where it shows
+        vec4 c = acc.color.r >= 0.0 ? textureLod(tf_table, acc.color.r, 0.0) : vec4(0.0);
+        acc.color.rgb = c.rgb * c.a;
+        acc.transmittance = 1.0 - c.a;
+        if (!(c.a > 0.0)) acc.depth_t = -1.0;
+    }
     acc.color.a = 1.0 - acc.transmittance;
     float depth = 1.0 / 0.0;
     if (acc.depth_t >= 0.0) {

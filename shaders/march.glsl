@@ -15,6 +15,9 @@ layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
 // leap_labels: a label volume (object indices, nearest voxel; the object table's opacities are
 // corrected for the step, so leap_tf_precorrected is set too).
 layout(constant_id = 2) const bool leap_labels = false;
+// leap_mip: maximum intensity projection (leap_march.mip): acc.color.r holds the largest table
+// coordinate so far (-1 before any sample), acc.depth_t the t of the first sample reaching it.
+layout(constant_id = 3) const bool leap_mip = false;
 
 struct leap_ray {
     vec3 origin;
@@ -246,6 +249,45 @@ void leap_composite_object(inout leap_accum acc, uint object, float t)
     if (acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(object);
 }
 
+// One MIP sample at table coordinate x. Once x reaches the table's top no later sample can
+// change the colour or the first t, so the ray is done (transmittance 0 marks it).
+void leap_mip_sample(inout leap_accum acc, float x, float t, float top)
+{
+    acc.samples++;
+    if (x > acc.color.r) {
+        acc.color.r = x;
+        acc.depth_t = t;
+    }
+    if (acc.color.r >= top) acc.transmittance = 0.0;
+}
+
+// leap_march_interval for MIP: the same samples, their maximum instead of compositing.
+void leap_march_interval_mip(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
+{
+    float j = max(leap_lattice_first(lat, ta), j_next);
+    leap_tf_map tf = leap_tf_map_make();
+    leap_cell_cursor cur = leap_cursor_init();
+    float t = lat.t0 + j * lat.dt;
+    bool more = t <= tb;
+    while (more) {
+        vec3 q = r.origin + t * r.dir;
+        ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+        leap_cursor_seek(cur, cell);
+        bool constant = cur.constant;
+        float x_constant = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi);
+        for (;;) {
+            float s = constant ? 0.0 : textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+            leap_mip_sample(acc, constant ? x_constant : clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf.hi);
+            j += 1.0;
+            t = lat.t0 + j * lat.dt;
+            if (leap_accum_done(acc) || t > tb) { more = false; break; }
+            q = r.origin + t * r.dir;
+            if (any(notEqual(ivec3(floor(q)) >> LEAP_CELL_SHIFT, cell))) break;
+        }
+    }
+    j_next = j;
+}
+
 // Takes the lattice samples in [ta, tb], skipping indices below j_next (so adjacent intervals
 // never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
@@ -254,6 +296,10 @@ void leap_composite_object(inout leap_accum acc, uint object, float t)
 // measured on lavapipe, it beat a loop that checks the cell at every sample in all of them.
 void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
 {
+    if (leap_mip) {
+        leap_march_interval_mip(r, lat, ta, tb, j_next, acc);
+        return;
+    }
     float j = max(leap_lattice_first(lat, ta), j_next);
     leap_tf_map tf = leap_tf_map_make();
     leap_cell_cursor cur = leap_cursor_init();

@@ -405,6 +405,11 @@ int main(void)
         cJSON_Delete(clipped);
         cJSON_Delete(full);
     }
+    /* MIP: the stats say so; a segmentation refuses it. */
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q --mip", sphere, out);
+    CHECK(run(args) == 0 && strstr(out_text, "\"projection\":\t\"mip\""));
+    snprintf(args, sizeof args, "render %s/labels.vdb -o %s --mip", LEAP_VOLUMES, out);
+    EXPECT_FAIL(2, args, "segmentation", out);
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
     CHECK_MSG(run(args) == 0, "%s", out_text);

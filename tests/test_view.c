@@ -334,6 +334,25 @@ int main(void)
     CHECK(run(cmd) == 0);
     if (exists(shot) && exists(ref)) matches(shot, ref, "--frames --screenshot");
 
+    /* Key m: MIP; the screenshot's line says --mip, and leap render of that line gives it back. */
+    {
+        char text[2048];
+        expand(text, sizeof text, "orbit 30 20\nkey m\nscreenshot @/mip.png\nkey q\n", tmp);
+        snprintf(script, sizeof script, "%s/mip.txt", tmp);
+        write_text(script, text);
+        snprintf(shot, sizeof shot, "%s/mip.png", tmp);
+        remove(shot);
+        snprintf(cmd, sizeof cmd, "%s %s view %s --size 200x150 --script %s", xvfb, LEAP_EXE, vol, script);
+        rc = run(cmd);
+        CHECK_MSG(rc == 0, "%s -> exit %d: %s", cmd, rc, out_text);
+        int have_args = render_args_for(shot, args, sizeof args);
+        CHECK_MSG(have_args && strstr(args, " --mip"), "m: no --mip in the screenshot's line: %s", out_text);
+        snprintf(ref, sizeof ref, "%s/mip_ref.png", tmp);
+        snprintf(cmd, sizeof cmd, "%s render %s -q -o %s", LEAP_EXE, args, ref);
+        CHECK_MSG(have_args && run(cmd) == 0, "%s: %s", cmd, out_text);
+        if (have_args && exists(shot) && exists(ref)) matches(shot, ref, "key m");
+    }
+
     /* Failures: no display, bad script (with its line), usage errors. */
     snprintf(cmd, sizeof cmd, "env -u DISPLAY -u WAYLAND_DISPLAY %s view %s --frames 1", LEAP_EXE, vol);
     rc = run(cmd);

@@ -37,6 +37,12 @@ typedef struct leap_march {
      * the same way in every mode (the plane itself is kept). */
     int clip_count;
     double clip[LEAP_MAX_CLIPS][4];
+    /* 1: maximum intensity projection. A ray keeps the largest value of its samples (as its TF
+     * coordinate, clamped to the table) and the t of the first sample that reaches it; the
+     * pixel is the TF's colour and opacity there (not corrected for the step), premultiplied;
+     * the depth is that t's, when the opacity is above 0. Skipping is exact when the occupancy
+     * was classified for it (leap_scene_set_mip). */
+    int mip;
 } leap_march;
 
 #ifdef __cplusplus

@@ -123,6 +123,8 @@ typedef struct leap_viewer_desc {
     double range[2];             /* initial value window */
     double value_min, value_max; /* the grid's value range */
     int width, height;           /* viewport in pixels */
+    int mip;                     /* start with maximum intensity projection */
+    int labels;                  /* a segmentation: no MIP */
 } leap_viewer_desc;
 
 typedef struct leap_viewer {
@@ -146,6 +148,8 @@ typedef struct leap_viewer {
     double range[2];
     double value_min, value_max;
     int show_boxes, show_heat, show_help;
+    int mip;                     /* key m: maximum intensity projection */
+    int labels;                  /* a segmentation (no MIP) */
     int clip_on;                 /* key c: one more clipping plane, world units, */
     double clip[4];              /* keeping clip . (x, y, z, 1) >= 0 */
     int quit;

@@ -36,6 +36,8 @@ const char *cli_camera_options_help =
     "                      cool-to-warm, black-body, ct, labels; see --list-tf) or a ParaView\n"
     "                      JSON colour map (default: viridis; segmentations: object colours)\n"
     "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
+    "  --mip               maximum intensity projection: each pixel shows the TF at the\n"
+    "                      largest value along its ray (skipping stays exact)\n"
     "  --clip AXIS<V       keep only world x, y or z below V (AXIS>V: above); quote it in a\n"
     "                      shell: --clip 'x<12.5'; up to 4 planes with --clip-plane\n"
     "  --clip-plane A,B,C,D  keep only A x + B y + C z + D >= 0 (world units); the clipped\n"
@@ -138,6 +140,10 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     }
     if (!strcmp(a, "--labels")) {
         o->scene.labels = 1;
+        return 1;
+    }
+    if (!strcmp(a, "--mip")) {
+        o->scene.mip = 1;
         return 1;
     }
     if (!strcmp(a, "--show-all")) {

@@ -153,6 +153,7 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(root, "width", o->width);
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "step", s->march.step);
+    cJSON_AddStringToObject(root, "projection", s->march.mip ? "mip" : "emission-absorption");
     if (o->scene.clip_count) { /* as given: world units, keep a x + b y + c z + d >= 0 */
         cJSON *planes = cJSON_AddArrayToObject(root, "clip_planes");
         for (int k = 0; k < o->scene.clip_count; ++k)

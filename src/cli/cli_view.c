@@ -142,6 +142,8 @@ static leap_result viewer_from_options(const view_options *vo, leap_scene *s, le
     d.value_max = s->info->value_max;
     d.width = o->width;
     d.height = o->height;
+    d.mip = s->march.mip;
+    d.labels = s->labels != NULL;
     return leap_viewer_init(v, &d, err);
 }
 

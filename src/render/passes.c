@@ -195,6 +195,9 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     domain_march.step = march_in->step;
     domain_march.range_lo = march_in->range_lo;
     domain_march.range_hi = march_in->range_hi;
+    domain_march.mip = march_in->mip;
+    if (domain_march.mip && r->labels)
+        return leap_fail(err, LEAP_ERR_USAGE, "MIP takes the largest value along a ray; a segmentation has objects, not values");
     domain_march.clip_count = march_in->clip_count;
     memcpy(domain_march.clip, march_in->clip, sizeof domain_march.clip);
     const leap_march *march = &domain_march;
@@ -214,7 +217,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     size_t pixels = (size_t)view->width * view->height;
     double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
-    if (!lr) lr = renderer_upload_tf(r, march->step, err);
+    if (!lr) lr = renderer_upload_tf(r, march->step, march->mip, err);
     if (!lr && r->labels) lr = renderer_upload_objects(r, march->step, err);
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
     if (lr) return lr;
@@ -231,7 +234,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     if ((mode == LEAP_RENDER_OCTREE || (lists && !chord)) && (lr = upload_tree(r, err))) return lr;
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
     VkPipeline composite = VK_NULL_HANDLE;
-    if ((lr = renderer_composite_pipeline(r, pass_mode, r->labels ? 2 : r->tf_precorrected, &composite, err))) return lr;
+    if ((lr = renderer_composite_pipeline(r, pass_mode, r->labels ? 2 : march->mip ? 3 : r->tf_precorrected, &composite, err))) return lr;
     renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
     if (chord) {
         leap_frame_gpu *f = r->frame.mapped;

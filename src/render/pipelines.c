@@ -111,6 +111,7 @@ typedef struct spec_values {
     VkBool32 tf_precorrected; /* constant_id 0 */
     uint32_t mode;            /* constant_id 1 */
     VkBool32 labels;          /* constant_id 2 */
+    VkBool32 mip;             /* constant_id 3 */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -120,8 +121,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
         {0, offsetof(spec_values, tf_precorrected), sizeof values.tf_precorrected},
         {1, offsetof(spec_values, mode), sizeof values.mode},
         {2, offsetof(spec_values, labels), sizeof values.labels},
+        {3, offsetof(spec_values, mip), sizeof values.mip},
     };
-    VkSpecializationInfo spec = {3, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {4, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -139,8 +141,9 @@ leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int ki
 {
     VkPipeline *p = &r->composite[mode][kind];
     if (!*p) {
-        /* Label opacities are corrected for the step in the object table, like a precorrected TF. */
-        spec_values values = {kind != 0, (uint32_t)mode, kind == 2};
+        /* Label opacities are corrected for the step in the object table, like a precorrected
+         * TF; MIP reads the table's opacities as they are (no step correction at all). */
+        spec_values values = {kind == 1 || kind == 2, (uint32_t)mode, kind == 2, kind == 3};
         leap_result lr = create_compute(r, r->composite_module, values, p, err);
         if (lr) return lr;
     }
@@ -179,7 +182,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;

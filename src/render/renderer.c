@@ -79,7 +79,7 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
-            for (int i = 0; i < 3; ++i)
+            for (int i = 0; i < 4; ++i)
                 if (r->composite[m][i]) vkDestroyPipeline(dev, r->composite[m][i], NULL);
         if (r->composite_module) vkDestroyShaderModule(dev, r->composite_module, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
@@ -188,20 +188,23 @@ leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error
 
 /* The GPU table holds opacities corrected for the step where that is accurate enough, so it
  * is rebuilt when the step changes. */
-leap_result renderer_upload_tf(leap_renderer *r, double step, leap_error *err)
+leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_error *err)
 {
-    if (r->tf.image && r->tf_step == step) return LEAP_OK;
+    if (r->tf.image && r->tf_step == step && r->tf_mip == mip) return LEAP_OK;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device)); /* the old table may be in use */
     size_t bytes = sizeof(float[LEAP_TF_GPU_TABLE_SIZE][4]);
     float(*table)[4] = malloc(bytes);
     if (!table) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the transfer function table");
-    r->tf_precorrected = leap_tf_precorrect_ok(&r->tf_raw, step);
+    r->tf_precorrected = !mip && leap_tf_precorrect_ok(&r->tf_raw, step);
     leap_tf_gpu_table(&r->tf_raw, step, r->tf_precorrected, table);
     leap_gpu_image_destroy(r->gpu, &r->tf);
     uint32_t extent[3] = {LEAP_TF_GPU_TABLE_SIZE, 0, 0};
     leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, table, bytes, &r->tf, err);
     free(table);
-    if (!lr) r->tf_step = step; /* a failed upload leaves no table: the next frame retries */
+    if (!lr) { /* a failed upload leaves no table: the next frame retries */
+        r->tf_step = step;
+        r->tf_mip = mip;
+    }
     return lr;
 }
 

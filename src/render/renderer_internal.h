@@ -27,7 +27,7 @@ struct leap_renderer {
      * [0] or in the TF table [1], labels [2]): specialisation constants, so each pipeline
      * holds only the code it runs. Created on first use from composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][3];
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][4]; /* per-sample correction, precorrected, labels, MIP */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -42,6 +42,7 @@ struct leap_renderer {
     int has_tf;
     double tf_step;
     int tf_precorrected; /* the table's opacities are corrected for tf_step */
+    int tf_mip;          /* the table was made for MIP: opacities as they are */
     leap_buffer out_rgba, out_aux;
     /* Label volumes: the objects' looks (display RGB, opacity per voxel) and their table on
      * the device, corrected for objects_step. */
@@ -84,7 +85,7 @@ leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int ki
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);
 /* renderer.c: the TF table for a step (uploaded again when the step changes). */
-leap_result renderer_upload_tf(leap_renderer *r, double step, leap_error *err);
+leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_error *err);
 /* renderer.c: the label volume's object table for a step. */
 leap_result renderer_upload_objects(leap_renderer *r, double step, leap_error *err);
 /* frame.c: the frame's uniform block and the composite dispatches it needs. */

@@ -2,6 +2,7 @@
 #include "leap/scene.h"
 #include "util.h"
 
+#include <stdio.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -214,12 +215,34 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
     s->march.range_lo = lo;
     s->march.range_hi = hi;
     if (s->labels) return leap_scene_update_objects(s, err); /* the objects' looks, not the TF */
-    leap_result r = leap_occupancy_classify(s->occupancy, &s->tf, lo, hi, err);
+    /* MIP: a sample matters unless its value lies below every non-zero opacity, where the TF
+     * gives nothing whatever the maximum: classify with opacity 1 from the first non-zero entry. */
+    leap_tf mip_classes;
+    if (s->march.mip) {
+        int first = 0;
+        while (first < LEAP_TF_TABLE_SIZE && !(s->tf.rgba[first][3] > 0.0f)) ++first;
+        for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
+            mip_classes.rgba[i][0] = mip_classes.rgba[i][1] = mip_classes.rgba[i][2] = 1.0f;
+            mip_classes.rgba[i][3] = i >= first ? 1.0f : 0.0f;
+        }
+        snprintf(mip_classes.name, sizeof mip_classes.name, "%s", s->tf.name);
+    }
+    leap_result r = leap_occupancy_classify(s->occupancy, s->march.mip ? &mip_classes : &s->tf, lo, hi, err);
     if (r) return r;
     leap_occupancy_stats os;
     leap_occupancy_get_stats(s->occupancy, &os);
     s->classify_ms = os.classify_ms;
     return build_boxes(s, err);
+}
+
+leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err)
+{
+    if (mip && s->labels)
+        return leap_fail(err, LEAP_ERR_USAGE,
+                         "MIP takes the largest value along a ray; a segmentation has objects, not values");
+    if (!!mip == s->march.mip) return LEAP_OK;
+    s->march.mip = !!mip;
+    return leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
 }
 
 leap_result leap_scene_set_step(leap_scene *s, double step, leap_error *err)
@@ -329,6 +352,10 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         s->set_classes = malloc(((size_t)s->atlas->object_count + s->atlas->record_count) * sizeof *s->set_classes + 1);
         if (!s->set_classes) r = leap_fail(err, LEAP_ERR_OOM, "out of memory for the label sets");
     }
+    if (!r && desc->mip && s->labels)
+        r = leap_fail(err, LEAP_ERR_USAGE,
+                      "--mip takes the largest value along a ray; %s is a segmentation (objects, not values)", desc->path);
+    if (!r) s->march.mip = !!desc->mip;
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
     if (r) {
         leap_scene_destroy(s);

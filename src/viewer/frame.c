@@ -38,16 +38,20 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
     memcpy(acc->heat, f->heat, sizeof acc->heat);
 }
 
-/* Switches transfer function and value window (re-classify and rebuild boxes, no reload), and
- * the step (the boxes' cost-model cut depends on it). */
+/* Switches transfer function and value window (re-classify and rebuild boxes, no reload), the
+ * step (the boxes' cost-model cut depends on it) and MIP (its own classification). */
 static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
 {
     const int same_tf = !strcmp(st->tf, s->applied_tf) && st->range[0] == s->applied_range[0] &&
                         st->range[1] == s->applied_range[1];
-    if (same_tf && st->step == s->scene->march.step) return LEAP_OK;
+    if (same_tf && st->step == s->scene->march.step && !!st->mip == s->scene->march.mip) return LEAP_OK;
     double t = leap__now_ms();
     leap_result r = LEAP_OK;
-    if (!same_tf) {
+    if (!!st->mip != s->scene->march.mip) {
+        s->scene->march.mip = !!st->mip; /* the classification below follows it */
+        if (same_tf) r = leap_scene_set_tf(s->scene, &s->scene->tf, st->range[0], st->range[1], err);
+    }
+    if (!r && !same_tf) {
         memcpy(s->applied_tf, st->tf, sizeof s->applied_tf);
         s->applied_range[0] = st->range[0];
         s->applied_range[1] = st->range[1];

@@ -28,6 +28,7 @@ static const char *help_text =
     "  h                    heat-map overlay (segments per pixel; samples in other modes)\n"
     "  s                    screenshot to PNG\n"
     "  u                    up axis: +Y -> +Z -> +X (the orbit turns about it)\n"
+    "  m                    maximum intensity projection on / off (scalar volumes)\n"
     "  c                    clipping plane on / off: facing the view, through the target\n"
     "  , .                  move the clipping plane nearer / farther (a twentieth of the radius)\n"
     "  r                    reset the camera\n"
@@ -145,6 +146,8 @@ leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_
     camera_home(v);
     v->mode = desc->mode;
     v->step = desc->step;
+    v->labels = desc->labels;
+    v->mip = desc->mip && !desc->labels;
     set_tf_name(v, v->initial_tf);
     v->range[0] = desc->range[0];
     v->range[1] = desc->range[1];
@@ -394,6 +397,10 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 'r': case 'R': return leap_viewer_reset(v);
     case 'u': case 'U': return leap_viewer_next_up(v);
     case 'c': case 'C': return toggle_clip(v);
+    case 'm': case 'M':
+        if (v->labels) return 0; /* a segmentation has no values to take the maximum of */
+        v->mip = !v->mip;
+        return LEAP_VIEWER_TF;
     case ',': return move_clip(v, -1.0);
     case '.': return move_clip(v, 1.0);
     case 'q': case 'Q': v->quit = 1; return LEAP_VIEWER_QUIT;
@@ -481,10 +488,11 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     leap_camera cam;
     leap_error ignore;
     if (leap_viewer_camera(v, &cam, &ignore)) return snprintf(buf, size, "(no camera)");
-    char clip[160] = "";
+    char clip[180] = "";
     if (v->clip_on)
         snprintf(clip, sizeof clip, " --clip-plane %.17g,%.17g,%.17g,%.17g", v->clip[0], v->clip[1], v->clip[2],
                  v->clip[3]);
+    if (v->mip) strncat(clip, " --mip", sizeof clip - strlen(clip) - 1);
     return snprintf(buf, size,
                     "--mode %s --tf %s --range %.17g,%.17g --step %.17g --eye %.17g,%.17g,%.17g "
                     "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s",
