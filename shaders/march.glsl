@@ -261,33 +261,6 @@ void leap_mip_sample(inout leap_accum acc, float x, float t, float top)
     if (acc.color.r >= top) acc.transmittance = 0.0;
 }
 
-// leap_march_interval for MIP: the same samples, their maximum instead of compositing.
-void leap_march_interval_mip(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
-{
-    float j = max(leap_lattice_first(lat, ta), j_next);
-    leap_tf_map tf = leap_tf_map_make();
-    leap_cell_cursor cur = leap_cursor_init();
-    float t = lat.t0 + j * lat.dt;
-    bool more = t <= tb;
-    while (more) {
-        vec3 q = r.origin + t * r.dir;
-        ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
-        leap_cursor_seek(cur, cell);
-        bool constant = cur.constant;
-        float x_constant = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi);
-        for (;;) {
-            float s = constant ? 0.0 : textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-            leap_mip_sample(acc, constant ? x_constant : clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf.hi);
-            j += 1.0;
-            t = lat.t0 + j * lat.dt;
-            if (leap_accum_done(acc) || t > tb) { more = false; break; }
-            q = r.origin + t * r.dir;
-            if (any(notEqual(ivec3(floor(q)) >> LEAP_CELL_SHIFT, cell))) break;
-        }
-    }
-    j_next = j;
-}
-
 // Takes the lattice samples in [ta, tb], skipping indices below j_next (so adjacent intervals
 // never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
@@ -296,10 +269,6 @@ void leap_march_interval_mip(leap_ray r, leap_lattice lat, float ta, float tb, i
 // measured on lavapipe, it beat a loop that checks the cell at every sample in all of them.
 void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout float j_next, inout leap_accum acc)
 {
-    if (leap_mip) {
-        leap_march_interval_mip(r, lat, ta, tb, j_next, acc);
-        return;
-    }
     float j = max(leap_lattice_first(lat, ta), j_next);
     leap_tf_map tf = leap_tf_map_make();
     leap_cell_cursor cur = leap_cursor_init();
@@ -318,8 +287,10 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         bool opaque = c.a > frame.limits.y;
         // Two inner loops rather than one with a branch per sample: see above.
         if (constant) {
+            float x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
             for (;;) {
-                leap_composite(acc, c.rgb, alpha, opaque, t);
+                if (leap_mip) leap_mip_sample(acc, x, t, tf.hi);
+                else leap_composite(acc, c.rgb, alpha, opaque, t);
                 if (leap_labels && acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(cur.object);
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;
@@ -333,7 +304,8 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                     leap_composite_object(acc, leap_label_at(cur, q), t);
                 } else {
                     float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-                    leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
+                    if (leap_mip) leap_mip_sample(acc, clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf.hi);
+                    else leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
                 }
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;

@@ -78,6 +78,17 @@ static void fog_tf(leap_tf *tf)
     snprintf(tf->name, sizeof tf->name, "fog");
 }
 
+/* The rays of camera `which` (see camera()) for scene s. */
+static int view_for(const leap_scene *s, int which, leap_rays *view)
+{
+    leap_camera cam;
+    leap_error err = {{0}};
+    if (!camera(s, which, &cam)) return 0;
+    leap_result r = leap_scene_rays(s, &cam, W, H, view, &err);
+    CHECK_OK(r, &err);
+    return r == LEAP_OK;
+}
+
 /* Clipping planes (world units) on every volume and camera: every mode equals naive, naive
  * takes fewer samples than unclipped, and the reference agrees. Planes: through the centre
  * along x; oblique through a non-empty point; two at once; one leaving the eye of the inside
@@ -114,10 +125,8 @@ static void check_clipping(leap_renderer *renderer, float *naive, float *img)
             if (!s) continue;
             CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
             for (int cam_i = 0; cam_i < 5; ++cam_i) {
-                leap_camera cam;
-                CHECK(camera(s, cam_i, &cam));
                 leap_rays view;
-                CHECK_OK(leap_scene_rays(s, &cam, W, H, &view, &err), &err);
+                CHECK(view_for(s, cam_i, &view));
                 leap_frame_stats ns, full, st;
                 CHECK_OK(leap_renderer_render(renderer, &view, &base->march, LEAP_RENDER_NAIVE, img, NULL, NULL, &full, &err),
                          &err);
@@ -194,10 +203,8 @@ static void check_mip(leap_renderer *renderer, float *naive, float *img)
             CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
             CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
             for (int cam_i = 0; cam_i < 5; ++cam_i) {
-                leap_camera cam;
-                CHECK(camera(s, cam_i, &cam));
                 leap_rays view;
-                CHECK_OK(leap_scene_rays(s, &cam, W, H, &view, &err), &err);
+                CHECK(view_for(s, cam_i, &view));
                 leap_frame_stats ns, st;
                 CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, depth_naive, NULL, &ns,
                                               &err), &err);
