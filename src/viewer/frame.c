@@ -47,10 +47,7 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     if (same_tf && st->step == s->scene->march.step && !!st->mip == s->scene->march.mip) return LEAP_OK;
     double t = leap__now_ms();
     leap_result r = LEAP_OK;
-    if (!!st->mip != s->scene->march.mip) {
-        s->scene->march.mip = !!st->mip; /* the classification below follows it */
-        if (same_tf) r = leap_scene_set_tf(s->scene, &s->scene->tf, st->range[0], st->range[1], err);
-    }
+    if (!!st->mip != s->scene->march.mip) r = leap_scene_set_mip(s->scene, st->mip, err); /* re-classifies */
     if (!r && !same_tf) {
         memcpy(s->applied_tf, st->tf, sizeof s->applied_tf);
         s->applied_range[0] = st->range[0];
