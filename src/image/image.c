@@ -200,11 +200,13 @@ static leap_result writer_write(const char *path, int width, int height, int cha
 {
     size_t names_bytes = 0;
     for (int c = 0; names && c < channels; ++c) names_bytes += strlen(names[c] ? names[c] : "") + 1;
-    write_request q = {.width = width, .height = height, .channels = channels, .path_bytes = (uint32_t)strlen(path),
+    const size_t path_bytes = strlen(path);
+    if (path_bytes == 0 || path_bytes > 8192 || names_bytes > 65536)
+        return leap_fail(err, LEAP_ERR_USAGE, "image: invalid path or channel names for '%.200s'", path);
+    write_request q = {.width = width, .height = height, .channels = channels, .path_bytes = (uint32_t)path_bytes,
                        .names_bytes = (uint32_t)names_bytes,
                        .pixel_bytes = (uint64_t)width * (uint64_t)height * (uint64_t)channels * sizeof(float)};
-    int ok = q.path_bytes > 0 && q.path_bytes <= 8192 && names_bytes <= 65536 && send_all(writer_socket, &q, sizeof q) &&
-             send_all(writer_socket, path, q.path_bytes);
+    int ok = send_all(writer_socket, &q, sizeof q) && send_all(writer_socket, path, q.path_bytes);
     for (int c = 0; ok && names && c < channels; ++c)
         ok = send_all(writer_socket, names[c] ? names[c] : "", strlen(names[c] ? names[c] : "") + 1);
     write_reply a;
@@ -213,22 +215,30 @@ static leap_result writer_write(const char *path, int width, int height, int cha
         if (a.result != LEAP_OK) return leap_fail(err, (leap_result)a.result, "%s", a.msg);
         return LEAP_OK;
     }
-    if (q.path_bytes == 0 || q.path_bytes > 8192 || names_bytes > 65536)
-        return leap_fail(err, LEAP_ERR_USAGE, "image: invalid path or channel names for '%.200s'", path);
     int status = 0;
     pid_t gone = waitpid(writer_pid, &status, WNOHANG);
     return leap_fail(err, LEAP_ERR_IO, "%.200s: the image writer process stopped%s", path,
                      gone == writer_pid && WIFSIGNALED(status) ? " (killed by a signal)" : "");
 }
 
+/* The file name's extension after its last dot, lower case ("" if none or longer than 7). */
+static void extension_of(const char *path, char ext[8])
+{
+    const char *slash = strrchr(path, '/');
+    const char *dot = strrchr(slash ? slash : path, '.');
+    ext[0] = '\0';
+    if (!dot || strlen(dot + 1) >= 8) return;
+    for (size_t i = 0;; ++i)
+        if (!(ext[i] = (char)tolower((unsigned char)dot[1 + i]))) break;
+}
+
+/* The formats leap writes (what --help lists): others OpenImageIO could write are refused,
+ * so that a typo or an 8-bit lossy format is an error, not a surprise. */
 int leap_image_can_write(const char *path)
 {
-    const char *slash = path ? strrchr(path, '/') : NULL;
-    const char *dot = path ? strrchr(slash ? slash : path, '.') : NULL;
-    if (!dot) return 0;
-    char ext[8] = "";
-    if (strlen(dot + 1) >= sizeof ext) return 0;
-    for (size_t i = 0; dot[1 + i]; ++i) ext[i] = (char)tolower((unsigned char)dot[1 + i]);
+    char ext[8];
+    if (!path) return 0;
+    extension_of(path, ext);
     return !strcmp(ext, "png") || !strcmp(ext, "exr") || !strcmp(ext, "tif") || !strcmp(ext, "tiff");
 }
 
@@ -237,6 +247,12 @@ leap_result leap_image_write(const char *path, int width, int height, int channe
 {
     if (!path || !pixels || width <= 0 || height <= 0 || channels <= 0)
         return leap_fail(err, LEAP_ERR_USAGE, "image: invalid arguments for '%s'", path ? path : "(null)");
+    if (!leap_image_can_write(path)) {
+        char ext[8];
+        extension_of(path, ext);
+        return leap_fail(err, LEAP_ERR_USAGE, "%s: unknown image file extension '%s%s' (use .png, .exr or .tif)", path,
+                         ext[0] ? "." : "", ext);
+    }
     if (writer_pid > 0) return writer_write(path, width, height, channels, names, pixels, err);
     const leap_image_module *m = module(err);
     return m ? m->write(path, width, height, channels, names, pixels, err) : LEAP_ERR_UNSUPPORTED;

@@ -28,13 +28,6 @@ std::string extension_of(const std::string &path)
     return ext;
 }
 
-// The formats leap writes (what --help lists): others OpenImageIO could write are refused,
-// so that a typo or an 8-bit lossy format is an error, not a surprise.
-bool supported_extension(const std::string &ext)
-{
-    return ext == ".png" || ext == ".exr" || ext == ".tif" || ext == ".tiff";
-}
-
 // OpenImageIO's message names the temporary file and may be empty on a short write
 // (disk full, file-size limit): errno says more then.
 std::string io_reason(const std::string &oiio_message)
@@ -47,19 +40,17 @@ std::string io_reason(const std::string &oiio_message)
 
 } // namespace
 
+// Arguments and extension were checked by the host (image.c: leap_image_write).
 static leap_result write_image(const char *path, int width, int height, int channels, const char *const *names,
                         const float *pixels, leap_error *err)
 {
-    if (!path || !pixels || width <= 0 || height <= 0 || channels <= 0)
-        return host->fail(err, LEAP_ERR_USAGE, "image: invalid arguments for '%s'", path ? path : "(null)");
     try {
         std::string target(path);
         std::string ext = extension_of(target);
-        std::unique_ptr<ImageOutput> out = supported_extension(ext) ? ImageOutput::create(ext.substr(1)) : nullptr;
+        std::unique_ptr<ImageOutput> out = ImageOutput::create(ext.substr(1));
         if (!out)
-            return host->fail(err, LEAP_ERR_USAGE,
-                             "%s: unknown image file extension '%s' (use .png, .exr or .tif)", path,
-                             ext.c_str());
+            return host->fail(err, LEAP_ERR_UNSUPPORTED, "%s: this OpenImageIO has no writer for '%s'", path,
+                              ext.c_str());
         TypeDesc format = TypeDesc::UINT8;
         if (ext == ".exr") format = TypeDesc::FLOAT;
         else if (ext == ".tif" || ext == ".tiff") format = TypeDesc::UINT16;

@@ -64,29 +64,12 @@ int leap_input_is_nifti(const char *path)
                     ends_with(path, ".hdr.gz") || ends_with(path, ".img") || ends_with(path, ".img.gz"));
 }
 
-leap_result leap_input_open(const char *path, const leap_input_options *options, leap_vdb_file **out,
+/* An OpenVDB file: no --threshold; a file of another name it cannot read is told which
+ * formats leap opens; the up axis is the file's own or +Y. */
+static leap_result open_vdb(const char *path, const leap_input_options *options, leap_vdb_file **out,
                             leap_input_info *info, leap_error *err)
 {
-    if (out) *out = NULL;
-    if (!path || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_input_open: NULL argument");
-    if (info) memset(info, 0, sizeof *info);
-    leap_result r = LEAP_OK;
-    const int imported = (options && options->raw) || leap_input_is_slices(path) || leap_input_is_nifti(path);
-    if (options && options->raw) {
-        r = leap__input_open_raw(path, options, out, info, err);
-    } else if (leap_input_is_slices(path)) {
-        r = leap__input_open_slices(path, options, out, info, err);
-    } else if (leap_input_is_nifti(path)) {
-        FILE *f = fopen(path, "rb");
-        if (!f) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
-        fclose(f);
-        r = leap__input_open_nifti(path, options, out, info, err);
-    }
-    if (imported) {
-        if (!r && info) info->up[2] = 1.0;
-        return r;
-    }
-    r = leap_vdb_open(path, out, err);
+    leap_result r = leap_vdb_open(path, out, err);
     if (!r && options && options->has_threshold) {
         leap_vdb_close(*out);
         *out = NULL;
@@ -104,5 +87,28 @@ leap_result leap_input_open(const char *path, const leap_input_options *options,
         snprintf(info->format, sizeof info->format, "OpenVDB");
         if (!leap_vdb_file_up(*out, info->up)) info->up[1] = 1.0;
     }
+    return r;
+}
+
+leap_result leap_input_open(const char *path, const leap_input_options *options, leap_vdb_file **out,
+                            leap_input_info *info, leap_error *err)
+{
+    if (out) *out = NULL;
+    if (!path || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_input_open: NULL argument");
+    if (info) memset(info, 0, sizeof *info);
+    leap_result r;
+    if (options && options->raw) {
+        r = leap__input_open_raw(path, options, out, info, err);
+    } else if (leap_input_is_slices(path)) {
+        r = leap__input_open_slices(path, options, out, info, err);
+    } else if (leap_input_is_nifti(path)) {
+        FILE *f = fopen(path, "rb");
+        if (!f) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        fclose(f);
+        r = leap__input_open_nifti(path, options, out, info, err);
+    } else {
+        return open_vdb(path, options, out, info, err);
+    }
+    if (!r && info) info->up[2] = 1.0; /* every imported format */
     return r;
 }
