@@ -18,6 +18,8 @@ layout(constant_id = 2) const bool leap_labels = false;
 // leap_mip: maximum intensity projection (leap_march.mip): acc.color.r holds the largest table
 // coordinate so far (-1 before any sample), acc.depth_t the t of the first sample reaching it.
 layout(constant_id = 3) const bool leap_mip = false;
+// leap_shade: gradient shading (leap_march.shade; frame.normal_row*, shade, light).
+layout(constant_id = 4) const bool leap_shade = false;
 
 struct leap_ray {
     vec3 origin;
@@ -261,6 +263,40 @@ void leap_mip_sample(inout leap_accum acc, float x, float t, float top)
     if (acc.color.r >= top) acc.transmittance = 0.0;
 }
 
+// World directions of one ray's shading (leap_shading): v towards the eye, l towards the
+// light, h their half vector (0 when they are opposite: no highlight).
+struct leap_light {
+    vec3 v, l, h;
+};
+
+leap_light leap_light_make(leap_ray r)
+{
+    leap_light k;
+    k.v = -normalize(vec3(dot(frame.world_row0.xyz, r.dir), dot(frame.world_row1.xyz, r.dir),
+                          dot(frame.world_row2.xyz, r.dir)));
+    k.l = frame.light.xyz == vec3(0.0) ? k.v : frame.light.xyz;
+    vec3 h = k.l + k.v;
+    k.h = dot(h, h) > 0.0 ? normalize(h) : vec3(0.0);
+    return k;
+}
+
+// A slot cell's sample colour rgb at q, shaded by the rule of leap/march.h (leap_shading). The
+// gradient (stored values per voxel) is one filtered read of the voxels' central differences
+// (LEAP_BINDING_GRADIENTS), which equals the central difference of the trilinear field. A
+// shaded scene's constant cells have a zero gradient (leap_atlas_desc.wide): they keep their
+// colour, as the rule gives for g = 0.
+vec3 leap_shade_rgb(vec3 rgb, vec3 q, leap_light k, vec3 texel_base)
+{
+    vec3 g = 0.5 * textureLod(gradients, (texel_base + q) * frame.atlas_inv_size.xyz, 0.0).xyz;
+    float w = min(length(g) * frame.light.w, 1.0);
+    vec3 n = vec3(dot(frame.normal_row0.xyz, g), dot(frame.normal_row1.xyz, g), dot(frame.normal_row2.xyz, g));
+    if (!(w > 0.0) || dot(n, n) == 0.0) return rgb;
+    n = normalize(n);
+    float diffuse = abs(dot(n, k.l)), specular = pow(abs(dot(n, k.h)), frame.shade.w);
+    vec3 lit = min(rgb * (frame.shade.x + frame.shade.y * diffuse) + frame.shade.z * specular, vec3(1.0));
+    return rgb + w * (lit - rgb);
+}
+
 // Takes the lattice samples in [ta, tb], skipping indices below j_next (so adjacent intervals
 // never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
@@ -271,6 +307,8 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
 {
     float j = max(leap_lattice_first(lat, ta), j_next);
     leap_tf_map tf = leap_tf_map_make();
+    leap_light light;
+    if (leap_shade) light = leap_light_make(r);
     leap_cell_cursor cur = leap_cursor_init();
     float t = lat.t0 + j * lat.dt;
     bool more = t <= tb;
@@ -305,7 +343,12 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                 } else {
                     float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
                     if (leap_mip) leap_mip_sample(acc, clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf.hi);
-                    else leap_composite_tf(acc, leap_tf_lookup(tf, s), t);
+                    else {
+                        vec4 cs = leap_tf_lookup(tf, s);
+                        if (leap_shade && cs.a > 0.0)
+                            cs.rgb = leap_shade_rgb(cs.rgb, q, light, cur.texel_base);
+                        leap_composite_tf(acc, cs, t);
+                    }
                 }
                 j += 1.0;
                 t = lat.t0 + j * lat.dt;

@@ -41,6 +41,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_TREE 12      /* storage uint[]: occupancy tree, 8 words per node */
 #define LEAP_BINDING_OBJECTS 13   /* storage vec4[] per object of a label volume: display RGB and
                                      opacity corrected for the step */
+#define LEAP_BINDING_GRADIENTS 14 /* sampler3D, RGBA16 SNORM, the atlas's slots: per voxel
+                                     (v[+1] - v[-1]) of the stored values (leap_atlas_gradients);
+                                     shading only (else the atlas is bound here, never read) */
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 
@@ -170,7 +173,13 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 keep[4];        /* 416: clipping planes (a, b, c, d), relative index space: a ray keeps
                                  the points where a x + b y + c z + d >= 0 for every plane in use */
     LEAP_UVEC4 keep_count;    /* 480: x = planes in use (0..4) */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 496 bytes */
+    LEAP_VEC4 normal_row0;    /* 496: rows of the inverse transpose of world_row* (gradients to world) */
+    LEAP_VEC4 normal_row1;    /* 512 */
+    LEAP_VEC4 normal_row2;    /* 528 */
+    LEAP_VEC4 shade;          /* 544: ambient, diffuse, specular, shininess (leap_shading) */
+    LEAP_VEC4 light;          /* 560: xyz world direction towards the light (0 = headlight),
+                                 w = 1 / full-shading gradient in stored values per voxel */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 576 bytes */
 
 
 #endif

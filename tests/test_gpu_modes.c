@@ -244,6 +244,91 @@ static void check_mip(leap_renderer *renderer, float *naive, float *img)
     free(depth);
 }
 
+/* Shading: every mode equals naive on every scalar volume and camera, under three TFs and two
+ * lights (headlight; a fixed light with a strong highlight); opacity is that of the unshaded
+ * image, colours are not; the reference agrees. */
+static void check_shading(leap_renderer *renderer, float *naive, float *img)
+{
+    leap_error err = {{0}};
+    const size_t n = (size_t)W * H;
+    float *ref = malloc(n * 4 * sizeof(float)), *plain = malloc(n * 4 * sizeof(float));
+    int frames = 0, views = 0, changed = 0;
+    double worst_rmse = 0;
+    for (size_t v = 0; v < sizeof volumes / sizeof volumes[0]; ++v) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
+        leap_scene_desc d = {.path = path, .grid = volumes[v].grid, .tf = "viridis", .step = 0.5,
+                             .shade = leap_shading_default()};
+        leap_scene *s = NULL;
+        leap_result r = leap_scene_create(&d, &s, &err);
+        if (r == LEAP_ERR_USAGE && strstr(err.msg, "segmentation")) continue; /* refused, as it must be */
+        CHECK_OK(r, &err);
+        if (!s) continue;
+        CHECK(s->atlas->wide);
+        const leap_tf scene_tf = s->tf;
+        for (int tfi = 0; tfi < 3; ++tfi) {
+            leap_tf tf = scene_tf;
+            if (tfi == 1) fog_tf(&tf);
+            if (tfi == 2) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
+            CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
+            for (int light = 0; light < 2; ++light) {
+                leap_shading sh = leap_shading_default();
+                if (light) sh.light[0] = 1, sh.light[1] = 2, sh.light[2] = 0.5, sh.specular = 0.6, sh.shininess = 8;
+                CHECK_OK(leap_scene_set_shading(s, &sh, &err), &err);
+                CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+                for (int cam_i = 0; cam_i < 5; ++cam_i) {
+                    leap_rays view;
+                    CHECK(view_for(s, cam_i, &view));
+                    leap_frame_stats ns, st;
+                    CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns,
+                                                  &err), &err);
+                    for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
+                        CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, img, NULL, NULL, &st, &err),
+                                 &err);
+                        image_diff dd = compare_rgba(img, naive, n);
+                        CHECK_MSG(dd.nonfinite == 0 && dd.max_abs <= TOL, "shaded %s %s light %d %s %s: max abs %g vs naive",
+                                  volumes[v].file, tf.name, light, camera_names[cam_i], leap_mode_name((leap_mode)m),
+                                  dd.max_abs);
+                        CHECK(st.total_samples <= ns.total_samples && st.naive_samples == ns.total_samples);
+                        ++frames;
+                    }
+                    /* Colour only: the same opacity as the unshaded frame (the same values, whose
+                     * atlas differs only in which constant cells got slots). */
+                    leap_march unshaded = s->march;
+                    unshaded.shade.on = 0;
+                    CHECK_OK(leap_renderer_render(renderer, &view, &unshaded, LEAP_RENDER_NAIVE, plain, NULL, NULL, NULL,
+                                                  &err), &err);
+                    double alpha_off = 0, rgb_off = 0;
+                    for (size_t i = 0; i < n; ++i) {
+                        alpha_off = fmax(alpha_off, fabs(plain[4 * i + 3] - naive[4 * i + 3]));
+                        for (int c = 0; c < 3; ++c) rgb_off = fmax(rgb_off, fabs(plain[4 * i + c] - naive[4 * i + c]));
+                    }
+                    CHECK_MSG(alpha_off <= 1e-5, "shaded %s %s %s: opacity differs from unshaded by %g", volumes[v].file,
+                              tf.name, camera_names[cam_i], alpha_off);
+                    changed += rgb_off > 0.02;
+                    ++views;
+                    if (cam_i == 0) {
+                        leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
+                        CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
+                        image_diff dr = compare_rgba(naive, ref, n);
+                        printf("shaded %-12s %-8s light %d: reference rmse %.2e max abs %.2e, unshaded rgb differs by "
+                               "up to %.3f\n", volumes[v].file, tf.name, light, dr.rmse, dr.max_abs, rgb_off);
+                        worst_rmse = fmax(worst_rmse, dr.rmse);
+                        CHECK_MSG(dr.rmse <= 1e-4 && dr.max_abs <= 5e-3, "shaded %s %s: rmse %g max %g against the "
+                                  "reference", volumes[v].file, tf.name, dr.rmse, dr.max_abs);
+                    }
+                }
+            }
+        }
+        leap_scene_destroy(s);
+    }
+    printf("shading: %d frames equal naive; shading changed the colours of %d of %d views; reference rmse <= %.2e\n",
+           frames, changed, views, worst_rmse);
+    CHECK(frames > 0 && changed > views / 2);
+    free(ref);
+    free(plain);
+}
+
 /* One hot voxel in a dim 48^3 block: the MIP pixel on its ray shows the top of the TF, with the
  * voxel's depth, in every mode. */
 static void check_mip_hot_voxel(leap_renderer *renderer)
@@ -366,6 +451,7 @@ int main(void)
     check_clipping(renderer, naive, img);
     check_mip(renderer, naive, img);
     check_mip_hot_voxel(renderer);
+    check_shading(renderer, naive, img);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");

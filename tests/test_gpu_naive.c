@@ -235,6 +235,34 @@ int main(void)
                       "%s: image depends on the brick layout (rmse %g, max abs %g)", volumes[v].file, d.rmse, d.max_abs);
             leap_atlas_destroy(dense);
         }
+        /* The same for shading: the gradients follow the slots (scalar volumes). */
+        leap_shading shade = leap_shading_default();
+        if (!s->labels) {
+            CHECK_OK(leap_scene_set_shading(s, &shade, &err), &err);
+            ad.wide = 1;
+            CHECK_OK(leap_atlas_create(&ad, &dense, &err), &err);
+        }
+        if (!s->labels && dense) {
+            leap_camera cam;
+            make_camera(s, &cameras[0], &cam);
+            leap_rays view;
+            CHECK_OK(leap_rays_make(&cam, W, H, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
+            CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, ref, NULL, NULL, NULL, &err), &err);
+            CHECK_OK(leap_renderer_set_volume(renderer, dense, &err), &err);
+            leap_result no_gradients = leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL,
+                                                            NULL, NULL, &err);
+            CHECK_MSG(no_gradients == LEAP_ERR_USAGE, "a shaded frame rendered without the volume's gradients");
+            CHECK_OK(leap_renderer_set_gradients(renderer, dense, &err), &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
+            image_diff d = compare_rgba(gpu, ref, W * H);
+            printf("%-12s %-12s shaded bricking: %u vs %u slots, rmse %.2e max abs %.2e\n", volumes[v].file,
+                   s->info->name, s->atlas->slot_count, dense->slot_count, d.rmse, d.max_abs);
+            CHECK_MSG(d.rmse <= 2e-4 && d.max_abs <= 5e-3,
+                      "%s: shaded image depends on the brick layout (rmse %g, max abs %g)", volumes[v].file, d.rmse,
+                      d.max_abs);
+            leap_atlas_destroy(dense);
+        }
         leap_renderer_set_occupancy(renderer, NULL, NULL);
         leap_scene_destroy(s);
     }

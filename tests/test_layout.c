@@ -37,7 +37,12 @@ int main(void)
     CHECK(offsetof(leap_frame_gpu, labels) == 400);
     CHECK(offsetof(leap_frame_gpu, keep) == 416);
     CHECK(offsetof(leap_frame_gpu, keep_count) == 480);
-    CHECK(sizeof(leap_frame_gpu) == 496);
+    CHECK(offsetof(leap_frame_gpu, normal_row0) == 496);
+    CHECK(offsetof(leap_frame_gpu, normal_row1) == 512);
+    CHECK(offsetof(leap_frame_gpu, normal_row2) == 528);
+    CHECK(offsetof(leap_frame_gpu, shade) == 544);
+    CHECK(offsetof(leap_frame_gpu, light) == 560);
+    CHECK(sizeof(leap_frame_gpu) == 576);
     CHECK(sizeof(((leap_frame_gpu *)0)->keep) / sizeof(leap_vec4) == LEAP_MAX_CLIPS);
     CHECK(sizeof(leap_push_gpu) == 16 && offsetof(leap_push_gpu, chunk) == 0);
     CHECK(offsetof(leap_box_gpu, lo) == 0);

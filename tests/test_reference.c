@@ -179,7 +179,7 @@ static int all_finite(const float *a, size_t n)
 static void test_constant_box(const leap_grid *box)
 {
     leap_error err = {{0}};
-    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.7, 0.0, 2.0, 0, {{0}}, 0};
+    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.7, 0.0, 2.0, 0, {{0}}, 0, {0}};
     leap_camera cam = {{115.3, 115.7, 200.25}, {115.3, 115.7, 0}, {0, 1, 0}, 40, 1, 40.0};
     leap_rays view;
     CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
@@ -243,7 +243,7 @@ static void test_constant_box(const leap_grid *box)
 static void test_empty(const leap_grid *box, const leap_grid *empty)
 {
     leap_error err = {{0}};
-    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 1.0, 0, {{0}}, 0};
+    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 1.0, 0, {{0}}, 0, {0}};
     leap_camera cam;
     const double center[3] = {115.5, 115.5, 115.5};
     CHECK_OK(leap_camera_orbit(center, 24.0, 30, 20, 0, 40, 0, &cam, &err), &err);
@@ -279,7 +279,7 @@ static void test_empty(const leap_grid *box, const leap_grid *empty)
 static void test_inside(const leap_grid *box)
 {
     leap_error err = {{0}};
-    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.7, 0.0, 2.0, 0, {{0}}, 0};
+    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.7, 0.0, 2.0, 0, {{0}}, 0, {0}};
     leap_camera cam = {{115, 115, 115}, {115, 115, 0}, {0, 1, 0}, 60, 0, 0};
     leap_rays view;
     CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
@@ -308,7 +308,7 @@ static void test_inside(const leap_grid *box)
 static void test_planes(const leap_grid *box)
 {
     leap_error err = {{0}};
-    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 2.0, 0, {{0}}, 0};
+    const leap_march m = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 2.0, 0, {{0}}, 0, {0}};
     /* pixel column i has relative x = i, row j relative y = 31 - j; the eye plane lies on
      * the domain's max z plane */
     leap_camera cam = {{115.5, 115.5, 129}, {115.5, 115.5, 0}, {0, 1, 0}, 40, 1, 32.0};
@@ -356,7 +356,7 @@ static void test_linear(const leap_grid *lin)
         tf_ramp.rgba[i][2] = 0.5f;
         tf_ramp.rgba[i][3] = 0.02f + 0.1f * u;
     }
-    const leap_march m = {{X0, Y0, Z0}, {1, 1, 1}, {15, 15, 15}, 0.37, 6.0, 90.0, 0, {{0}}, 0};
+    const leap_march m = {{X0, Y0, Z0}, {1, 1, 1}, {15, 15, 15}, 0.37, 6.0, 90.0, 0, {{0}}, 0, {0}};
 
     /* one sample per pixel at the eye plane (step larger than the box) */
     leap_march one = m;
@@ -424,7 +424,7 @@ static void test_linear(const leap_grid *lin)
 static void test_errors(const leap_grid *box)
 {
     leap_error err = {{0}};
-    const leap_march good = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 1.0, 0, {{0}}, 0};
+    const leap_march good = {{100, 100, 100}, {2, 2, 2}, {29, 29, 29}, 0.5, 0.0, 1.0, 0, {{0}}, 0, {0}};
     leap_camera cam = {{115, 115, 200}, {115, 115, 0}, {0, 1, 0}, 40, 0, 0};
     leap_rays view;
     CHECK_OK(leap_rays_make(&cam, 4, 4, identity, good.index_origin, &view, &err), &err);
@@ -474,7 +474,7 @@ static void test_errors(const leap_grid *box)
 static void timing(const leap_grid *lin)
 {
     leap_error err = {{0}};
-    const leap_march m = {{X0, Y0, Z0}, {1, 1, 1}, {15, 15, 15}, 0.1, 6.0, 90.0, 0, {{0}}, 0};
+    const leap_march m = {{X0, Y0, Z0}, {1, 1, 1}, {15, 15, 15}, 0.1, 6.0, 90.0, 0, {{0}}, 0, {0}};
     fill_tf(&tf_const, 0.5, 0.5, 0.5, 0.001); /* nearly transparent: no early termination */
     const double center[3] = {X0 + 8, Y0 + 8, Z0 + 8};
     leap_camera cam;

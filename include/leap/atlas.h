@@ -25,11 +25,15 @@ typedef struct leap_atlas_desc {
     uint32_t shuffle_seed; /* != 0: slots placed in a pseudo-random order (tests); default 0 */
     const leap_labels *labels; /* a label grid's objects: build a label atlas (exact object
                                   indices per voxel, see LEAP_LABEL_HEADER in shaders/shared.h) */
+    int wide;             /* 1 = for gradient shading: a cell is constant only when the voxels
+                             8c-1 .. 8c+9 (its samples' gradient footprint) are one value, so a
+                             constant cell's gradient is 0; the others get slots (scalar grids) */
 } leap_atlas_desc;
 
 /* Read-only for other modules. */
 typedef struct leap_atlas {
     int empty;                 /* 1 when the grid has no active voxels */
+    int wide;                  /* built with leap_atlas_desc.wide (needed for leap_atlas_gradients) */
     int32_t origin[3];         /* absolute index coordinate of relative (0,0,0), multiple of 8 */
     uint32_t cells[3];         /* cells per axis */
     uint32_t block_shift;      /* page blocks are (1 << block_shift)^3 cells */
@@ -73,6 +77,12 @@ const uint32_t *leap_atlas_record_objects(const leap_atlas *atlas, uint32_t reco
 /* Label atlases: the class of every label set (object_count + record_count of them) under the
  * objects' current looks: NONEMPTY when any object of the set is drawn, else EMPTY. */
 void leap_atlas_label_classes(const leap_atlas *atlas, const leap_labels *labels, uint8_t *out);
+
+/* Gradient shading: per texel of the atlas, the central differences of the stored values
+ * (v[+1] - v[-1]) / 65535 along x, y, z, as SNORM16 (4 per texel, the 4th 0), so a slot cell's
+ * gradient at q is half the filtered read at its texel (see src/volume/gradients.c). *out is
+ * malloc'ed. Errors: LEAP_ERR_USAGE (a label atlas), LEAP_ERR_OOM. */
+leap_result leap_atlas_gradients(const leap_atlas *atlas, int16_t **out, leap_error *err);
 
 /* Bytes of the atlas as built: 16-bit texels + page table (+ label words). (The renderer may upload the
  * texels as 32-bit float: leap_renderer_volume_bytes.) */

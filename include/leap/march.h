@@ -27,6 +27,34 @@ extern "C" {
 
 #define LEAP_MAX_CLIPS 4
 
+/* Gradient shading (leap_march.shade). The gradient at a sample p is the central difference
+ * of the same trilinear field one voxel either side on each axis,
+ *   g_i = (f(p + e_i) - f(p - e_i)) / 2   (index space, TF range units per voxel),
+ * taken to world space as the normal n = normalize(M^-T g) (M: index-to-world linear map), so
+ * anisotropic voxels and rotated grids are lit right. With the view direction V (towards the
+ * eye) and the light direction L (towards the light; the eye's own when `light` is zero: a
+ * headlight), Blinn-Phong, two-sided (the normal's sign does not matter):
+ *   lit = min(rgb * (ambient + diffuse |n.L|) + specular |n.H|^shininess, 1),  H = normalize(L + V)
+ * and the sample's colour becomes rgb + w (lit - rgb) with
+ *   w = min(1, |g| / LEAP_SHADE_FULL_GRADIENT)
+ * so homogeneous regions, whose gradient is noise, keep their TF colour (g = 0: unshaded).
+ * Shading changes colour only: opacity, depth, classes and skipping are those of the unshaded
+ * image. */
+#define LEAP_SHADE_FULL_GRADIENT 0.02 /* TF range per voxel: full shading from a 2 % step */
+
+typedef struct leap_shading {
+    int on;
+    double light[3];      /* world direction towards the light, unit length; 0,0,0 = headlight */
+    double ambient, diffuse, specular, shininess; /* >= 0; shininess >= 1 */
+} leap_shading;
+
+/* The settings of --shade: a headlight, ambient 0.3, diffuse 0.7, specular 0.3, shininess 30. */
+static inline leap_shading leap_shading_default(void)
+{
+    leap_shading s = {1, {0.0, 0.0, 0.0}, 0.3, 0.7, 0.3, 30.0};
+    return s;
+}
+
 typedef struct leap_march {
     double index_origin[3];            /* absolute index coordinate of relative (0,0,0); integers */
     double domain_min[3], domain_max[3]; /* relative index space; min > max on an axis = empty */
@@ -43,6 +71,7 @@ typedef struct leap_march {
      * the depth is that t's, when the opacity is above 0. Skipping is exact when the occupancy
      * was classified for it (leap_scene_set_mip). */
     int mip;
+    leap_shading shade;   /* not with mip, not for segmentations */
 } leap_march;
 
 #ifdef __cplusplus

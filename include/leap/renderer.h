@@ -94,6 +94,10 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 /* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after). */
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
 
+/* Shading: uploads the gradients of the volume's atlas (leap_atlas_gradients; 8 bytes per atlas
+ * texel), once per atlas. leap_renderer_bind_scene does it when the scene is shaded. */
+leap_result leap_renderer_set_gradients(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
+
 /* "R32_SFLOAT" or "R16_UNORM": how the uploaded volume's texels are stored (the same 16-bit
  * values either way). NULL before set_volume. */
 const char *leap_renderer_atlas_format(const leap_renderer *r);

@@ -38,6 +38,7 @@ typedef struct leap_scene_desc {
     int mip;               /* 1 = maximum intensity projection (scalar volumes) */
     int clip_count;        /* clipping planes in world units: keep a x + b y + c z + d >= 0 */
     double clip[LEAP_MAX_CLIPS][4];
+    leap_shading shade;    /* gradient shading (shade.on; leap_shading_default for --shade) */
 } leap_scene_desc;
 
 typedef struct leap_scene {
@@ -92,6 +93,11 @@ int leap_scene_label_count(double range_lo, double range_hi);
  * cell is EMPTY only when all its values lie below the TF's first non-zero opacity, so every
  * mode takes the sample holding a visible maximum. Errors: LEAP_ERR_USAGE for segmentations. */
 leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err);
+
+/* Sets gradient shading (march.shade; leap/march.h): the light is normalised (0,0,0: a
+ * headlight). Nothing is re-classified: shading changes colours only. Errors: LEAP_ERR_USAGE
+ * for segmentations, with MIP, or for values out of range. */
+leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *shade, leap_error *err);
 
 /* A clipping plane in world units (keep a x + b y + c z + d >= 0) as the plane of relative
  * index space that leap_march.clip holds. */

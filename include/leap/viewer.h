@@ -124,7 +124,8 @@ typedef struct leap_viewer_desc {
     double value_min, value_max; /* the grid's value range */
     int width, height;           /* viewport in pixels */
     int mip;                     /* start with maximum intensity projection */
-    int labels;                  /* a segmentation: no MIP */
+    leap_shading shade;          /* shading's terms; shade.on: start shaded */
+    int labels;                  /* a segmentation: no MIP, no shading */
 } leap_viewer_desc;
 
 typedef struct leap_viewer {
@@ -149,6 +150,7 @@ typedef struct leap_viewer {
     double value_min, value_max;
     int show_boxes, show_heat, show_help;
     int mip;                     /* key m: maximum intensity projection */
+    leap_shading shade;          /* key l: shade.on toggles gradient shading (not with MIP) */
     int labels;                  /* a segmentation (no MIP) */
     int clip_on;                 /* key c: one more clipping plane, world units, */
     double clip[4];              /* keeping clip . (x, y, z, 1) >= 0 */

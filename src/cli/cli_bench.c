@@ -38,6 +38,8 @@ static const char *bench_help =
     "  --tf PRESET|FILE    transfer function for every volume (default per volume)\n"
     "  --show IDS          segmentations: show only these objects (e.g. 12,57,300-400)\n"
     "  --objects FILE      segmentations: show the objects a file lists (see leap render)\n"
+    "  --look plain|shade|mip  what every frame renders: emission-absorption (default),\n"
+    "                      with gradient shading (leap render --shade), or MIP (--mip)\n"
     "  --no-reference      skip the reference and the error columns\n"
     "  --exact-boxes       sparseleap rasterizes every class change of the occupancy tree\n"
     "                      (default: the cost-model cut for each step)\n"

@@ -38,6 +38,12 @@ const char *cli_camera_options_help =
     "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
     "  --mip               maximum intensity projection: each pixel shows the TF at the\n"
     "                      largest value along its ray (skipping stays exact)\n"
+    "  --shade             gradient shading: Blinn-Phong lighting from a headlight, weighted by\n"
+    "                      the gradient's size so flat regions keep their colour (the\n"
+    "                      options below imply it)\n"
+    "  --light X,Y,Z       world direction towards the light (default: from the eye)\n"
+    "  --ambient A --diffuse D --specular S   shading terms in [0, 10] (default 0.3, 0.7, 0.3)\n"
+    "  --shininess N       specular exponent in [1, 1000] (default 30)\n"
     "  --clip AXIS<V       keep only world x, y or z below V (AXIS>V: above); quote it in a\n"
     "                      shell: --clip 'x<12.5'; up to 4 planes with --clip-plane\n"
     "  --clip-plane A,B,C,D  keep only A x + B y + C z + D >= 0 (world units); the clipped\n"
@@ -79,6 +85,8 @@ void cli_camera_options_init(cli_camera_options *o)
 {
     *o = (cli_camera_options){.width = 512, .height = 512, .fov = 40.0, .mode_name = "sparseleap", .up = {0, 1, 0}};
     o->scene.step = 0.5;
+    o->scene.shade = leap_shading_default();
+    o->scene.shade.on = 0;
 }
 
 #define OPT(name) ((v = cli_option_value(argc, argv, i, name, &missing)) != NULL || missing)
@@ -146,17 +154,23 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.mip = 1;
         return 1;
     }
+    if (!strcmp(a, "--shade")) {
+        o->scene.shade.on = 1;
+        return 1;
+    }
     if (!strcmp(a, "--show-all")) {
         o->scene.show = o->scene.hide = o->scene.objects = NULL;
         return 1;
     }
     enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
-           FOV, CLIP, CLIP_PLANE, COUNT };
+           FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
-        [OPACITY] = "--label-opacity", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane", };
+        [OPACITY] = "--label-opacity", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane",
+        [LIGHT] = "--light", [AMBIENT] = "--ambient", [DIFFUSE] = "--diffuse", [SPECULAR] = "--specular",
+        [SHININESS] = "--shininess", };
     int which = -1;
     for (int k = 0; k < COUNT && which < 0; ++k)
         if (OPT(names[k])) which = k;
@@ -215,6 +229,26 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         if (leap__parse_numbers(v, o->up, 3, 3) != 3) FAIL("--up '%s' must be X,Y,Z", v);
         o->has_up = 1;
         break;
+    case LIGHT:
+        if (leap__parse_numbers(v, o->scene.shade.light, 3, 3) != 3 || !(isfinite(o->scene.shade.light[0]) &&
+                                                                          isfinite(o->scene.shade.light[1]) &&
+                                                                          isfinite(o->scene.shade.light[2])))
+            FAIL("--light '%s' must be X,Y,Z (a world direction towards the light)", v);
+        o->scene.shade.on = 1;
+        break;
+    case AMBIENT:
+    case DIFFUSE:
+    case SPECULAR:
+    case SHININESS: {
+        const double lo = which == SHININESS ? 1 : 0, hi = which == SHININESS ? 1000 : 10;
+        if (leap__parse_numbers(v, &n, 1, 1) != 1 || !(n >= lo && n <= hi))
+            FAIL("%s '%s' must be a number in [%g, %g]", names[which], v, lo, hi);
+        double *term = which == AMBIENT ? &o->scene.shade.ambient : which == DIFFUSE ? &o->scene.shade.diffuse
+                     : which == SPECULAR ? &o->scene.shade.specular : &o->scene.shade.shininess;
+        *term = n;
+        o->scene.shade.on = 1;
+        break;
+    }
     case SHOW: o->scene.show = v; break;
     case HIDE: o->scene.hide = v; break;
     case OBJECTS: o->scene.objects = v; break;

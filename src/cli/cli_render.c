@@ -154,6 +154,15 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "step", s->march.step);
     cJSON_AddStringToObject(root, "projection", s->march.mip ? "mip" : "emission-absorption");
+    if (s->march.shade.on) { /* the light as used: unit length, 0,0,0 = headlight */
+        const leap_shading *sh = &s->march.shade;
+        cJSON *j = cJSON_AddObjectToObject(root, "shading");
+        cJSON_AddItemToObject(j, "light", cJSON_CreateDoubleArray(sh->light, 3));
+        cJSON_AddNumberToObject(j, "ambient", sh->ambient);
+        cJSON_AddNumberToObject(j, "diffuse", sh->diffuse);
+        cJSON_AddNumberToObject(j, "specular", sh->specular);
+        cJSON_AddNumberToObject(j, "shininess", sh->shininess);
+    }
     if (o->scene.clip_count) { /* as given: world units, keep a x + b y + c z + d >= 0 */
         cJSON *planes = cJSON_AddArrayToObject(root, "clip_planes");
         for (int k = 0; k < o->scene.clip_count; ++k)

@@ -143,6 +143,7 @@ static leap_result viewer_from_options(const view_options *vo, leap_scene *s, le
     d.width = o->width;
     d.height = o->height;
     d.mip = s->march.mip;
+    d.shade = o->scene.shade;
     d.labels = s->labels != NULL;
     return leap_viewer_init(v, &d, err);
 }

@@ -221,6 +221,22 @@ static int frame_world_exponent(const leap_rays *v)
     return abs(k) <= FRAME_SCALE_FREE ? 0 : k;
 }
 
+/* Shading's part of the frame (leap/march.h): gradients go to world space through the
+ * inverse transpose of the index-to-world map (its scale does not matter: normals are
+ * normalised), and full shading starts at LEAP_SHADE_FULL_GRADIENT of the TF range per voxel,
+ * that is that over |scale| in stored values. */
+static void shade_frame(const leap_shading *s, const double world[3][3], double scale, leap_frame_gpu *f)
+{
+    double inv[3][3] = {{0}};
+    leap__invert3(world, inv); /* the scene refuses singular transforms */
+    f->normal_row0 = (leap_vec4){(float)inv[0][0], (float)inv[1][0], (float)inv[2][0], 0};
+    f->normal_row1 = (leap_vec4){(float)inv[0][1], (float)inv[1][1], (float)inv[2][1], 0};
+    f->normal_row2 = (leap_vec4){(float)inv[0][2], (float)inv[1][2], (float)inv[2][2], 0};
+    f->shade = (leap_vec4){(float)s->ambient, (float)s->diffuse, (float)s->specular, (float)s->shininess};
+    f->light = (leap_vec4){(float)s->light[0], (float)s->light[1], (float)s->light[2],
+                           (float)(fabs(scale) / LEAP_SHADE_FULL_GRADIENT)};
+}
+
 void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode,
                        uint32_t box_count, leap_frame_gpu *f)
 {
@@ -269,4 +285,5 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     f->bbox_max = v4(hi, 0);
     f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, r->tree_depth};
     f->labels = (leap_uvec4){r->label_base, r->object_count, 0, 0};
+    if (m->shade.on) shade_frame(&m->shade, view->index_to_world_linear, scale, f);
 }

@@ -105,9 +105,11 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
         [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
     };
-    VkDescriptorImageInfo img[2] = {
+    const int gradients = r->gradients_serial == r->atlas_serial && r->gradients.view;
+    VkDescriptorImageInfo img[3] = {
         {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
         {r->linear_sampler, r->tf.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        {r->linear_sampler, gradients ? r->gradients.view : r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
     };
     VkWriteDescriptorSet w[BINDING_COUNT];
     for (uint32_t i = 0; i < BINDING_COUNT; ++i) {
@@ -118,9 +120,9 @@ static void write_descriptors(leap_renderer *r)
             .descriptorCount = 1,
             .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
         };
-        if (i == LEAP_BINDING_ATLAS || i == LEAP_BINDING_TF) {
+        if (i == LEAP_BINDING_ATLAS || i == LEAP_BINDING_TF || i == LEAP_BINDING_GRADIENTS) {
             w[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
-            w[i].pImageInfo = &img[i == LEAP_BINDING_TF];
+            w[i].pImageInfo = &img[i == LEAP_BINDING_ATLAS ? 0 : i == LEAP_BINDING_TF ? 1 : 2];
             continue;
         }
         if (i == LEAP_BINDING_FRAME) w[i].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
@@ -196,8 +198,14 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     domain_march.range_lo = march_in->range_lo;
     domain_march.range_hi = march_in->range_hi;
     domain_march.mip = march_in->mip;
+    domain_march.shade = march_in->shade;
     if (domain_march.mip && r->labels)
         return leap_fail(err, LEAP_ERR_USAGE, "MIP takes the largest value along a ray; a segmentation has objects, not values");
+    if (domain_march.shade.on && (r->labels || domain_march.mip))
+        return leap_fail(err, LEAP_ERR_USAGE, "shading lights the gradient of a scalar volume; it does not apply to %s",
+                         r->labels ? "a segmentation" : "MIP");
+    if (domain_march.shade.on && r->gradients_serial != r->atlas_serial)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: shading needs the volume's gradients (leap_renderer_set_gradients)");
     domain_march.clip_count = march_in->clip_count;
     memcpy(domain_march.clip, march_in->clip, sizeof domain_march.clip);
     const leap_march *march = &domain_march;
@@ -234,7 +242,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     if ((mode == LEAP_RENDER_OCTREE || (lists && !chord)) && (lr = upload_tree(r, err))) return lr;
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
     VkPipeline composite = VK_NULL_HANDLE;
-    if ((lr = renderer_composite_pipeline(r, pass_mode, r->labels ? 2 : march->mip ? 3 : r->tf_precorrected, &composite, err))) return lr;
+    if ((lr = renderer_composite_pipeline(r, pass_mode, renderer_composite_kind(r, march), &composite, err))) return lr;
     renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
     if (chord) {
         leap_frame_gpu *f = r->frame.mapped;

@@ -112,6 +112,7 @@ typedef struct spec_values {
     uint32_t mode;            /* constant_id 1 */
     VkBool32 labels;          /* constant_id 2 */
     VkBool32 mip;             /* constant_id 3 */
+    VkBool32 shade;           /* constant_id 4 */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -122,8 +123,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
         {1, offsetof(spec_values, mode), sizeof values.mode},
         {2, offsetof(spec_values, labels), sizeof values.labels},
         {3, offsetof(spec_values, mip), sizeof values.mip},
+        {4, offsetof(spec_values, shade), sizeof values.shade},
     };
-    VkSpecializationInfo spec = {4, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {5, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -136,6 +138,14 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
     return LEAP_OK;
 }
 
+int renderer_composite_kind(const leap_renderer *r, const leap_march *m)
+{
+    if (r->labels) return COMPOSITE_LABELS;
+    if (m->mip) return COMPOSITE_MIP;
+    if (m->shade.on) return r->tf_precorrected ? COMPOSITE_SHADED_PRECORRECTED : COMPOSITE_SHADED_PER_SAMPLE;
+    return r->tf_precorrected ? COMPOSITE_PRECORRECTED : COMPOSITE_PER_SAMPLE;
+}
+
 leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out,
                                       leap_error *err)
 {
@@ -143,7 +153,10 @@ leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int ki
     if (!*p) {
         /* Label opacities are corrected for the step in the object table, like a precorrected
          * TF; MIP reads the table's opacities as they are (no step correction at all). */
-        spec_values values = {kind == 1 || kind == 2, (uint32_t)mode, kind == 2, kind == 3};
+        spec_values values = {kind == COMPOSITE_PRECORRECTED || kind == COMPOSITE_LABELS ||
+                                  kind == COMPOSITE_SHADED_PRECORRECTED,
+                              (uint32_t)mode, kind == COMPOSITE_LABELS, kind == COMPOSITE_MIP,
+                              kind == COMPOSITE_SHADED_PER_SAMPLE || kind == COMPOSITE_SHADED_PRECORRECTED};
         leap_result lr = create_compute(r, r->composite_module, values, p, err);
         if (lr) return lr;
     }
@@ -161,6 +174,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     b[LEAP_BINDING_FRAME].descriptorType = VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
     b[LEAP_BINDING_ATLAS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     b[LEAP_BINDING_TF].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+    b[LEAP_BINDING_GRADIENTS].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
     VkDescriptorSetLayoutCreateInfo dslci = {
         .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO,
         .bindingCount = BINDING_COUNT,
@@ -182,7 +196,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0, 0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0, 0, 0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
@@ -199,8 +213,8 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     LEAP_VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->linear_sampler));
     VkDescriptorPoolSize sizes[] = {
         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},
-        {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 2},
-        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, BINDING_COUNT - 3},
+        {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 3},
+        {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, BINDING_COUNT - 4},
     };
     VkDescriptorPoolCreateInfo dpci = {
         .sType = VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO,

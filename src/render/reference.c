@@ -9,6 +9,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "util.h"
+
 /* Absolute index coordinates read by a sample must stay within int32 (with a margin for the
  * +1 corner of a trilinear cell). */
 #define COORD_LIMIT 2147483000.0
@@ -137,6 +139,68 @@ static int lattice_range(const leap_march *m, const double o[3], const double d[
     return 1;
 }
 
+/* Shading of one ray (leap_shading): the normal matrix M^-T and the world directions towards
+ * the eye (v), the light (l) and their half vector (h; 0 when l = -v). */
+typedef struct ray_light {
+    double normal[3][3];
+    double v[3], l[3], h[3];
+} ray_light;
+
+static void normalise3(double a[3])
+{
+    const double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    for (int c = 0; c < 3; ++c) a[c] = n > 0.0 ? a[c] / n : 0.0;
+}
+
+static void ray_light_make(const leap_reference_desc *desc, const double d[3], ray_light *k)
+{
+    const double (*m)[3] = desc->rays->index_to_world_linear;
+    double inv[3][3] = {{0}};
+    leap__invert3(m, inv);
+    const leap_shading *s = &desc->march->shade;
+    const int headlight = s->light[0] == 0.0 && s->light[1] == 0.0 && s->light[2] == 0.0;
+    for (int r = 0; r < 3; ++r) {
+        for (int c = 0; c < 3; ++c) k->normal[r][c] = inv[c][r];
+        k->v[r] = -(m[r][0] * d[0] + m[r][1] * d[1] + m[r][2] * d[2]);
+    }
+    normalise3(k->v);
+    for (int c = 0; c < 3; ++c) {
+        k->l[c] = headlight ? k->v[c] : s->light[c];
+        k->h[c] = k->l[c] + k->v[c];
+    }
+    normalise3(k->h);
+}
+
+/* The shaded colour of a sample at absolute index position p (leap/march.h): central
+ * differences of the trilinear field one voxel either side, in TF range units. */
+static void shade_sample(const leap_reference_desc *desc, leap_grid_reader *reader, cell_cache *cache,
+                         const ray_light *k, const double p[3], double rgb[3])
+{
+    const leap_march *m = desc->march;
+    const double span = m->range_hi - m->range_lo;
+    double g[3], len2 = 0.0;
+    for (int a = 0; a < 3; ++a) {
+        double plus[3] = {p[0], p[1], p[2]}, minus[3] = {p[0], p[1], p[2]};
+        plus[a] += 1.0;
+        minus[a] -= 1.0;
+        g[a] = span != 0.0 ? 0.5 * (sample_trilinear(reader, cache, plus) - sample_trilinear(reader, cache, minus)) / span
+                           : 0.0;
+        len2 += g[a] * g[a];
+    }
+    const double w = fmin(sqrt(len2) / LEAP_SHADE_FULL_GRADIENT, 1.0);
+    double n[3];
+    for (int r = 0; r < 3; ++r) n[r] = k->normal[r][0] * g[0] + k->normal[r][1] * g[1] + k->normal[r][2] * g[2];
+    if (!(w > 0.0) || (n[0] == 0.0 && n[1] == 0.0 && n[2] == 0.0)) return;
+    normalise3(n);
+    const leap_shading *s = &m->shade;
+    const double diffuse = fabs(n[0] * k->l[0] + n[1] * k->l[1] + n[2] * k->l[2]);
+    const double specular = pow(fabs(n[0] * k->h[0] + n[1] * k->h[1] + n[2] * k->h[2]), s->shininess);
+    for (int c = 0; c < 3; ++c) {
+        const double lit = fmin(rgb[c] * (s->ambient + s->diffuse * diffuse) + s->specular * specular, 1.0);
+        rgb[c] += w * (lit - rgb[c]);
+    }
+}
+
 /* A segmentation's sample: the object of the nearest voxel. */
 static void sample_label(const leap_labels *labels, leap_grid_reader *reader, const double p[3], double rgba[4])
 {
@@ -200,6 +264,11 @@ static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *read
         mip_pixel(desc, reader, cache, o, d, out_rgba, out_depth, out_samples);
         return;
     }
+    const int shade = m->shade.on && !desc->labels;
+    ray_light light;
+    memset(&light, 0, sizeof light);
+    cell_cache gradient_cache = {0};
+    if (shade) ray_light_make(desc, d, &light);
     if (lattice_range(m, o, d, &k0, &k1)) {
         const double span = m->range_hi - m->range_lo;
         const double inv_span = span != 0.0 ? 1.0 / span : 0.0;
@@ -218,6 +287,7 @@ static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *read
                 /* range_hi == range_lo: every value maps to u = 0 */
                 const double u = span != 0.0 ? (v - m->range_lo) * inv_span : 0.0;
                 leap_tf_eval(desc->tf, u, tf);
+                if (shade && tf[3] > 0.0) shade_sample(desc, reader, &gradient_cache, &light, p, tf);
             }
             n += 1.0;
             if (tf[3] > LEAP_DEPTH_OPACITY && depth == INFINITY)

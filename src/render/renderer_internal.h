@@ -9,9 +9,16 @@
 #include "shared.h"
 
 
-_Static_assert(sizeof(leap_frame_gpu) == 496, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 576, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 14
+#define BINDING_COUNT 15
+
+/* Kinds of composite pipeline: scalar with opacity corrected per sample or in the TF table,
+ * labels, MIP, and the two scalar ones shaded. */
+enum {
+    COMPOSITE_PER_SAMPLE, COMPOSITE_PRECORRECTED, COMPOSITE_LABELS, COMPOSITE_MIP, COMPOSITE_SHADED_PER_SAMPLE,
+    COMPOSITE_SHADED_PRECORRECTED, COMPOSITE_KINDS
+};
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
 enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
@@ -23,11 +30,11 @@ struct leap_renderer {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     VkPipeline resolve, events;
-    /* The composite pass per mode and volume kind (scalar with opacity corrected per sample
-     * [0] or in the TF table [1], labels [2]): specialisation constants, so each pipeline
-     * holds only the code it runs. Created on first use from composite_module. */
+    /* The composite pass per mode and kind (renderer_composite_kind): specialisation
+     * constants, so each pipeline holds only the code it runs. Created on first use from
+     * composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][4]; /* per-sample correction, precorrected, labels, MIP */
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS];
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -36,6 +43,8 @@ struct leap_renderer {
     VkDescriptorSet set;
     leap_buffer frame;
     leap_image atlas;
+    leap_image gradients;      /* shading: leap_atlas_gradients of the atlas with gradients_serial */
+    uint64_t gradients_serial; /* 0: none */
     leap_buffer pages;
     leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */
     leap_tf tf_raw;
@@ -81,6 +90,7 @@ struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
 /* pipelines.c */
 leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err);
 /* kind: 0, 1 = scalar volume with opacity corrected per sample / in the table, 2 = labels. */
+int renderer_composite_kind(const leap_renderer *r, const leap_march *m);
 leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out, leap_error *err);
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);

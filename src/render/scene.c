@@ -245,6 +245,41 @@ leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err)
     return leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
 }
 
+leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_error *err)
+{
+    leap_shading sh = *in;
+    if (!sh.on) {
+        s->march.shade.on = 0;
+        return LEAP_OK;
+    }
+    if (s->labels)
+        return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) lights the gradient of a scalar volume; a "
+                         "segmentation has objects, not values");
+    if (s->march.mip)
+        return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) does not apply to MIP (--mip): a MIP pixel has no "
+                         "surface to light");
+    const double terms[4] = {sh.ambient, sh.diffuse, sh.specular, sh.shininess};
+    static const char *const names[4] = {"ambient", "diffuse", "specular", "shininess"};
+    for (int i = 0; i < 4; ++i)
+        if (!(terms[i] >= (i == 3 ? 1.0 : 0.0) && terms[i] <= (i == 3 ? 1000.0 : 10.0)))
+            return leap_fail(err, LEAP_ERR_USAGE, "shading: %s %g is outside [%g, %g]", names[i], terms[i],
+                             i == 3 ? 1.0 : 0.0, i == 3 ? 1000.0 : 10.0);
+    const double len = sqrt(sh.light[0] * sh.light[0] + sh.light[1] * sh.light[1] + sh.light[2] * sh.light[2]);
+    if (!isfinite(len)) return leap_fail(err, LEAP_ERR_USAGE, "shading: the light direction must be finite");
+    for (int c = 0; c < 3; ++c) sh.light[c] = len > 0 ? sh.light[c] / len : 0.0;
+    if (!s->atlas->wide) { /* the same values, constant cells only where the gradient is 0 */
+        leap_atlas_desc ad = {.grid = s->grid, .wide = 1};
+        leap_atlas *wide = NULL;
+        leap_result r = leap_atlas_create(&ad, &wide, err);
+        if (r) return r;
+        leap_atlas_destroy(s->atlas);
+        s->atlas = wide;
+        s->atlas_ms = wide->build_ms;
+    }
+    s->march.shade = sh;
+    return LEAP_OK;
+}
+
 leap_result leap_scene_set_step(leap_scene *s, double step, leap_error *err)
 {
     if (!(step > 0) || !isfinite(step)) return leap_fail(err, LEAP_ERR_USAGE, "the step must be a positive number");
@@ -339,7 +374,7 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     }
     if (!r) r = choose_objects(s, desc, err);
     if (!r) {
-        leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels};
+        leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
     }
@@ -356,6 +391,7 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         r = leap_fail(err, LEAP_ERR_USAGE,
                       "--mip takes the largest value along a ray; %s is a segmentation (objects, not values)", desc->path);
     if (!r) s->march.mip = !!desc->mip;
+    if (!r) r = leap_scene_set_shading(s, &desc->shade, err);
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
     if (r) {
         leap_scene_destroy(s);

@@ -29,6 +29,7 @@ static const char *help_text =
     "  s                    screenshot to PNG\n"
     "  u                    up axis: +Y -> +Z -> +X (the orbit turns about it)\n"
     "  m                    maximum intensity projection on / off (scalar volumes)\n"
+    "  l                    gradient shading on / off (scalar volumes; --light etc. set its terms)\n"
     "  c                    clipping plane on / off: facing the view, through the target\n"
     "  , .                  move the clipping plane nearer / farther (a twentieth of the radius)\n"
     "  r                    reset the camera\n"
@@ -148,6 +149,8 @@ leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_
     v->step = desc->step;
     v->labels = desc->labels;
     v->mip = desc->mip && !desc->labels;
+    v->shade = desc->shade;
+    v->shade.on = desc->shade.on && !v->mip && !desc->labels;
     set_tf_name(v, v->initial_tf);
     v->range[0] = desc->range[0];
     v->range[1] = desc->range[1];
@@ -400,6 +403,12 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 'm': case 'M':
         if (v->labels) return 0; /* a segmentation has no values to take the maximum of */
         v->mip = !v->mip;
+        v->shade.on = 0; /* a MIP pixel has no surface to light */
+        return LEAP_VIEWER_TF;
+    case 'l': case 'L':
+        if (v->labels) return 0; /* objects have no gradient */
+        v->shade.on = !v->shade.on;
+        v->mip = 0;
         return LEAP_VIEWER_TF;
     case ',': return move_clip(v, -1.0);
     case '.': return move_clip(v, 1.0);
@@ -488,11 +497,18 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     leap_camera cam;
     leap_error ignore;
     if (leap_viewer_camera(v, &cam, &ignore)) return snprintf(buf, size, "(no camera)");
-    char clip[180] = "";
+    char clip[400] = "";
     if (v->clip_on)
         snprintf(clip, sizeof clip, " --clip-plane %.17g,%.17g,%.17g,%.17g", v->clip[0], v->clip[1], v->clip[2],
                  v->clip[3]);
     if (v->mip) strncat(clip, " --mip", sizeof clip - strlen(clip) - 1);
+    if (v->shade.on) {
+        const leap_shading *s = &v->shade;
+        const size_t used = strlen(clip);
+        snprintf(clip + used, sizeof clip - used,
+                 " --shade --light %.17g,%.17g,%.17g --ambient %.17g --diffuse %.17g --specular %.17g --shininess %.17g",
+                 s->light[0], s->light[1], s->light[2], s->ambient, s->diffuse, s->specular, s->shininess);
+    }
     return snprintf(buf, size,
                     "--mode %s --tf %s --range %.17g,%.17g --step %.17g --eye %.17g,%.17g,%.17g "
                     "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s",

@@ -121,7 +121,8 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
     leap_atlas *a = b->a;
     int64_t lo[3], hi[3];
     for (int i = 0; i < 3; ++i) {
-        lo[i] = ((int64_t)br->origin[i] - a->origin[i]) / LEAP_CELL;
+        /* A wide footprint also reaches voxel 8c - 1: the tile's first cell is on its face. */
+        lo[i] = ((int64_t)br->origin[i] - a->origin[i]) / LEAP_CELL + a->wide;
         hi[i] = ((int64_t)br->origin[i] + br->size - a->origin[i]) / LEAP_CELL - 2;
         if (lo[i] < 0) lo[i] = 0;
         if (hi[i] >= a->cells[i]) hi[i] = a->cells[i] - 1;
@@ -332,23 +333,31 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
     leap_grid_reader *reader;
     r = leap_grid_reader_create(grid, &reader, err);
     if (r) return r;
-    float vals[SLOT_TEXELS];
+    /* Wide: the footprint read is one voxel larger on every side, the slot its middle. */
+    enum { WIDE = LEAP_SLOT + 2 };
+    float vals[WIDE * WIDE * WIDE];
     uint16_t q[SLOT_TEXELS];
+    const int32_t edge = LEAP_SLOT + 2 * a->wide;
     for (size_t i = 0; i < l->count && !r; ++i) {
         uint64_t k = l->keys[i];
         uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
                          (uint32_t)(k / a->cells[0] / a->cells[1])};
-        int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
-        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
+        int32_t min[3], dim[3] = {edge, edge, edge};
+        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL - a->wide);
         leap_grid_reader_box(reader, min, dim, vals);
         int uniform = 1;
-        for (int j = 0; j < SLOT_TEXELS; ++j) {
-            q[j] = quantize(a, vals[j]);
-            uniform &= q[j] == q[0];
+        const uint16_t first = quantize(a, vals[0]);
+        for (int j = 0; j < edge * edge * edge; ++j) {
+            const int x = j % edge, y = j / edge % edge, z = j / (edge * edge);
+            const uint16_t v = quantize(a, vals[j]);
+            uniform &= v == first;
+            const int sx = x - a->wide, sy = y - a->wide, sz = z - a->wide;
+            if (sx >= 0 && sx < LEAP_SLOT && sy >= 0 && sy < LEAP_SLOT && sz >= 0 && sz < LEAP_SLOT)
+                q[sx + LEAP_SLOT * (sy + LEAP_SLOT * sz)] = v;
         }
         uint32_t entry;
         if (uniform && !dense) {
-            entry = const_entry(q[0]);
+            entry = const_entry(first);
         } else {
             if (a->slot_count + 1 > budget) {
                 r = slots_too_many(a->slot_count + 1, "more than", err);
@@ -503,27 +512,29 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
     key_list keys = {0};
     for (size_t i = 0; i < nbricks && !r; ++i)
         if (bricks[i].is_tile) r = fill_tile_interior(b, &bricks[i], err);
-    /* Cells whose footprint [8c, 8c+8]^3 meets a brick but is not inside a tile interior. */
+    /* Cells whose footprint [8c, 8c+8]^3 (wide: [8c-1, 8c+9]^3) meets a brick but is not inside
+     * a tile interior (fill_tile_interior's). */
     for (size_t i = 0; i < nbricks && !r; ++i) {
-        int64_t lo[3], hi[3];
+        int64_t lo[3], hi[3], ilo[3], ihi[3];
         for (int j = 0; j < 3; ++j) {
             lo[j] = ((int64_t)bricks[i].origin[j] - a->origin[j]) / LEAP_CELL - 1;
-            hi[j] = ((int64_t)bricks[i].origin[j] + bricks[i].size - a->origin[j]) / LEAP_CELL - 1;
+            hi[j] = ((int64_t)bricks[i].origin[j] + bricks[i].size - a->origin[j]) / LEAP_CELL - 1 + a->wide;
+            ilo[j] = lo[j] + 1 + a->wide;
+            ihi[j] = hi[j] - 1 - a->wide;
         }
-        int64_t ilo[3], ihi[3];
-        for (int j = 0; j < 3; ++j) ilo[j] = lo[j] + 1, ihi[j] = hi[j] - 1;
-        int has_interior = ilo[0] <= ihi[0] && ilo[1] <= ihi[1] && ilo[2] <= ihi[2];
+        int has_interior = bricks[i].is_tile && ilo[0] <= ihi[0] && ilo[1] <= ihi[1] && ilo[2] <= ihi[2];
         if (!has_interior) {
             if (!add_cells(&keys, a, lo, hi)) r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
             continue;
         }
-        /* Shell of the tile: six slabs, one cell thick (overlaps are removed later). */
+        /* Shell of the tile: six slabs, one cell thick (wide: two; overlaps are removed later). */
         for (int axis = 0; axis < 3 && !r; ++axis)
             for (int side = 0; side < 2 && !r; ++side) {
                 int64_t sl[3], sh[3];
                 memcpy(sl, lo, sizeof sl);
                 memcpy(sh, hi, sizeof sh);
-                sl[axis] = sh[axis] = side ? hi[axis] : lo[axis];
+                if (side) sl[axis] = ihi[axis] + 1;
+                else sh[axis] = ilo[axis] - 1;
                 if (!add_cells(&keys, a, sl, sh)) r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
             }
     }
@@ -553,6 +564,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     b->a = a;
     b->labels = desc->labels;
     a->labels = desc->labels != NULL;
+    a->wide = desc->wide && !a->labels;
     if (a->labels && !leap_grid_has_labels(desc->grid)) {
         free(b);
         free(a);
@@ -591,6 +603,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         b->a = a;
         b->labels = desc->labels;
         a->labels = desc->labels != NULL;
+        a->wide = desc->wide && !a->labels;
     }
     free(b);
     if (r) {
