@@ -321,6 +321,69 @@ static void check_atlas(const leap_atlas *a, const leap_grid_info *info, int den
     *out = r;
 }
 
+/* A wide atlas (shading): every voxel decodes right, every constant cell's gradient footprint
+ * (voxels 8c-1 .. 8c+9) is one value, and leap_atlas_gradients gives each slot texel the
+ * difference of its neighbours' values, decoded independently here. */
+static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const leap_grid_info *info)
+{
+    scan_result r = {0};
+    check_atlas(wide, info, 1, "wide", &r); /* like dense: its slots reach one voxel further */
+    CHECK_MSG(wide->wide && wide->slot_count > sparse->slot_count, "wide: %u slots, sparse %u", wide->slot_count,
+              sparse->slot_count);
+    long constant_cells = 0, uneven = 0, texels = 0, wrong = 0;
+    int16_t *g = NULL;
+    leap_error err = {{0}};
+    CHECK_OK(leap_atlas_gradients(wide, &g, &err), &err);
+    const int64_t limit[3] = {(int64_t)wide->cells[0] * LEAP_CELL - 1, (int64_t)wide->cells[1] * LEAP_CELL - 1,
+                              (int64_t)wide->cells[2] * LEAP_CELL - 1};
+    for (uint32_t cz = 0; cz < wide->cells[2]; ++cz)
+        for (uint32_t cy = 0; cy < wide->cells[1]; ++cy)
+            for (uint32_t cx = 0; cx < wide->cells[0]; ++cx) {
+                const uint32_t c[3] = {cx, cy, cz};
+                const uint32_t e = cell_entry(wide, c);
+                for (int z = -1; z <= LEAP_SLOT; ++z)
+                    for (int y = -1; y <= LEAP_SLOT; ++y)
+                        for (int x = -1; x <= LEAP_SLOT; ++x) {
+                            int64_t p[3] = {(int64_t)cx * LEAP_CELL + x, (int64_t)cy * LEAP_CELL + y,
+                                            (int64_t)cz * LEAP_CELL + z};
+                            int outside = 0;
+                            for (int i = 0; i < 3; ++i) outside |= p[i] < 0 || p[i] > limit[i];
+                            if (outside) continue;
+                            if (e & LEAP_PAGE_CONST) {
+                                uneven += lookup(wide, p) != (long)(e & 0xFFFFu);
+                                continue;
+                            }
+                            const int l[3] = {x, y, z};
+                            if (x < 0 || y < 0 || z < 0 || x >= LEAP_SLOT || y >= LEAP_SLOT || z >= LEAP_SLOT) continue;
+                            size_t at = 0;
+                            {
+                                size_t tx = (size_t)(e & LEAP_SLOT_MASK) * LEAP_SLOT + l[0];
+                                size_t ty = (size_t)(e >> LEAP_SLOT_BITS & LEAP_SLOT_MASK) * LEAP_SLOT + l[1];
+                                size_t tz = (size_t)(e >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK) * LEAP_SLOT + l[2];
+                                at = tx + wide->texel_dims[0] * (ty + wide->texel_dims[1] * tz);
+                            }
+                            for (int axis = 0; axis < 3; ++axis) {
+                                int64_t lo[3] = {p[0], p[1], p[2]}, hi[3] = {p[0], p[1], p[2]};
+                                lo[axis] -= 1;
+                                hi[axis] += 1;
+                                if (lo[axis] < 0 || hi[axis] > limit[axis]) continue;
+                                const long expect = lrint((double)(lookup(wide, hi) - lookup(wide, lo)) * (32767.0 / 65535.0));
+                                wrong += g && g[4 * at + axis] != expect;
+                                ++texels;
+                            }
+                        }
+                constant_cells += (e & LEAP_PAGE_CONST) != 0;
+            }
+    printf("wide: %u slots (sparse %u); %ld constant cells, %ld wide-footprint voxels off; %ld gradients, %ld wrong\n",
+           wide->slot_count, sparse->slot_count, constant_cells, uneven, texels, wrong);
+    CHECK_MSG(uneven == 0, "wide: %ld voxels of constant cells' gradient footprints differ from the constant", uneven);
+    CHECK_MSG(wrong == 0 && texels > 0, "wide: %ld of %ld gradients wrong", wrong, texels);
+    free(g);
+    /* an atlas not built for shading has no gradients */
+    g = NULL;
+    CHECK(leap_atlas_gradients(sparse, &g, &err) == LEAP_ERR_USAGE && g == NULL);
+}
+
 int main(void)
 {
     leap_error err = {{0}};
@@ -356,6 +419,11 @@ int main(void)
         leap_atlas_desc d2 = {.grid = grid, .shuffle_seed = 777};
         CHECK_OK(leap_atlas_create(&d2, &shuffled, &err), &err);
         if (shuffled) check_atlas(shuffled, info, 0, "shuffled", &rx);
+        leap_atlas *wide = NULL;
+        leap_atlas_desc dw = {.grid = grid, .wide = 1};
+        CHECK_OK(leap_atlas_create(&dw, &wide, &err), &err);
+        if (wide && sparse) check_wide(wide, sparse, info);
+        leap_atlas_destroy(wide);
         if (sparse && dense && shuffled) {
             CHECK_MSG(dense->slot_count > sparse->slot_count, "dense %u slots, sparse %u", dense->slot_count,
                       sparse->slot_count);

@@ -410,6 +410,29 @@ int main(void)
     CHECK(run(args) == 0 && strstr(out_text, "\"projection\":\t\"mip\""));
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --mip", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "segmentation", out);
+    /* Shading: the stats give the light as used (unit length) and the terms; what it cannot
+     * light, and terms out of range, are usage errors. */
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q --light 0,2,0 --specular 0.5", sphere, out);
+    CHECK_MSG(run(args) == 0, "%s", out_text);
+    {
+        cJSON *st = cJSON_Parse(out_text), *sh = cJSON_GetObjectItem(st, "shading");
+        cJSON *light = cJSON_GetObjectItem(sh, "light");
+        CHECK_MSG(sh && cJSON_GetArrayItem(light, 1)->valuedouble == 1 &&
+                      cJSON_GetObjectItem(sh, "specular")->valuedouble == 0.5 &&
+                      cJSON_GetObjectItem(sh, "ambient")->valuedouble == 0.3,
+                  "shading in the stats: %s", out_text);
+        cJSON_Delete(st);
+    }
+    snprintf(args, sizeof args, "render %s -o %s --shade --mip", sphere, out);
+    EXPECT_FAIL(2, args, "MIP", out);
+    snprintf(args, sizeof args, "render %s/labels.vdb -o %s --shade", LEAP_VOLUMES, out);
+    EXPECT_FAIL(2, args, "segmentation", out);
+    snprintf(args, sizeof args, "render %s -o %s --ambient 20", sphere, out);
+    EXPECT_FAIL(2, args, "--ambient", out);
+    snprintf(args, sizeof args, "render %s -o %s --shininess 0.5", sphere, out);
+    EXPECT_FAIL(2, args, "--shininess", out);
+    snprintf(args, sizeof args, "render %s -o %s --light 1,0", sphere, out);
+    EXPECT_FAIL(2, args, "--light", out);
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
     CHECK_MSG(run(args) == 0, "%s", out_text);

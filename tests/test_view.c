@@ -334,23 +334,28 @@ int main(void)
     CHECK(run(cmd) == 0);
     if (exists(shot) && exists(ref)) matches(shot, ref, "--frames --screenshot");
 
-    /* Key m: MIP; the screenshot's line says --mip, and leap render of that line gives it back. */
-    {
-        char text[2048];
-        expand(text, sizeof text, "orbit 30 20\nkey m\nscreenshot @/mip.png\nkey q\n", tmp);
-        snprintf(script, sizeof script, "%s/mip.txt", tmp);
+    /* Key m: MIP; key l: shading (the volume's atlas is rebuilt for it, and its gradients
+     * uploaded). The screenshot's line says so, and leap render of that line gives it back. */
+    static const char *const look_keys[][3] = {{"m", "mip", " --mip"}, {"l", "shade", " --shade"}};
+    for (int k = 0; k < 2; ++k) {
+        char text[2048], line[256];
+        snprintf(line, sizeof line, "orbit 30 20\nkey %s\nscreenshot @/%s.png\nkey q\n", look_keys[k][0],
+                 look_keys[k][1]);
+        expand(text, sizeof text, line, tmp);
+        snprintf(script, sizeof script, "%s/%s.txt", tmp, look_keys[k][1]);
         write_text(script, text);
-        snprintf(shot, sizeof shot, "%s/mip.png", tmp);
+        snprintf(shot, sizeof shot, "%s/%s.png", tmp, look_keys[k][1]);
         remove(shot);
         snprintf(cmd, sizeof cmd, "%s %s view %s --size 200x150 --script %s", xvfb, LEAP_EXE, vol, script);
         rc = run(cmd);
         CHECK_MSG(rc == 0, "%s -> exit %d: %s", cmd, rc, out_text);
         int have_args = render_args_for(shot, args, sizeof args);
-        CHECK_MSG(have_args && strstr(args, " --mip"), "m: no --mip in the screenshot's line: %s", out_text);
-        snprintf(ref, sizeof ref, "%s/mip_ref.png", tmp);
+        CHECK_MSG(have_args && strstr(args, look_keys[k][2]), "%s: no %s in the screenshot's line: %s", look_keys[k][0],
+                  look_keys[k][2], out_text);
+        snprintf(ref, sizeof ref, "%s/%s_ref.png", tmp, look_keys[k][1]);
         snprintf(cmd, sizeof cmd, "%s render %s -q -o %s", LEAP_EXE, args, ref);
         CHECK_MSG(have_args && run(cmd) == 0, "%s: %s", cmd, out_text);
-        if (have_args && exists(shot) && exists(ref)) matches(shot, ref, "key m");
+        if (have_args && exists(shot) && exists(ref)) matches(shot, ref, look_keys[k][0]);
     }
 
     /* Failures: no display, bad script (with its line), usage errors. */
