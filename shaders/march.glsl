@@ -15,8 +15,9 @@ layout(constant_id = 1) const uint leap_mode = LEAP_MODE_NAIVE;
 // leap_labels: a label volume (object indices, nearest voxel; the object table's opacities are
 // corrected for the step, so leap_tf_precorrected is set too).
 layout(constant_id = 2) const bool leap_labels = false;
-// leap_mip: maximum intensity projection (leap_march.mip): acc.color.r holds the largest table
-// coordinate so far (-1 before any sample), acc.depth_t the t of the first sample reaching it.
+// leap_mip: maximum or minimum intensity projection (leap_march.mip; frame.image.z = 1 for the
+// minimum): acc.color.r holds the largest table coordinate so far times the sign (-1 for the
+// minimum; -2 before any sample), acc.depth_t the t of the first sample reaching it.
 layout(constant_id = 3) const bool leap_mip = false;
 // leap_shade: gradient shading (leap_march.shade; frame.normal_row*, shade, light).
 layout(constant_id = 4) const bool leap_shade = false;
@@ -251,16 +252,19 @@ void leap_composite_object(inout leap_accum acc, uint object, float t)
     if (acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(object);
 }
 
-// One MIP sample at table coordinate x. Once x reaches the table's top no later sample can
-// change the colour or the first t, so the ray is done (transmittance 0 marks it).
-void leap_mip_sample(inout leap_accum acc, float x, float t, float top)
+// One MIP sample at table coordinate x, in [lo, hi]; minIP keeps -x, so both keep the largest.
+// Once the extreme of the table is reached no later sample can change the colour or the first
+// t, so the ray is done (transmittance 0 marks it).
+void leap_mip_sample(inout leap_accum acc, float x, float t, leap_tf_map tf)
 {
     acc.samples++;
-    if (x > acc.color.r) {
-        acc.color.r = x;
+    bool minimum = frame.image.z != 0u;
+    float signed_x = minimum ? -x : x;
+    if (signed_x > acc.color.r) {
+        acc.color.r = signed_x;
         acc.depth_t = t;
     }
-    if (acc.color.r >= top) acc.transmittance = 0.0;
+    if (acc.color.r >= (minimum ? -tf.lo : tf.hi)) acc.transmittance = 0.0;
 }
 
 // World directions of one ray's shading (leap_shading): v towards the eye, l towards the
@@ -327,7 +331,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         if (constant) {
             float x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
             for (;;) {
-                if (leap_mip) leap_mip_sample(acc, x, t, tf.hi);
+                if (leap_mip) leap_mip_sample(acc, x, t, tf);
                 else leap_composite(acc, c.rgb, alpha, opaque, t);
                 if (leap_labels && acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(cur.object);
                 j += 1.0;
@@ -342,7 +346,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                     leap_composite_object(acc, leap_label_at(cur, q), t);
                 } else {
                     float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
-                    if (leap_mip) leap_mip_sample(acc, clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf.hi);
+                    if (leap_mip) leap_mip_sample(acc, clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf);
                     else {
                         vec4 cs = leap_tf_lookup(tf, s);
                         if (leap_shade && cs.a > 0.0)

@@ -158,7 +158,8 @@ LEAP_STRUCT(leap_frame_gpu) {
                                  composite chunk, scale of world_row* (a power of two) */
     LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
     LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
-    LEAP_UVEC4 image;         /* 256: width, height, 0 (the mode is a specialisation constant), ortho */
+    LEAP_UVEC4 image;         /* 256: width, height, 1 = minimum intensity projection (with the MIP
+                                 pipeline), ortho */
     LEAP_VEC4 clip_x;         /* 272: rows of the relative-index-space -> clip matrix */
     LEAP_VEC4 clip_y;         /* 288 */
     LEAP_VEC4 clip_z;         /* 304 */

@@ -178,28 +178,74 @@ static void gap_tf(leap_tf *tf)
     snprintf(tf->name, sizeof tf->name, "gap");
 }
 
-/* MIP: every mode equals naive (colour and depth) on every scalar volume and camera, under three
- * TFs (the scene's, grey with no zero-opacity range, the gap TF), and the reference agrees. */
+/* Dark balls (0 at the centre, 1 at the rim) scattered in a 64^3 box of background 1: where
+ * minIP shows something, and cells of 1 alone are skippable under a TF transparent at 1. */
+static int make_dips(const char *path)
+{
+    leap_error err = {{0}};
+    mkdir(LEAP_TEST_TMP, 0755);
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 1.0, NULL, 1, &err) : -1;
+    static const int balls[5][4] = {{12, 14, 20, 7}, {40, 20, 44, 9}, {26, 44, 30, 6}, {50, 50, 12, 5}, {20, 36, 52, 8}};
+    for (int b = 0; b < 5 && g >= 0; ++b)
+        for (int z = -balls[b][3]; z <= balls[b][3]; ++z)
+            for (int y = -balls[b][3]; y <= balls[b][3]; ++y)
+                for (int x = -balls[b][3]; x <= balls[b][3]; ++x) {
+                    const double r = sqrt((double)(x * x + y * y + z * z)) / balls[b][3];
+                    if (r < 1) leap_vdb_writer_set(w, g, balls[b][0] + x, balls[b][1] + y, balls[b][2] + z, r);
+                }
+    const int ok = g >= 0 && leap_vdb_writer_save(w, path, &err) == LEAP_OK;
+    CHECK_MSG(ok, "%s: %s", path, err.msg);
+    leap_vdb_writer_destroy(w);
+    return ok;
+}
+
+/* Opaque where dark, transparent from 0.9 up. */
+static void dark_tf(leap_tf *tf)
+{
+    for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
+        double u = (double)i / (LEAP_TF_TABLE_SIZE - 1);
+        tf->rgba[i][0] = (float)(1 - u), tf->rgba[i][1] = 0.5f, tf->rgba[i][2] = (float)u;
+        tf->rgba[i][3] = u < 0.9 ? (float)(0.9 - u) : 0.0f;
+    }
+    snprintf(tf->name, sizeof tf->name, "dark");
+}
+
+/* MIP and minIP: every mode equals naive (colour and depth) on every scalar volume and camera,
+ * under four TFs (the scene's, grey with no zero-opacity range, the gap TF, the dark TF), and the
+ * reference agrees; the dark balls make minIP show something and skip. */
 static void check_mip(leap_renderer *renderer, float *naive, float *img)
 {
     leap_error err = {{0}};
     const size_t n = (size_t)W * H;
     float *ref = malloc(n * 4 * sizeof(float)), *depth_naive = malloc(n * sizeof(float)), *depth = malloc(n * sizeof(float));
-    int frames = 0, skipped_frames = 0;
-    for (size_t v = 0; v < sizeof volumes / sizeof volumes[0]; ++v) {
+    int frames = 0, skipped_frames = 0, min_skipped = 0, min_visible = 0;
+    char dips[1024];
+    snprintf(dips, sizeof dips, "%s/dips.vdb", LEAP_TEST_TMP);
+    const int have_dips = make_dips(dips);
+    const size_t nvol = sizeof volumes / sizeof volumes[0];
+    for (size_t v = 0; v < nvol + have_dips; ++v) {
         char path[1024];
-        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
-        leap_scene_desc d = {.path = path, .grid = volumes[v].grid, .tf = "viridis", .step = 0.5, .mip = 1};
+        if (v < nvol) snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v].file);
+        else snprintf(path, sizeof path, "%s", dips);
+        const char *file = v < nvol ? volumes[v].file : "dips.vdb";
+        leap_scene_desc d = {.path = path, .grid = v < nvol ? volumes[v].grid : NULL, .tf = "viridis", .step = 0.5,
+                             .mip = 1};
         leap_scene *s = NULL;
         leap_result r = leap_scene_create(&d, &s, &err);
         if (r == LEAP_ERR_USAGE && strstr(err.msg, "segmentation")) continue; /* refused, as it must be */
         CHECK_OK(r, &err);
         if (!s) continue;
         const leap_tf scene_tf = s->tf;
-        for (int tfi = 0; tfi < 3; ++tfi) {
+        for (int look = 0; look < 8; ++look) {
+            const int tfi = look % 4, mip = look < 4 ? LEAP_MIP_MAX : LEAP_MIP_MIN;
+            const char *what = mip > 0 ? "MIP" : "minIP";
             leap_tf tf = scene_tf;
             if (tfi == 1) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
             if (tfi == 2) gap_tf(&tf);
+            if (tfi == 3) dark_tf(&tf);
+            CHECK_OK(leap_scene_set_mip(s, mip, &err), &err);
             CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
             CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
             for (int cam_i = 0; cam_i < 5; ++cam_i) {
@@ -216,29 +262,32 @@ static void check_mip(leap_renderer *renderer, float *naive, float *img)
                     for (size_t i = 0; i < n; ++i)
                         depth_off += !(depth[i] == depth_naive[i] || (isinf(depth[i]) && isinf(depth_naive[i])));
                     CHECK_MSG(dd.nonfinite == 0 && dd.max_abs <= TOL && depth_off == 0,
-                              "MIP %s %s %s %s: max abs %g vs naive, %zu depths differ", volumes[v].file, tf.name,
+                              "%s %s %s %s %s: max abs %g vs naive, %zu depths differ", what, file, tf.name,
                               camera_names[cam_i], leap_mode_name((leap_mode)m), dd.max_abs, depth_off);
                     CHECK(st.total_samples <= ns.total_samples && st.naive_samples == ns.total_samples);
                     skipped_frames += st.total_samples < ns.total_samples;
+                    min_skipped += mip < 0 && st.total_samples < ns.total_samples;
                     ++frames;
                 }
+                double alpha = 0;
+                for (size_t i = 0; i < n; ++i) alpha += naive[4 * i + 3];
+                min_visible += mip < 0 && alpha / n > 0.01;
                 if (cam_i == 0) {
                     leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
                     CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
                     image_diff dr = compare_rgba(naive, ref, n);
-                    double alpha = 0;
-                    for (size_t i = 0; i < n; ++i) alpha += naive[4 * i + 3];
-                    printf("mip %-12s %-8s naive %llu samples, reference rmse %.2e max abs %.2e, mean alpha %.3f\n",
-                           volumes[v].file, tf.name, (unsigned long long)ns.total_samples, dr.rmse, dr.max_abs, alpha / n);
-                    CHECK_MSG(dr.rmse <= 2e-4 && dr.max_abs <= 5e-3, "MIP %s %s: rmse %g max %g against the reference",
-                              volumes[v].file, tf.name, dr.rmse, dr.max_abs);
+                    printf("%-5s %-12s %-8s naive %llu samples, reference rmse %.2e max abs %.2e, mean alpha %.3f\n",
+                           what, file, tf.name, (unsigned long long)ns.total_samples, dr.rmse, dr.max_abs, alpha / n);
+                    CHECK_MSG(dr.rmse <= 2e-4 && dr.max_abs <= 5e-3, "%s %s %s: rmse %g max %g against the reference",
+                              what, file, tf.name, dr.rmse, dr.max_abs);
                 }
             }
         }
         leap_scene_destroy(s);
     }
-    printf("MIP: %d frames equal naive MIP, %d of them with fewer samples\n", frames, skipped_frames);
-    CHECK(frames > 0 && skipped_frames > 0);
+    printf("MIP and minIP: %d frames equal naive, %d of them with fewer samples (minIP: %d); %d minIP views show "
+           "something\n", frames, skipped_frames, min_skipped, min_visible);
+    CHECK(frames > 0 && skipped_frames > 0 && min_skipped > 0 && min_visible > 0);
     free(ref);
     free(depth_naive);
     free(depth);
@@ -330,29 +379,39 @@ static void check_shading(leap_renderer *renderer, float *naive, float *img)
 }
 
 /* One hot voxel in a dim 48^3 block: the MIP pixel on its ray shows the top of the TF, with the
- * voxel's depth, in every mode. */
-static void check_mip_hot_voxel(leap_renderer *renderer)
+ * voxel's depth, in every mode. minIP: one cold voxel in a bright block over a bright
+ * background, under a TF whose opacity falls with the value. */
+static void check_mip_hot_voxel(leap_renderer *renderer, int mip)
 {
     leap_error err = {{0}};
     char path[1024];
     mkdir(LEAP_TEST_TMP, 0755);
-    snprintf(path, sizeof path, "%s/hot.vdb", LEAP_TEST_TMP);
+    snprintf(path, sizeof path, "%s/%s.vdb", LEAP_TEST_TMP, mip > 0 ? "hot" : "cold");
     leap_vdb_writer *w = NULL;
     CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
-    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err) : -1;
+    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, mip > 0 ? 0.0 : 1.0, NULL, 1, &err) : -1;
     if (g < 0) {
         leap_vdb_writer_destroy(w);
         return;
     }
     const int32_t lo[3] = {0, 0, 0}, hi[3] = {47, 47, 47};
-    leap_vdb_writer_fill(w, g, lo, hi, 0.1, 1);
-    leap_vdb_writer_set(w, g, 20, 30, 25, 1.0);
+    leap_vdb_writer_fill(w, g, lo, hi, mip > 0 ? 0.1 : 0.9, 1);
+    leap_vdb_writer_set(w, g, 20, 30, 25, mip > 0 ? 1.0 : 0.0);
     CHECK_OK(leap_vdb_writer_save(w, path, &err), &err);
     leap_vdb_writer_destroy(w);
-    leap_scene_desc d = {.path = path, .tf = "grey", .step = 0.5, .mip = 1};
+    leap_scene_desc d = {.path = path, .tf = "grey", .step = 0.5, .mip = mip};
     leap_scene *s = NULL;
     CHECK_OK(leap_scene_create(&d, &s, &err), &err);
     if (!s) return;
+    if (mip < 0) { /* opaque where dark */
+        leap_tf tf = s->tf;
+        for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
+            const float u = (float)i / (LEAP_TF_TABLE_SIZE - 1);
+            tf.rgba[i][0] = tf.rgba[i][1] = tf.rgba[i][2] = 1.0f;
+            tf.rgba[i][3] = 1.0f - u;
+        }
+        CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
+    }
     CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
     /* Orthographic along -z through the hot voxel's centre: the middle pixel's ray hits it. */
     leap_camera cam = {.eye = {20, 30, 200}, .target = {20, 30, 0}, .up = {0, 1, 0}, .fov_deg = 40, .ortho = 1,
@@ -364,10 +423,10 @@ static void check_mip_hot_voxel(leap_renderer *renderer)
         CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, rgba, depth, NULL, NULL, &err), &err);
         const int centre = 4 * 9 + 4, corner = 0;
         CHECK_MSG(rgba[4 * centre + 3] > 0.99f && rgba[4 * corner + 3] < 0.2f,
-                  "%s: centre alpha %g, corner alpha %g", leap_mode_name((leap_mode)m), rgba[4 * centre + 3],
-                  rgba[4 * corner + 3]);
-        CHECK_MSG(fabsf(depth[centre] - (200.0f - 25.0f)) < 0.51f, "%s: hot voxel depth %g, want 175",
-                  leap_mode_name((leap_mode)m), depth[centre]);
+                  "%s %s: centre alpha %g, corner alpha %g", mip > 0 ? "MIP" : "minIP", leap_mode_name((leap_mode)m),
+                  rgba[4 * centre + 3], rgba[4 * corner + 3]);
+        CHECK_MSG(fabsf(depth[centre] - (200.0f - 25.0f)) < 0.51f, "%s %s: the voxel's depth %g, want 175",
+                  mip > 0 ? "MIP" : "minIP", leap_mode_name((leap_mode)m), depth[centre]);
         if (m == 0) memcpy(first, rgba, sizeof first);
         else CHECK(!memcmp(first, rgba, sizeof first));
     }
@@ -450,7 +509,8 @@ int main(void)
     }
     check_clipping(renderer, naive, img);
     check_mip(renderer, naive, img);
-    check_mip_hot_voxel(renderer);
+    check_mip_hot_voxel(renderer, LEAP_MIP_MAX);
+    check_mip_hot_voxel(renderer, LEAP_MIP_MIN);
     check_shading(renderer, naive, img);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);

@@ -35,7 +35,8 @@ typedef struct leap_bench_desc {
     double ref_factor, elevation;
     const char *tf, *device, *out; /* tf: preset or file, NULL = per volume; out: directory */
     const char *show, *objects;    /* segmentations: objects shown (leap_scene_desc), NULL = all */
-    int mip, shade;                /* every frame (and the reference) in MIP, or shaded (leap_shading_default) */
+    int mip, shade;                /* every frame (and the reference) in MIP / minIP (leap_march.mip), or
+                                      shaded (leap_shading_default) */
     int vs_vdb;                    /* also time vdb_render */
     double vdb_shadow_step;        /* vdb_render -shadowstep, voxels */
     char vdb_render_exe[4096];     /* its path, from leap_bench_find_vdb_render; needed with vs_vdb */

@@ -27,6 +27,9 @@ extern "C" {
 
 #define LEAP_MAX_CLIPS 4
 
+#define LEAP_MIP_MAX 1  /* leap_march.mip */
+#define LEAP_MIP_MIN -1
+
 /* Gradient shading (leap_march.shade). The gradient at a sample p is the central difference
  * of the same trilinear field one voxel either side on each axis,
  *   g_i = (f(p + e_i) - f(p - e_i)) / 2   (index space, TF range units per voxel),
@@ -65,11 +68,12 @@ typedef struct leap_march {
      * the same way in every mode (the plane itself is kept). */
     int clip_count;
     double clip[LEAP_MAX_CLIPS][4];
-    /* 1: maximum intensity projection. A ray keeps the largest value of its samples (as its TF
-     * coordinate, clamped to the table) and the t of the first sample that reaches it; the
-     * pixel is the TF's colour and opacity there (not corrected for the step), premultiplied;
-     * the depth is that t's, when the opacity is above 0. Skipping is exact when the occupancy
-     * was classified for it (leap_scene_set_mip). */
+    /* LEAP_MIP_MAX: maximum intensity projection. A ray keeps the largest value of its samples
+     * (as its TF coordinate, clamped to the table) and the t of the first sample that reaches
+     * it; the pixel is the TF's colour and opacity there (not corrected for the step),
+     * premultiplied; the depth is that t's, when the opacity is above 0. LEAP_MIP_MIN: the
+     * same with the smallest value (minimum intensity projection). 0: compositing. Skipping is
+     * exact when the occupancy was classified for it (leap_scene_set_mip). */
     int mip;
     leap_shading shade;   /* not with mip, not for segmentations */
 } leap_march;

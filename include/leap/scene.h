@@ -35,7 +35,8 @@ typedef struct leap_scene_desc {
     const char *objects;   /* segmentations: a file of the objects to show (leap_labels_load_objects) */
     const char *show;      /* segmentations: show only these objects ("12,57,300-400") */
     const char *hide;      /* segmentations: hide these objects (after show / objects) */
-    int mip;               /* 1 = maximum intensity projection (scalar volumes) */
+    int mip;               /* LEAP_MIP_MAX / LEAP_MIP_MIN: maximum / minimum intensity projection
+                              (scalar volumes); 0 = compositing */
     int clip_count;        /* clipping planes in world units: keep a x + b y + c z + d >= 0 */
     double clip[LEAP_MAX_CLIPS][4];
     leap_shading shade;    /* gradient shading (shade.on; leap_shading_default for --shade) */
@@ -89,9 +90,10 @@ leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err)
 /* Number of distinct integer values in the scene's range (for the label preset). */
 int leap_scene_label_count(double range_lo, double range_hi);
 
-/* Switches maximum intensity projection (march.mip) on or off and re-classifies: for MIP a
- * cell is EMPTY only when all its values lie below the TF's first non-zero opacity, so every
- * mode takes the sample holding a visible maximum. Errors: LEAP_ERR_USAGE for segmentations. */
+/* Switches maximum / minimum intensity projection (march.mip: LEAP_MIP_MAX, LEAP_MIP_MIN, 0)
+ * and re-classifies: for MIP a cell is EMPTY only when all its values lie below the TF's first
+ * non-zero opacity (minIP: above its last), so every mode takes the sample holding a visible
+ * maximum (minimum). Errors: LEAP_ERR_USAGE for segmentations. */
 leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err);
 
 /* Sets gradient shading (march.shade; leap/march.h): the light is normalised (0,0,0: a

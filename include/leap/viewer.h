@@ -123,7 +123,7 @@ typedef struct leap_viewer_desc {
     double range[2];             /* initial value window */
     double value_min, value_max; /* the grid's value range */
     int width, height;           /* viewport in pixels */
-    int mip;                     /* start with maximum intensity projection */
+    int mip;                     /* start with maximum / minimum intensity projection (leap_march.mip) */
     leap_shading shade;          /* shading's terms; shade.on: start shaded */
     int labels;                  /* a segmentation: no MIP, no shading */
 } leap_viewer_desc;
@@ -149,7 +149,7 @@ typedef struct leap_viewer {
     double range[2];
     double value_min, value_max;
     int show_boxes, show_heat, show_help;
-    int mip;                     /* key m: maximum intensity projection */
+    int mip;                     /* key m: LEAP_MIP_MAX, LEAP_MIP_MIN or 0 (leap_march.mip) */
     leap_shading shade;          /* key l: shade.on toggles gradient shading (not with MIP) */
     int labels;                  /* a segmentation (no MIP) */
     int clip_on;                 /* key c: one more clipping plane, world units, */

@@ -102,10 +102,11 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
     } else if (!strcmp(name, "objects")) {
         o->objects = v;
     } else if (!strcmp(name, "look")) {
-        if (!strcmp(v, "mip")) o->mip = 1, o->shade = 0;
+        if (!strcmp(v, "mip")) o->mip = LEAP_MIP_MAX, o->shade = 0;
+        else if (!strcmp(v, "minip")) o->mip = LEAP_MIP_MIN, o->shade = 0;
         else if (!strcmp(v, "shade")) o->shade = 1, o->mip = 0;
         else if (!strcmp(v, "plain")) o->mip = o->shade = 0;
-        else USAGE("look '%s' must be plain, shade or mip", v);
+        else USAGE("look '%s' must be plain, shade, mip or minip", v);
     } else if (!strcmp(name, "vs_vdb_render") || !strcmp(name, "vs-vdb-render")) {
         if (!strcmp(v, "true") || !strcmp(v, "1")) o->vs_vdb = 1;
         else if (!strcmp(v, "false") || !strcmp(v, "0")) o->vs_vdb = 0;

@@ -101,8 +101,9 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
                 "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. ",
             device, o->views, o->elevation, o->repeats, o->warmup);
     if (o->mip || o->shade)
-        fprintf(md, "Every frame and the reference %s. ", o->mip ? "are maximum intensity projections"
-                                                               : "are shaded (`--shade`'s headlight and terms)");
+        fprintf(md, "Every frame and the reference %s. ", o->mip > 0   ? "are maximum intensity projections"
+                                                           : o->mip < 0 ? "are minimum intensity projections"
+                                                                        : "are shaded (`--shade`'s headlight and terms)");
     if (have_errors)
         fprintf(md, "Error against the CPU double-precision reference with the smallest step / %g, mean over views "
                     "(max abs: max over views).\n", o->ref_factor);

@@ -38,6 +38,7 @@ const char *cli_camera_options_help =
     "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
     "  --mip               maximum intensity projection: each pixel shows the TF at the\n"
     "                      largest value along its ray (skipping stays exact)\n"
+    "  --minip             minimum intensity projection: the TF at the smallest value\n"
     "  --shade             gradient shading: Blinn-Phong lighting from a headlight, weighted by\n"
     "                      the gradient's size so flat regions keep their colour (the\n"
     "                      options below imply it)\n"
@@ -150,8 +151,10 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.labels = 1;
         return 1;
     }
-    if (!strcmp(a, "--mip")) {
-        o->scene.mip = 1;
+    if (!strcmp(a, "--mip") || !strcmp(a, "--minip")) {
+        const int mip = strcmp(a, "--minip") ? LEAP_MIP_MAX : LEAP_MIP_MIN;
+        if (o->scene.mip && o->scene.mip != mip) FAIL("--mip and --minip exclude each other");
+        o->scene.mip = mip;
         return 1;
     }
     if (!strcmp(a, "--shade")) {

@@ -153,7 +153,8 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(root, "width", o->width);
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "step", s->march.step);
-    cJSON_AddStringToObject(root, "projection", s->march.mip ? "mip" : "emission-absorption");
+    cJSON_AddStringToObject(root, "projection",
+                            s->march.mip > 0 ? "mip" : s->march.mip < 0 ? "minip" : "emission-absorption");
     if (s->march.shade.on) { /* the light as used: unit length, 0,0,0 = headlight */
         const leap_shading *sh = &s->march.shade;
         cJSON *j = cJSON_AddObjectToObject(root, "shading");

@@ -277,7 +277,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
                             (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
-    f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, 0, (uint32_t)view->ortho};
+    f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, m->mip < 0, (uint32_t)view->ortho};
     clip_matrix(view, f);
     double lo[3] = {1, 1, 1}, hi[3] = {0, 0, 0}; /* empty unless the occupancy says otherwise */
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);

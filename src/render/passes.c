@@ -200,7 +200,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     domain_march.mip = march_in->mip;
     domain_march.shade = march_in->shade;
     if (domain_march.mip && r->labels)
-        return leap_fail(err, LEAP_ERR_USAGE, "MIP takes the largest value along a ray; a segmentation has objects, not values");
+        return leap_fail(err, LEAP_ERR_USAGE, "MIP and minIP take the extreme value along a ray; a segmentation has "
+                         "objects, not values");
     if (domain_march.shade.on && (r->labels || domain_march.mip))
         return leap_fail(err, LEAP_ERR_USAGE, "shading lights the gradient of a scalar volume; it does not apply to %s",
                          r->labels ? "a segmentation" : "MIP");
@@ -225,7 +226,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     size_t pixels = (size_t)view->width * view->height;
     double t0 = leap__now_ms();
     leap_result lr = ensure_frame_buffers(r, view, err);
-    if (!lr) lr = renderer_upload_tf(r, march->step, march->mip, err);
+    if (!lr) lr = renderer_upload_tf(r, march->step, march->mip != 0, err);
     if (!lr && r->labels) lr = renderer_upload_objects(r, march->step, err);
     if (!lr && lists) lr = ensure_boxes(r, box_count, err);
     if (lr) return lr;

@@ -218,16 +218,18 @@ static void sample_label(const leap_labels *labels, leap_grid_reader *reader, co
 }
 
 /* MIP: the largest value along the ray as a TF coordinate clamped to [0, 1], the first t
- * reaching it, the TF there (opacity as it is), premultiplied; done at the top of the table. */
+ * reaching it, the TF there (opacity as it is), premultiplied; done at the top of the table.
+ * minIP: the same on -u (the smallest value; done at the bottom). */
 static void mip_pixel(const leap_reference_desc *desc, leap_grid_reader *reader, cell_cache *cache, const double o[3],
                       const double d[3], double out_rgba[4], double *out_depth, double *out_samples)
 {
     const leap_march *m = desc->march;
     const double span = m->range_hi - m->range_lo;
-    double best = -1.0, best_t = 0.0, n = 0.0, k0, k1;
+    const double sign = m->mip < 0 ? -1.0 : 1.0;
+    double best = -2.0, best_t = 0.0, n = 0.0, k0, k1; /* signed coordinates are in [-1, 1] */
     if (lattice_range(m, o, d, &k0, &k1)) {
         const int64_t count = (int64_t)(k1 - k0) + 1;
-        for (int64_t i = 0; i < count && best < 1.0; ++i) {
+        for (int64_t i = 0; i < count && best < (sign > 0 ? 1.0 : 0.0); ++i) {
             const double t = (k0 + (double)i) * m->step;
             double p[3];
             ray_point(o, d, t, p);
@@ -236,14 +238,14 @@ static void mip_pixel(const leap_reference_desc *desc, leap_grid_reader *reader,
             double u = span != 0.0 ? (v - m->range_lo) / span : 0.0;
             u = u < 0.0 ? 0.0 : u > 1.0 ? 1.0 : u;
             n += 1.0;
-            if (u > best) {
-                best = u;
+            if (sign * u > best) {
+                best = sign * u;
                 best_t = t;
             }
         }
     }
     double tf[4] = {0, 0, 0, 0};
-    if (best >= 0.0) leap_tf_eval(desc->tf, best, tf);
+    if (best > -2.0) leap_tf_eval(desc->tf, sign * best, tf);
     for (int c = 0; c < 3; ++c) out_rgba[c] = tf[c] * tf[3];
     out_rgba[3] = tf[3];
     *out_depth = tf[3] > 0.0 ? leap_rays_world_distance(desc->rays, d, best_t) : INFINITY;

@@ -216,14 +216,16 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
     s->march.range_hi = hi;
     if (s->labels) return leap_scene_update_objects(s, err); /* the objects' looks, not the TF */
     /* MIP: a sample matters unless its value lies below every non-zero opacity, where the TF
-     * gives nothing whatever the maximum: classify with opacity 1 from the first non-zero entry. */
+     * gives nothing whatever the maximum: classify with opacity 1 from the first non-zero entry.
+     * minIP: likewise above every non-zero opacity, up to the last non-zero entry. */
     leap_tf mip_classes;
     if (s->march.mip) {
-        int first = 0;
+        int first = 0, last = LEAP_TF_TABLE_SIZE - 1;
         while (first < LEAP_TF_TABLE_SIZE && !(s->tf.rgba[first][3] > 0.0f)) ++first;
+        while (last >= 0 && !(s->tf.rgba[last][3] > 0.0f)) --last;
         for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
             mip_classes.rgba[i][0] = mip_classes.rgba[i][1] = mip_classes.rgba[i][2] = 1.0f;
-            mip_classes.rgba[i][3] = i >= first ? 1.0f : 0.0f;
+            mip_classes.rgba[i][3] = (s->march.mip > 0 ? i >= first : i <= last) ? 1.0f : 0.0f;
         }
         snprintf(mip_classes.name, sizeof mip_classes.name, "%s", s->tf.name);
     }
@@ -237,11 +239,12 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
 
 leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err)
 {
+    mip = mip > 0 ? LEAP_MIP_MAX : mip < 0 ? LEAP_MIP_MIN : 0;
     if (mip && s->labels)
-        return leap_fail(err, LEAP_ERR_USAGE,
-                         "MIP takes the largest value along a ray; a segmentation has objects, not values");
-    if (!!mip == s->march.mip) return LEAP_OK;
-    s->march.mip = !!mip;
+        return leap_fail(err, LEAP_ERR_USAGE, "%s takes the %s value along a ray; a segmentation has objects, not values",
+                         mip > 0 ? "MIP" : "minIP", mip > 0 ? "largest" : "smallest");
+    if (mip == s->march.mip) return LEAP_OK;
+    s->march.mip = mip;
     return leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
 }
 
@@ -388,9 +391,9 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         if (!s->set_classes) r = leap_fail(err, LEAP_ERR_OOM, "out of memory for the label sets");
     }
     if (!r && desc->mip && s->labels)
-        r = leap_fail(err, LEAP_ERR_USAGE,
-                      "--mip takes the largest value along a ray; %s is a segmentation (objects, not values)", desc->path);
-    if (!r) s->march.mip = !!desc->mip;
+        r = leap_fail(err, LEAP_ERR_USAGE, "%s takes the %s value along a ray; %s is a segmentation (objects, not values)",
+                      desc->mip > 0 ? "--mip" : "--minip", desc->mip > 0 ? "largest" : "smallest", desc->path);
+    if (!r) s->march.mip = desc->mip > 0 ? LEAP_MIP_MAX : desc->mip < 0 ? LEAP_MIP_MIN : 0;
     if (!r) r = leap_scene_set_shading(s, &desc->shade, err);
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
     if (r) {

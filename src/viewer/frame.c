@@ -44,13 +44,13 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
 {
     const int same_tf = !strcmp(st->tf, s->applied_tf) && st->range[0] == s->applied_range[0] &&
                         st->range[1] == s->applied_range[1];
-    if (same_tf && st->step == s->scene->march.step && !!st->mip == s->scene->march.mip &&
+    if (same_tf && st->step == s->scene->march.step && st->mip == s->scene->march.mip &&
         !!st->shade.on == s->scene->march.shade.on)
         return LEAP_OK;
     double t = leap__now_ms();
     /* Shading off first and on last: the scene refuses it together with MIP. */
     leap_result r = st->shade.on ? LEAP_OK : leap_scene_set_shading(s->scene, &st->shade, err);
-    if (!r && !!st->mip != s->scene->march.mip) r = leap_scene_set_mip(s->scene, st->mip, err); /* re-classifies */
+    if (!r && st->mip != s->scene->march.mip) r = leap_scene_set_mip(s->scene, st->mip, err); /* re-classifies */
     if (!r && st->shade.on) r = leap_scene_set_shading(s->scene, &st->shade, err);
     if (!r && !same_tf) {
         memcpy(s->applied_tf, st->tf, sizeof s->applied_tf);

@@ -28,7 +28,7 @@ static const char *help_text =
     "  h                    heat-map overlay (segments per pixel; samples in other modes)\n"
     "  s                    screenshot to PNG\n"
     "  u                    up axis: +Y -> +Z -> +X (the orbit turns about it)\n"
-    "  m                    maximum intensity projection on / off (scalar volumes)\n"
+    "  m                    maximum, then minimum intensity projection, then off (scalar volumes)\n"
     "  l                    gradient shading on / off (scalar volumes; --light etc. set its terms)\n"
     "  c                    clipping plane on / off: facing the view, through the target\n"
     "  , .                  move the clipping plane nearer / farther (a twentieth of the radius)\n"
@@ -148,7 +148,7 @@ leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_
     v->mode = desc->mode;
     v->step = desc->step;
     v->labels = desc->labels;
-    v->mip = desc->mip && !desc->labels;
+    v->mip = desc->labels ? 0 : desc->mip;
     v->shade = desc->shade;
     v->shade.on = desc->shade.on && !v->mip && !desc->labels;
     set_tf_name(v, v->initial_tf);
@@ -402,7 +402,8 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 'c': case 'C': return toggle_clip(v);
     case 'm': case 'M':
         if (v->labels) return 0; /* a segmentation has no values to take the maximum of */
-        v->mip = !v->mip;
+        /* compositing -> MIP -> minIP -> compositing */
+        v->mip = v->mip == 0 ? LEAP_MIP_MAX : v->mip > 0 ? LEAP_MIP_MIN : 0;
         v->shade.on = 0; /* a MIP pixel has no surface to light */
         return LEAP_VIEWER_TF;
     case 'l': case 'L':
@@ -501,7 +502,7 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     if (v->clip_on)
         snprintf(clip, sizeof clip, " --clip-plane %.17g,%.17g,%.17g,%.17g", v->clip[0], v->clip[1], v->clip[2],
                  v->clip[3]);
-    if (v->mip) strncat(clip, " --mip", sizeof clip - strlen(clip) - 1);
+    if (v->mip) strncat(clip, v->mip > 0 ? " --mip" : " --minip", sizeof clip - strlen(clip) - 1);
     if (v->shade.on) {
         const leap_shading *s = &v->shade;
         const size_t used = strlen(clip);
