@@ -433,6 +433,73 @@ static void check_mip_hot_voxel(leap_renderer *renderer, int mip)
     leap_scene_destroy(s);
 }
 
+/* Shading of an analytic sphere: density 1 - r/20 about (24, 24, 24), a TF opaque white from
+ * 0.3 (the surface r = 14), diffuse light only from the eye, looking down -z orthographically.
+ * A pixel then shows |n . z| of the sphere's normal where its ray first meets the surface:
+ * sqrt(1 - rho^2 / r^2) at distance rho from the axis, with r in [13.5, 14] (the lattice's first
+ * sample inside). The GPU (every mode) and the reference both give it. */
+static void check_shading_sphere(leap_renderer *renderer)
+{
+    leap_error err = {{0}};
+    char path[1024];
+    mkdir(LEAP_TEST_TMP, 0755);
+    snprintf(path, sizeof path, "%s/radial.vdb", LEAP_TEST_TMP);
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err) : -1;
+    for (int z = 0; z < 49 && g >= 0; ++z)
+        for (int y = 0; y < 49; ++y)
+            for (int x = 0; x < 49; ++x) {
+                const double r = sqrt((double)((x - 24) * (x - 24) + (y - 24) * (y - 24) + (z - 24) * (z - 24)));
+                if (r < 20) leap_vdb_writer_set(w, g, x, y, z, 1.0 - r / 20.0);
+            }
+    CHECK_OK(g >= 0 ? leap_vdb_writer_save(w, path, &err) : LEAP_ERR_IO, &err);
+    leap_vdb_writer_destroy(w);
+    leap_shading light = {1, {0, 0, 0}, 0.0, 1.0, 0.0, 1.0};
+    leap_scene_desc d = {.path = path, .step = 0.5, .has_range = 1, .range = {0, 1}, .shade = light};
+    leap_scene *s = NULL;
+    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    if (!s) return;
+    leap_tf tf = s->tf;
+    for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
+        tf.rgba[i][0] = tf.rgba[i][1] = tf.rgba[i][2] = 1.0f;
+        tf.rgba[i][3] = (double)i / (LEAP_TF_TABLE_SIZE - 1) >= 0.3 ? 1.0f : 0.0f;
+    }
+    CHECK_OK(leap_scene_set_tf(s, &tf, 0, 1, &err), &err);
+    CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+    enum { N = 48 };
+    leap_camera cam = {.eye = {24, 24, 200}, .target = {24, 24, 0}, .up = {0, 1, 0}, .fov_deg = 40, .ortho = 1,
+                       .ortho_height = N};
+    leap_rays view;
+    CHECK_OK(leap_scene_rays(s, &cam, N, N, &view, &err), &err);
+    static float img[N * N * 4], ref[N * N * 4];
+    leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
+    CHECK_OK(leap_reference_render(&rd, ref, NULL, NULL, &err), &err);
+    double worst[LEAP_RENDER_MODE_COUNT + 1] = {0};
+    int pixels = 0;
+    for (int m = 0; m <= LEAP_RENDER_MODE_COUNT; ++m) {
+        const float *im = m < LEAP_RENDER_MODE_COUNT ? img : ref;
+        if (m < LEAP_RENDER_MODE_COUNT)
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, img, NULL, NULL, NULL, &err), &err);
+        for (int py = 0; py < N; ++py)
+            for (int px = 0; px < N; ++px) {
+                const double dx = px + 0.5 - 24, dy = py + 0.5 - 24, rho2 = dx * dx + dy * dy;
+                if (rho2 > 10.0 * 10.0) continue;
+                const double lo = sqrt(1 - rho2 / (13.5 * 13.5)), hi = sqrt(1 - rho2 / (14.0 * 14.0));
+                const double v = im[4 * (py * N + px)], off = v < lo ? lo - v : v > hi ? v - hi : 0;
+                worst[m] = fmax(worst[m], off);
+                pixels += m == 0;
+            }
+    }
+    printf("analytic sphere, %d pixels: |n.z| outside [r = 13.5, r = 14] by at most: naive %.3f bbox %.3f sparseleap "
+           "%.3f octree %.3f reference %.3f\n", pixels, worst[0], worst[1], worst[2], worst[3], worst[4]);
+    for (int m = 0; m <= LEAP_RENDER_MODE_COUNT; ++m)
+        CHECK_MSG(worst[m] <= 0.02, "analytic sphere: %s off the known normals by %g",
+                  m < LEAP_RENDER_MODE_COUNT ? leap_mode_name((leap_mode)m) : "reference", worst[m]);
+    CHECK(pixels > 200);
+    leap_scene_destroy(s);
+}
+
 static leap_scene *load_scene(const char *file, const char *grid, const char *tf, int exact_boxes)
 {
     char path[1024];
@@ -512,6 +579,7 @@ int main(void)
     check_mip_hot_voxel(renderer, LEAP_MIP_MAX);
     check_mip_hot_voxel(renderer, LEAP_MIP_MIN);
     check_shading(renderer, naive, img);
+    check_shading_sphere(renderer);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");
