@@ -17,5 +17,6 @@ layout(std430, set = 0, binding = LEAP_BINDING_SEGMENTS) buffer Segments { vec2 
 layout(std430, set = 0, binding = LEAP_BINDING_PIXELS) buffer Pixels { uvec4 pixel_lists[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint tree[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_OBJECTS) readonly buffer Objects { vec4 objects[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_SLOT_RANGES) readonly buffer SlotRanges { uint slot_ranges[]; };
 
 #endif

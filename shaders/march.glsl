@@ -73,6 +73,7 @@ struct leap_cell_cursor {
     bool constant;
     float value;     // constant cells
     vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q
+    uint slot;       // slot cells: the slot's index (LEAP_BINDING_SLOT_RANGES)
     uint object;     // label volumes, constant cells: the object index
     uint record;     // label volumes, other cells: the record's first word in pages[]
 };
@@ -86,6 +87,7 @@ leap_cell_cursor leap_cursor_init()
     c.constant = true;
     c.value = 0.0;
     c.texel_base = vec3(0.0);
+    c.slot = 0u;
     c.object = 0u;
     c.record = 0u;
     return c;
@@ -114,6 +116,7 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
     } else {
         uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
         cur.texel_base = vec3(slot * uint(LEAP_SLOT)) - vec3(cell * LEAP_CELL) + 0.5;
+        if (leap_mip) cur.slot = slot.x + frame.slot_dims.x * (slot.y + frame.slot_dims.y * slot.z);
     }
 }
 
@@ -252,6 +255,17 @@ void leap_composite_object(inout leap_accum acc, uint object, float t)
     if (acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(object);
 }
 
+// MIP: whether no sample of the cursor's slot cell can raise the ray's (signed) extreme: its
+// stored values' range, mapped as samples are, reaches no higher than what the ray holds.
+bool leap_mip_cell_futile(leap_cell_cursor cur, leap_tf_map tf, float held)
+{
+    uint range = slot_ranges[cur.slot];
+    float a = clamp(float(range & 0xffffu) * (1.0 / 65535.0) * tf.scale + tf.offset, tf.lo, tf.hi);
+    float b = clamp(float(range >> 16) * (1.0 / 65535.0) * tf.scale + tf.offset, tf.lo, tf.hi);
+    float best = frame.image.z != 0u ? -min(a, b) : max(a, b);
+    return best <= held;
+}
+
 // One MIP sample at table coordinate x, in [lo, hi]; minIP keeps -x, so both keep the largest.
 // Once the extreme of the table is reached no later sample can change the colour or the first
 // t, so the ray is done (transmittance 0 marks it).
@@ -340,6 +354,15 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                 q = r.origin + t * r.dir;
                 if (any(notEqual(ivec3(floor(q)) >> LEAP_CELL_SHIFT, cell))) break;
             }
+        } else if (leap_mip && leap_mip_cell_futile(cur, tf, acc.color.r)) {
+            // Its samples cannot change the pixel (a tie keeps the first t): skip to the last
+            // sample before the cell's exit, which the loop then takes as usual (so a rounding
+            // of the exit can never skip a sample of the next cell).
+            float b0, b1;
+            if (!leap_clip_box(r, vec3(cell * LEAP_CELL), vec3((cell + 1) * LEAP_CELL), b0, b1)) b1 = t;
+            j = max(j + 1.0, leap_lattice_first(lat, b1) - 1.0);
+            t = lat.t0 + j * lat.dt;
+            more = t <= tb;
         } else {
             for (;;) {
                 if (leap_labels) {

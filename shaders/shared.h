@@ -44,6 +44,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_GRADIENTS 14 /* sampler3D, RGBA16 SNORM, the atlas's slots: per voxel
                                      (v[+1] - v[-1]) of the stored values (leap_atlas_gradients);
                                      shading only (else the atlas is bound here, never read) */
+#define LEAP_BINDING_SLOT_RANGES 15 /* storage uint[] per atlas slot (x + slots_x * (y + slots_y * z)):
+                                     its smallest stored value | its largest << 16 (MIP skips a
+                                     cell that cannot raise a ray's maximum); scalar atlases */
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 

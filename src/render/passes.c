@@ -104,6 +104,7 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_EVENT_T] = &r->event_t, [LEAP_BINDING_EVENT_KEY] = &r->event_key,
         [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
         [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
+        [LEAP_BINDING_SLOT_RANGES] = r->slot_ranges.buffer ? &r->slot_ranges : &r->pages, /* labels: never read */
     };
     const int gradients = r->gradients_serial == r->atlas_serial && r->gradients.view;
     VkDescriptorImageInfo img[3] = {

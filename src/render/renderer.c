@@ -71,6 +71,7 @@ void leap_renderer_destroy(leap_renderer *r)
         leap_gpu_buffer_destroy(gpu, &r->boxes);
         leap_gpu_image_destroy(gpu, &r->tf);
         leap_gpu_buffer_destroy(gpu, &r->pages);
+        leap_gpu_buffer_destroy(gpu, &r->slot_ranges);
         leap_gpu_image_destroy(gpu, &r->atlas);
         leap_gpu_image_destroy(gpu, &r->gradients);
         leap_gpu_buffer_destroy(gpu, &r->frame);
@@ -100,6 +101,33 @@ const char *leap_renderer_driver_name(const leap_renderer *r) { return r->driver
  * the origin, 96x96: RMSE 5.7e-5 at 2^16, 2.0e-4 at 2^18, 2.6e-3 at 2^22, 4.2e-2 at 2^24). */
 #define LEAP_FLOAT_POSITION_LIMIT 131072.0
 
+/* Each slot's smallest and largest stored value, for MIP's test of a cell that cannot raise a
+ * ray's maximum (or lower its minimum). */
+static leap_result upload_slot_ranges(leap_renderer *r, const leap_atlas *a, leap_error *err)
+{
+    const size_t slots = (size_t)a->slot_dims[0] * a->slot_dims[1] * a->slot_dims[2];
+    leap_result lr = leap_gpu_buffer_create(r->gpu, (slots ? slots : 1) * sizeof(uint32_t),
+                                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->slot_ranges, err);
+    if (lr) return lr;
+    uint32_t *out = r->slot_ranges.mapped;
+    const size_t sx = 1, sy = a->texel_dims[0], sz = (size_t)a->texel_dims[0] * a->texel_dims[1];
+    for (size_t s = 0; s < slots; ++s) {
+        const size_t x = s % a->slot_dims[0], y = s / a->slot_dims[0] % a->slot_dims[1],
+                     z = s / ((size_t)a->slot_dims[0] * a->slot_dims[1]);
+        const uint16_t *base = a->texels + x * LEAP_SLOT * sx + y * LEAP_SLOT * sy + z * LEAP_SLOT * sz;
+        uint16_t lo = 0xffff, hi = 0;
+        for (int k = 0; k < LEAP_SLOT; ++k)
+            for (int j = 0; j < LEAP_SLOT; ++j)
+                for (int i = 0; i < LEAP_SLOT; ++i) {
+                    const uint16_t v = base[i * sx + j * sy + k * sz];
+                    lo = v < lo ? v : lo;
+                    hi = v > hi ? v : hi;
+                }
+        out[s] = (uint32_t)lo | (uint32_t)hi << 16;
+    }
+    return LEAP_OK;
+}
+
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
 {
     double reach = 0;
@@ -115,6 +143,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     leap_gpu_image_destroy(r->gpu, &r->gradients);
     r->gradients_serial = 0;
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
+    leap_gpu_buffer_destroy(r->gpu, &r->slot_ranges);
     r->has_volume = 0;
     r->atlas_serial = 0;
     r->last_frame_pixels = 0;
@@ -149,6 +178,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     }
     if (!lr)
         lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
+    if (!lr && !atlas->labels) lr = upload_slot_ranges(r, atlas, err);
     if (lr) return lr;
     memcpy(r->pages.mapped, atlas->pages, atlas->page_words * 4);
     if (atlas->labels)

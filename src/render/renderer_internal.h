@@ -11,7 +11,7 @@
 
 _Static_assert(sizeof(leap_frame_gpu) == 576, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 15
+#define BINDING_COUNT 16
 
 /* Kinds of composite pipeline: scalar with opacity corrected per sample or in the TF table,
  * labels, MIP, and the two scalar ones shaded. */
@@ -46,6 +46,7 @@ struct leap_renderer {
     leap_image gradients;      /* shading: leap_atlas_gradients of the atlas with gradients_serial */
     uint64_t gradients_serial; /* 0: none */
     leap_buffer pages;
+    leap_buffer slot_ranges;   /* scalar atlases: per slot, its smallest | largest stored value << 16 */
     leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */
     leap_tf tf_raw;
     int has_tf;
