@@ -71,7 +71,7 @@ static const char *const preset_notes[] = {
     "perceptual colour map (blue-green-yellow), transparent below 5 % of the range",
     "one colour per integer value, 0 transparent (float label maps; real segmentations use --labels)",
     "black-red-yellow-white, opacity rising with the value",
-    "white, low opacity rising with the value (smoke, fog)",
+    "smoke and fog: thin enough to show density through the volume, blue-grey where thin, white where dense",
     "ParaView's default diverging map (blue-grey-red), transparent below 5 % of the range",
     "black-purple-orange-yellow perceptual map, transparent below 5 % of the range",
     "ParaView's black-body radiation (black-red-yellow-white), transparent below 5 % of the range",
@@ -216,13 +216,18 @@ static void fill_hot(leap_tf *out)
     }
 }
 
-/* White with a low opacity ramp, for smoke and clouds. */
+/* Smoke and clouds: thin, so a ray integrates the density through the whole volume instead
+ * of stopping at its skin (a fog sphere of density 1 and 80 voxels across has an optical depth
+ * of 4.8 through its centre), and blue-grey where thin turning white where dense, so density
+ * differences show as colour as well as brightness. */
 static void fill_cloud(leap_tf *out)
 {
     for (int i = 0; i < N_TABLE; ++i) {
         const double u = table_u(i);
-        out->rgba[i][0] = out->rgba[i][1] = out->rgba[i][2] = 1.0f;
-        out->rgba[i][3] = clamp01f(0.25 * u);
+        out->rgba[i][0] = (float)(0.45 + 0.55 * u);
+        out->rgba[i][1] = (float)(0.52 + 0.48 * u);
+        out->rgba[i][2] = (float)(0.65 + 0.35 * u);
+        out->rgba[i][3] = clamp01f(0.06 * u);
     }
 }
 
