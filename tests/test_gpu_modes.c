@@ -79,6 +79,20 @@ static void fog_tf(leap_tf *tf)
 }
 
 /* The rays of camera `which` (see camera()) for scene s. */
+/* The scene re-classified under one of three TFs: its own (0), fog_tf (1), or grey (2), whose
+ * opacity ramps from exactly 0 at the bottom of the range, where background values are clamped
+ * (the clamped end of the classification). */
+static leap_tf use_tf(leap_scene *s, const leap_tf *scene_tf, int which)
+{
+    leap_error err = {{0}};
+    leap_tf tf = *scene_tf;
+    if (which == 1) fog_tf(&tf);
+    if (which == 2) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
+    /* re-classifies the scene's occupancy and rebuilds its (cost-model cut) boxes */
+    CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
+    return tf;
+}
+
 static int view_for(const leap_scene *s, int which, leap_rays *view)
 {
     leap_camera cam;
@@ -178,6 +192,37 @@ static void gap_tf(leap_tf *tf)
     snprintf(tf->name, sizeof tf->name, "gap");
 }
 
+/* Renders camera cam_i's view (view_for, into *view) in naive, then in every other mode, each
+ * equal to naive (colour, and every depth when depth buffers are given) with naive's lattice and
+ * at most its samples. *ns: naive's stats. Returns how many modes took fewer samples than the
+ * lattice. */
+static int modes_equal_naive(leap_renderer *renderer, const leap_scene *s, int cam_i, leap_rays *view, float *naive,
+                             float *img, float *depth_naive, float *depth, const char *prefix, leap_frame_stats *ns)
+{
+    leap_error err = {{0}};
+    CHECK(view_for(s, cam_i, view));
+    char what[320];
+    snprintf(what, sizeof what, "%s %s", prefix, camera_names[cam_i]);
+    const size_t n = (size_t)view->width * view->height;
+    int fewer = 0;
+    CHECK_OK(leap_renderer_render(renderer, view, &s->march, LEAP_RENDER_NAIVE, naive, depth_naive, NULL, ns, &err),
+             &err);
+    for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
+        leap_frame_stats st;
+        CHECK_OK(leap_renderer_render(renderer, view, &s->march, (leap_mode)m, img, depth, NULL, &st, &err), &err);
+        image_diff dd = compare_rgba(img, naive, n);
+        size_t depth_off = 0;
+        for (size_t i = 0; depth && i < n; ++i)
+            depth_off += !(depth[i] == depth_naive[i] || (isinf(depth[i]) && isinf(depth_naive[i])));
+        CHECK_MSG(dd.nonfinite == 0 && dd.max_abs <= TOL && depth_off == 0,
+                  "%s %s: max abs %g vs naive, %zu depths differ", what, leap_mode_name((leap_mode)m), dd.max_abs,
+                  depth_off);
+        CHECK(st.naive_samples == ns->naive_samples && st.total_samples <= st.naive_samples);
+        fewer += st.total_samples < st.naive_samples;
+    }
+    return fewer;
+}
+
 /* Dark balls (0 at the centre, 1 at the rim) scattered in a 64^3 box of background 1: where
  * minIP shows something, and cells of 1 alone are skippable under a TF transparent at 1. */
 static int make_dips(const char *path)
@@ -248,29 +293,18 @@ static void check_mip(leap_renderer *renderer, float *naive, float *img)
             CHECK_OK(leap_scene_set_mip(s, mip, &err), &err);
             CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
             CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+            char label[256];
+            snprintf(label, sizeof label, "%s %s %s", what, file, tf.name);
             for (int cam_i = 0; cam_i < 5; ++cam_i) {
                 leap_rays view;
-                CHECK(view_for(s, cam_i, &view));
-                leap_frame_stats ns, st;
-                CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, depth_naive, NULL, &ns,
-                                              &err), &err);
-                for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
-                    CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, img, depth, NULL, &st, &err),
-                             &err);
-                    image_diff dd = compare_rgba(img, naive, n);
-                    size_t depth_off = 0;
-                    for (size_t i = 0; i < n; ++i)
-                        depth_off += !(depth[i] == depth_naive[i] || (isinf(depth[i]) && isinf(depth_naive[i])));
-                    CHECK_MSG(dd.nonfinite == 0 && dd.max_abs <= TOL && depth_off == 0,
-                              "%s %s %s %s %s: max abs %g vs naive, %zu depths differ", what, file, tf.name,
-                              camera_names[cam_i], leap_mode_name((leap_mode)m), dd.max_abs, depth_off);
-                    /* Every mode (naive too) passes cells that cannot change the extreme, so the
-                     * samples are compared with the lattice's, not with naive's. */
-                    CHECK(st.naive_samples == ns.naive_samples && st.total_samples <= st.naive_samples);
-                    skipped_frames += st.total_samples < st.naive_samples;
-                    min_skipped += mip < 0 && st.total_samples < st.naive_samples;
-                    ++frames;
-                }
+                leap_frame_stats ns;
+                /* Every mode (naive too) passes cells that cannot change the extreme, so the
+                 * samples are compared with the lattice's, not with naive's. */
+                const int fewer =
+                    modes_equal_naive(renderer, s, cam_i, &view, naive, img, depth_naive, depth, label, &ns);
+                skipped_frames += fewer;
+                min_skipped += mip < 0 ? fewer : 0;
+                frames += LEAP_RENDER_MODE_COUNT - 1;
                 futile_frames += ns.total_samples < ns.naive_samples;
                 double alpha = 0;
                 for (size_t i = 0; i < n; ++i) alpha += naive[4 * i + 3];
@@ -320,31 +354,19 @@ static void check_shading(leap_renderer *renderer, float *naive, float *img)
         CHECK(s->atlas->wide);
         const leap_tf scene_tf = s->tf;
         for (int tfi = 0; tfi < 3; ++tfi) {
-            leap_tf tf = scene_tf;
-            if (tfi == 1) fog_tf(&tf);
-            if (tfi == 2) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
-            CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
+            const leap_tf tf = use_tf(s, &scene_tf, tfi);
             for (int light = 0; light < 2; ++light) {
                 leap_shading sh = leap_shading_default();
                 if (light) sh.light[0] = 1, sh.light[1] = 2, sh.light[2] = 0.5, sh.specular = 0.6, sh.shininess = 8;
                 CHECK_OK(leap_scene_set_shading(s, &sh, &err), &err);
                 CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+                char label[256];
+                snprintf(label, sizeof label, "shaded %s %s light %d", volumes[v].file, tf.name, light);
                 for (int cam_i = 0; cam_i < 5; ++cam_i) {
                     leap_rays view;
-                    CHECK(view_for(s, cam_i, &view));
-                    leap_frame_stats ns, st;
-                    CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns,
-                                                  &err), &err);
-                    for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
-                        CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, img, NULL, NULL, &st, &err),
-                                 &err);
-                        image_diff dd = compare_rgba(img, naive, n);
-                        CHECK_MSG(dd.nonfinite == 0 && dd.max_abs <= TOL, "shaded %s %s light %d %s %s: max abs %g vs naive",
-                                  volumes[v].file, tf.name, light, camera_names[cam_i], leap_mode_name((leap_mode)m),
-                                  dd.max_abs);
-                        CHECK(st.total_samples <= ns.total_samples && st.naive_samples == ns.total_samples);
-                        ++frames;
-                    }
+                    leap_frame_stats ns;
+                    modes_equal_naive(renderer, s, cam_i, &view, naive, img, NULL, NULL, label, &ns);
+                    frames += LEAP_RENDER_MODE_COUNT - 1;
                     /* Colour only: the same opacity as the unshaded frame (the same values, whose
                      * atlas differs only in which constant cells got slots). */
                     leap_march unshaded = s->march;
@@ -530,13 +552,7 @@ int main(void)
         if (!s) continue;
         const leap_tf scene_tf = s->tf;
         for (int tfi = 0; tfi < 3; ++tfi) {
-            leap_tf tf = scene_tf;
-            if (tfi == 1) fog_tf(&tf);
-            /* grey: opacity ramps from exactly 0 at the bottom of the range, where background
-             * values are clamped: exercises the clamped end of the classification. */
-            if (tfi == 2) CHECK_OK(leap_tf_preset("grey", 1, &tf, &err), &err);
-            /* re-classifies the scene's occupancy and rebuilds its (cost-model cut) boxes */
-            CHECK_OK(leap_scene_set_tf(s, &tf, s->march.range_lo, s->march.range_hi, &err), &err);
+            const leap_tf tf = use_tf(s, &scene_tf, tfi);
             /* Exact class-change boxes, then the cost-model cut for the step (the scene's own). */
             leap_boxes *exact = NULL;
             CHECK_OK(leap_boxes_create(&(leap_boxes_desc){.occupancy = s->occupancy, .merge_siblings = 1, .step = 0},
