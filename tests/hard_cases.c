@@ -230,11 +230,26 @@ void opaque_tf(leap_tf *tf)
 
 /* ---- scenes ---------------------------------------------------------------------------- */
 
+int hc_look = HC_PLAIN;
+
+void hc_apply_look(leap_scene *s)
+{
+    leap_error err = {{0}};
+    if (!s || s->labels || hc_look == HC_PLAIN) return;
+    if (hc_look == HC_SHADE) {
+        const leap_shading sh = leap_shading_default();
+        CHECK_OK(leap_scene_set_shading(s, &sh, &err), &err);
+    } else {
+        CHECK_OK(leap_scene_set_mip(s, hc_look == HC_MIP ? LEAP_MIP_MAX : LEAP_MIP_MIN, &err), &err);
+    }
+}
+
 leap_scene *load_desc(const leap_scene_desc *d, const leap_tf *tf)
 {
     leap_error err = {{0}};
     leap_scene *s = NULL;
     CHECK_OK(leap_scene_create(d, &s, &err), &err);
+    hc_apply_look(s); /* before the TF: MIP classifies by it */
     if (s && tf) CHECK_OK(leap_scene_set_tf(s, tf, s->march.range_lo, s->march.range_hi, &err), &err);
     return s;
 }
@@ -269,6 +284,7 @@ leap_scene *load_shipped(const char *file, const char *grid, const char *preset)
     leap_scene_desc d = {.path = path, .grid = grid, .tf = preset};
     leap_scene *s = NULL;
     CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    hc_apply_look(s);
     return s;
 }
 

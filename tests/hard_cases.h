@@ -196,6 +196,12 @@ void opaque_tf(leap_tf *tf);
 
 leap_scene *load_desc(const leap_scene_desc *d, const leap_tf *tf);
 
+/* The look every scene loaded from now on gets (load_desc, load_shipped; segmentations keep
+ * theirs): frames then compare the modes shaded or in MIP / minIP. */
+enum { HC_PLAIN, HC_SHADE, HC_MIP, HC_MINIP };
+extern int hc_look;
+void hc_apply_look(leap_scene *s);
+
 leap_scene *load(const char *path, const char *preset, const leap_tf *tf, int has_range, double lo, double hi);
 
 leap_scene *load_tmp(const char *name, const char *preset, const leap_tf *tf, int has_range, double lo, double hi);

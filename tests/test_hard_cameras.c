@@ -2,7 +2,8 @@
  * and an empty box, on a face and at a corner, the near plane and the ortho eye plane cutting
  * boxes; orthographic and perspective projections with fields of view 170, 179, 0.5 and 0.05
  * degrees; cameras far from the grid (lattice indices beyond 2^24) against the analytic
- * sphere. Every frame gets the checks of hard_cases.h. */
+ * sphere; the positions and projections again shaded, in MIP and in minIP. Every frame gets the
+ * checks of hard_cases.h. */
 #include "hard_cases.h"
 
 static void case_camera_positions(void)
@@ -158,8 +159,21 @@ static void case_far_camera(void)
     hc_end();
 }
 
+/* The camera positions and projections again, shaded, in MIP and in minIP (the far cameras'
+ * closed form is for plain compositing). */
+static void case_looks(void)
+{
+    static const char *const names[] = {"", "shaded", "MIP", "minIP"};
+    for (hc_look = HC_SHADE; hc_look <= HC_MINIP; ++hc_look) {
+        printf("== the cases above, %s\n", names[hc_look]);
+        case_camera_positions();
+        case_projections();
+    }
+    hc_look = HC_PLAIN;
+}
+
 int main(void)
 {
-    static void (*const cases[])(void) = {case_camera_positions, case_projections, case_far_camera};
+    static void (*const cases[])(void) = {case_camera_positions, case_projections, case_far_camera, case_looks};
     return hc_run(cases, sizeof cases / sizeof cases[0]);
 }
