@@ -358,6 +358,29 @@ int main(void)
         if (have_args && exists(shot) && exists(ref)) matches(shot, ref, look_keys[k][0]);
     }
 
+    /* A value window above every value: the frame is blank, and the viewer says why. */
+    {
+        char text[2048], line[1024] = "";
+        for (int k = 0; k < 12; ++k) strcat(line, "key ]\n");
+        strcat(line, "screenshot @/blank.png\nkey q\n"); /* the screenshot waits for the frame */
+        expand(text, sizeof text, line, tmp);
+        snprintf(script, sizeof script, "%s/blank.txt", tmp);
+        write_text(script, text);
+        snprintf(cmd, sizeof cmd, "%s %s view %s --size 120x90 --script %s", xvfb, LEAP_EXE, vol, script);
+        rc = run(cmd);
+        CHECK_MSG(rc == 0 && strstr(out_text, "nothing to show: every value is transparent"),
+                  "a blank window gave no reason: exit %d: %s", rc, out_text);
+        snprintf(shot, sizeof shot, "%s/blank.png", tmp);
+        float *px = NULL;
+        int w = 0, h = 0, c = 0;
+        leap_error e = {{0}};
+        CHECK_OK(leap_image_read(shot, &w, &h, &c, &px, &e), &e);
+        double sum = 0;
+        for (size_t i = 0; px && i < (size_t)w * h * c; ++i) sum += px[i];
+        CHECK_MSG(px && sum == 0, "the blank window's screenshot is not black (sum %g)", sum);
+        free(px);
+    }
+
     /* Failures: no display, bad script (with its line), usage errors. */
     snprintf(cmd, sizeof cmd, "env -u DISPLAY -u WAYLAND_DISPLAY %s view %s --frames 1", LEAP_EXE, vol);
     rc = run(cmd);

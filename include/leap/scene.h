@@ -101,6 +101,11 @@ leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err);
  * for segmentations, with MIP, or for values out of range. */
 leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *shade, leap_error *err);
 
+/* 1 when nothing can show under the current look: every cell is EMPTY (every value is
+ * transparent under the TF and range, below MIP's first non-zero opacity, or every object is
+ * hidden), so any image is blank. Writes a one-line reason for the user into msg. */
+int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size);
+
 /* A clipping plane in world units (keep a x + b y + c z + d >= 0) as the plane of relative
  * index space that leap_march.clip holds. */
 void leap_scene_clip_to_index(const leap_scene *s, const double world[4], double index[4]);

@@ -283,6 +283,21 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
     return LEAP_OK;
 }
 
+int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size)
+{
+    double lo[3], hi[3];
+    if (leap_occupancy_nonempty_bounds(s->occupancy, lo, hi)) return 0;
+    if (s->atlas->empty) snprintf(msg, size, "the grid has no active voxels");
+    else if (s->labels) snprintf(msg, size, "every object is hidden");
+    else
+        snprintf(msg, size, "every value is transparent under the transfer function '%s' over [%g, %g]%s", s->tf.name,
+                 s->march.range_lo, s->march.range_hi,
+                 s->march.mip > 0   ? " (MIP: no value reaches its first non-zero opacity)"
+                 : s->march.mip < 0 ? " (minIP: no value lies below its last non-zero opacity)"
+                                    : "");
+    return 1;
+}
+
 leap_result leap_scene_set_step(leap_scene *s, double step, leap_error *err)
 {
     if (!(step > 0) || !isfinite(step)) return leap_fail(err, LEAP_ERR_USAGE, "the step must be a positive number");

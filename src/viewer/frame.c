@@ -64,6 +64,10 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     if (!r) r = leap_renderer_bind_scene(s->renderer, s->scene, err);
     ++s->tf_gen;
     s->tf_apply_ms = leap__now_ms() - t;
+    char why[256];
+    if (!r && leap_scene_shows_nothing(s->scene, why, sizeof why))
+        session_note(s, LEAP_VIEWER_NOTE_STATUS, "nothing to show: %s ([ ] { } move the value window, t picks the "
+                     "next preset)", why);
     return r;
 }
 
@@ -238,12 +242,14 @@ static void make_title(const leap_viewer_session *s, const leap_viewer *st, cons
         snprintf(res, sizeof res, " (refining%s: %.0f %%)", ff->scale > 1 ? " at reduced res" : "", 100.0 * ff->progress);
     else if (ff->scale > 1)
         snprintf(res, sizeof res, " (1/%d res)", ff->scale);
-    char tf_ms[48] = "";
+    char tf_ms[48] = "", blank[300] = "", why[256];
     if (s->tf_apply_ms > 0) snprintf(tf_ms, sizeof tf_ms, " | re-classify %.1f ms", s->tf_apply_ms);
+    /* A blank frame says why, first: a silently black window looks like a failure. */
+    if (leap_scene_shows_nothing(s->scene, why, sizeof why)) snprintf(blank, sizeof blank, " | NOTHING TO SHOW: %s", why);
     snprintf(out, size,
-             "leap view %s | %s | %ux%u%s | %.1f ms (%.1f fps) | raster %.1f resolve %.1f composite %.1f "
+             "leap view %s%s | %s | %ux%u%s | %.1f ms (%.1f fps) | raster %.1f resolve %.1f composite %.1f "
              "readback %.1f compose %.1f present %.1f ms | %u boxes | %.1f spp | step %g | %s [%g, %g]%s%s%s%s",
-             s->volume_name, leap_mode_name(st->mode), (unsigned)s->width, (unsigned)s->height, res, ff->total_ms,
+             s->volume_name, blank, leap_mode_name(st->mode), (unsigned)s->width, (unsigned)s->height, res, ff->total_ms,
              ff->total_ms > 0 ? 1000.0 / ff->total_ms : 0.0, ff->raster_ms, ff->resolve_ms, ff->composite_ms, ff->readback_ms,
              ff->compose_ms, ff->present_ms, leap_boxes_count(s->scene->boxes),
              ff->pixels ? (double)ff->samples / (double)ff->pixels : 0.0, st->step, leap__base_name(st->tf), st->range[0],
