@@ -415,6 +415,10 @@ int main(void)
     CHECK(run(args) == 0 && strstr(out_text, "\"projection\":\t\"mip\""));
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --mip", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "segmentation", out);
+    /* A range above every value: the image is written (blank), with a warning saying why. */
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 -q --range 10,20", sphere, out);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "nothing to show: every value is transparent") && exists(out),
+              "a blank render gave no reason: %s", out_text);
     /* Shading: the stats give the light as used (unit length) and the terms; what it cannot
      * light, and terms out of range, are usage errors. */
     snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q --light 0,2,0 --specular 0.5", sphere, out);

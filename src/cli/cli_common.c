@@ -64,6 +64,14 @@ static int starts_with_path(const char *msg, const char *path)
     return n && !strncmp(msg, path, n) && msg[n] == ':';
 }
 
+void cli_warn_blank(const leap_scene *scene)
+{
+    char why[256];
+    if (leap_scene_shows_nothing(scene, why, sizeof why))
+        fprintf(stderr, "leap: warning: nothing to show: %s; the image is blank (--range, --tf or --show change "
+                        "that)\n", why);
+}
+
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)
 {
     if (r == LEAP_ERR_USAGE || starts_with_path(msg, volume) || starts_with_path(msg, tf))

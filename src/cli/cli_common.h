@@ -30,6 +30,10 @@ const char *cli_printable(const char *s, char *buf, size_t cap);
  * unless it already names one of the two or is about the user's options (LEAP_ERR_USAGE).
  * Returns the exit code for r. */
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg);
+
+/* Warns on stderr when the scene can show nothing (leap_scene_shows_nothing): the image will be
+ * blank, and the user learns why rather than finding a black file. */
+void cli_warn_blank(const leap_scene *scene);
 /* Exit code for a library error: usage errors are 2, everything else 1. */
 int cli_exit_code(leap_result r);
 

@@ -349,6 +349,7 @@ int cli_render(int argc, char **argv)
         rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
     }
+    cli_warn_blank(scene);
     times.load = scene->load_ms;
     times.atlas = scene->atlas_ms;
     times.occupancy = scene->bricks_ms + scene->occupancy_ms;

@@ -74,6 +74,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
         rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
         goto done;
     }
+    cli_warn_blank(scene);
     if (!rgba || !depth || !samples || (scene->labels && !(ids = malloc(n * sizeof *ids)))) {
         cli_runtime_error("out of memory for a %dx%d image", o->width, o->height);
         goto done;
