@@ -33,6 +33,11 @@ void leap_temp_untrack(int slot);
  * beyond the file-size limit fails as a write error instead of killing the process. */
 void leap_signals_install(void);
 
+/* A child process that writes temporary files of its own (the image writer): on such a
+ * signal the handler first stops it with SIGTERM and waits for it, so that it has removed
+ * its temporaries before the program exits. 0: none. */
+void leap_signals_child(int pid);
+
 /* Atomic publishing: leap_publish_begin names a tracked temporary file beside path (same
  * directory and extension, so format choice and rename() work), the caller writes p->tmp,
  * then leap_publish_commit renames it into place or leap_publish_abort removes it. Any

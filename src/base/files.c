@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <signal.h>
+#include <sys/wait.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -118,10 +119,23 @@ void leap_temp_untrack(int slot)
     if (slot >= 0 && slot < TEMP_SLOTS) temp_used[slot] = 0;
 }
 
+static volatile sig_atomic_t signal_child;
+
+void leap_signals_child(int pid)
+{
+    signal_child = pid;
+}
+
 static void on_fatal_signal(int sig)
 {
     for (int i = 0; i < TEMP_SLOTS; ++i)
         if (temp_used[i]) unlink(temp_paths[i]); /* async-signal-safe */
+    const pid_t child = (pid_t)signal_child;
+    if (child > 0) { /* kill and waitpid are async-signal-safe */
+        kill(child, SIGTERM);
+        while (waitpid(child, NULL, 0) < 0 && errno == EINTR) {
+        }
+    }
     _exit(128 + sig);
 }
 

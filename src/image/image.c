@@ -165,6 +165,7 @@ static void writer_serve(int fd)
 static void writer_stop(void)
 {
     if (writer_pid <= 0) return;
+    leap_signals_child(0);
     close(writer_socket);
     kill(writer_pid, SIGKILL);
     while (waitpid(writer_pid, NULL, 0) < 0 && errno == EINTR) {
@@ -191,6 +192,7 @@ void leap_image_preload(void)
     }
     writer_pid = pid;
     writer_socket = pair[0];
+    leap_signals_child(pid); /* a signal waits for the writer to remove its temporary */
     atexit(writer_stop);
 }
 

@@ -259,8 +259,8 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
         return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) lights the gradient of a scalar volume; a "
                          "segmentation has objects, not values");
     if (s->march.mip)
-        return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) does not apply to MIP (--mip): a MIP pixel has no "
-                         "surface to light");
+        return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) does not apply to %s: a projected pixel has no "
+                         "surface to light", s->march.mip > 0 ? "MIP (--mip)" : "minIP (--minip)");
     const double terms[4] = {sh.ambient, sh.diffuse, sh.specular, sh.shininess};
     static const char *const names[4] = {"ambient", "diffuse", "specular", "shininess"};
     for (int i = 0; i < 4; ++i)
