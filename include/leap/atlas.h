@@ -46,6 +46,8 @@ typedef struct leap_atlas {
     uint32_t slot_dims[3];     /* slots per atlas axis */
     uint32_t texel_dims[3];    /* atlas texels per axis = slot_dims * LEAP_SLOT */
     uint16_t *texels;          /* texel_dims product, x fastest */
+    uint32_t *slot_ranges;     /* per slot (x + slot_dims[0] * (y + slot_dims[1] * z)): its smallest texel
+                                * | largest << 16 (MIP skipping) */
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
     double domain_min[3], domain_max[3]; /* marching box, relative index space */
     /* Label atlases: a constant cell's entry holds an object index; any other cell's entry is

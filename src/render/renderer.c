@@ -105,27 +105,11 @@ const char *leap_renderer_driver_name(const leap_renderer *r) { return r->driver
  * ray's maximum (or lower its minimum). */
 static leap_result upload_slot_ranges(leap_renderer *r, const leap_atlas *a, leap_error *err)
 {
-    const size_t slots = (size_t)a->slot_dims[0] * a->slot_dims[1] * a->slot_dims[2];
-    leap_result lr = leap_gpu_buffer_create(r->gpu, (slots ? slots : 1) * sizeof(uint32_t),
-                                            VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->slot_ranges, err);
-    if (lr) return lr;
-    uint32_t *out = r->slot_ranges.mapped;
-    const size_t sx = 1, sy = a->texel_dims[0], sz = (size_t)a->texel_dims[0] * a->texel_dims[1];
-    for (size_t s = 0; s < slots; ++s) {
-        const size_t x = s % a->slot_dims[0], y = s / a->slot_dims[0] % a->slot_dims[1],
-                     z = s / ((size_t)a->slot_dims[0] * a->slot_dims[1]);
-        const uint16_t *base = a->texels + x * LEAP_SLOT * sx + y * LEAP_SLOT * sy + z * LEAP_SLOT * sz;
-        uint16_t lo = 0xffff, hi = 0;
-        for (int k = 0; k < LEAP_SLOT; ++k)
-            for (int j = 0; j < LEAP_SLOT; ++j)
-                for (int i = 0; i < LEAP_SLOT; ++i) {
-                    const uint16_t v = base[i * sx + j * sy + k * sz];
-                    lo = v < lo ? v : lo;
-                    hi = v > hi ? v : hi;
-                }
-        out[s] = (uint32_t)lo | (uint32_t)hi << 16;
-    }
-    return LEAP_OK;
+    const size_t bytes = (size_t)a->slot_dims[0] * a->slot_dims[1] * a->slot_dims[2] * sizeof(uint32_t);
+    leap_result lr = leap_gpu_buffer_create(r->gpu, bytes ? bytes : sizeof(uint32_t), VK_BUFFER_USAGE_STORAGE_BUFFER_BIT,
+                                            &r->slot_ranges, err);
+    if (!lr && bytes) memcpy(r->slot_ranges.mapped, a->slot_ranges, bytes);
+    return lr;
 }
 
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err)

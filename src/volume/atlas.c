@@ -347,14 +347,18 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         leap_grid_reader_box(reader, min, dim, vals);
         int uniform = 1;
         const uint16_t first = quantize(a, vals[0]);
-        for (int j = 0; j < edge * edge * edge; ++j) {
-            const int x = j % edge, y = j / edge % edge, z = j / (edge * edge);
-            const uint16_t v = quantize(a, vals[j]);
-            uniform &= v == first;
-            const int sx = x - a->wide, sy = y - a->wide, sz = z - a->wide;
-            if (sx >= 0 && sx < LEAP_SLOT && sy >= 0 && sy < LEAP_SLOT && sz >= 0 && sz < LEAP_SLOT)
-                q[sx + LEAP_SLOT * (sy + LEAP_SLOT * sz)] = v;
-        }
+        const float *v = vals;
+        for (int z = 0; z < edge; ++z)
+            for (int y = 0; y < edge; ++y) {
+                const int sy = y - a->wide, sz = z - a->wide;
+                const int row = sy >= 0 && sy < LEAP_SLOT && sz >= 0 && sz < LEAP_SLOT ? LEAP_SLOT * (sy + LEAP_SLOT * sz) : -1;
+                for (int x = 0; x < edge; ++x) {
+                    const uint16_t t = quantize(a, *v++);
+                    uniform &= t == first;
+                    const int sx = x - a->wide;
+                    if (row >= 0 && sx >= 0 && sx < LEAP_SLOT) q[row + sx] = t;
+                }
+            }
         uint32_t entry;
         if (uniform && !dense) {
             entry = const_entry(first);
@@ -413,7 +417,8 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
     for (int i = 0; i < 3; ++i) a->texel_dims[i] = a->slot_dims[i] * LEAP_SLOT;
     size_t texel_count = (size_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2];
     a->texels = calloc(texel_count, sizeof(uint16_t));
-    if (!a->texels) {
+    a->slot_ranges = calloc((size_t)sx * sy * sz, sizeof(uint32_t));
+    if (!a->texels || !a->slot_ranges) {
         free(perm);
         return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %zu texels", texel_count);
     }
@@ -422,6 +427,12 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
         size_t x0 = (size_t)(d % sx) * LEAP_SLOT, y0 = (size_t)(d / sx % sy) * LEAP_SLOT,
                z0 = (size_t)(d / (sx * sy)) * LEAP_SLOT;
         const uint16_t *src = b->slots + (size_t)s * SLOT_TEXELS;
+        uint16_t lo = 0xffff, hi = 0;
+        for (int t = 0; t < SLOT_TEXELS; ++t) {
+            lo = src[t] < lo ? src[t] : lo;
+            hi = src[t] > hi ? src[t] : hi;
+        }
+        a->slot_ranges[d] = (uint32_t)lo | (uint32_t)hi << 16;
         for (int z = 0; z < LEAP_SLOT; ++z)
             for (int y = 0; y < LEAP_SLOT; ++y)
                 memcpy(a->texels + x0 + a->texel_dims[0] * ((y0 + y) + a->texel_dims[1] * (z0 + z)),
@@ -621,6 +632,7 @@ void leap_atlas_destroy(leap_atlas *atlas)
     if (!atlas) return;
     free(atlas->pages);
     free(atlas->texels);
+    free(atlas->slot_ranges);
     free(atlas->label_words);
     free(atlas->record_offsets);
     free(atlas);
