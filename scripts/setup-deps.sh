@@ -6,7 +6,7 @@ PKGS=(
   build-essential cmake pkg-config
   libopenvdb-dev libboost-iostreams-dev libimath-dev libtbb-dev libblosc-dev zlib1g-dev
   libvulkan-dev mesa-vulkan-drivers vulkan-tools glslang-dev glslang-tools
-  libopenimageio-dev openimageio-tools libcjson-dev libopenvdb-tools libnifti2-dev ffmpeg gnuplot-nox xvfb xauth libglfw3-dev clang libclang-rt-14-dev
+  libopenimageio-dev openimageio-tools libcjson-dev libopenvdb-tools libnifti2-dev ffmpeg gnuplot-nox xvfb xauth libglfw3-dev libimgui-dev clang libclang-rt-14-dev
   python3-nibabel python3-openvdb mricron-data
 )
 missing=()

@@ -8,6 +8,7 @@
 #include <sys/wait.h>
 
 #include "check.h"
+#include "image_diff.h"
 #include "leap/image.h"
 
 static char out_text[8192];
@@ -415,6 +416,34 @@ int main(void)
     CHECK(run(args) == 0 && strstr(out_text, "\"projection\":\t\"mip\""));
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --mip", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "segmentation", out);
+    /* --legend: only the bottom band changes; the bar's ends have the colours of u = 0 and 1;
+     * a segmentation has no value scale (a warning, the image without one). */
+    {
+        char plain[1200], legend[1200];
+        snprintf(plain, sizeof plain, "%s/legend-off.png", tmp);
+        snprintf(legend, sizeof legend, "%s/legend-on.png", tmp);
+        snprintf(args, sizeof args, "render %s -o %s --size 200x150 -q --tf hot", sphere, plain);
+        CHECK(run(args) == 0);
+        snprintf(args, sizeof args, "render %s -o %s --size 200x150 -q --tf hot --legend", sphere, legend);
+        CHECK(run(args) == 0);
+        long band = 0, above = 0;
+        const int ok = image_diff_split(plain, legend, 0, 150 - 40, 200, 150, &band, &above);
+        CHECK_MSG(ok && above == 0 && band > 500, "legend: %ld values changed above the bottom band, %ld in it", above,
+                  band);
+        /* the bar's first and last columns: hot maps u = 0 to black and u = 1 to white */
+        int w, h, c;
+        float *b = NULL;
+        leap_error e = {{0}};
+        CHECK_OK(leap_image_read(legend, &w, &h, &c, &b, &e), &e);
+        const int x0 = (w - w * 3 / 5) / 2, x1 = x0 + w * 3 / 5 - 1, y = h - 4 - 7 - 4 - 4; /* inside the bar */
+        if (b)
+            CHECK_MSG(b[((size_t)y * w + x0) * c] < 0.01f && b[((size_t)y * w + x1) * c + 2] > 0.99f,
+                      "legend bar ends: %g (black expected), %g (white expected)", b[((size_t)y * w + x0) * c],
+                      b[((size_t)y * w + x1) * c + 2]);
+        free(b);
+        snprintf(args, sizeof args, "render %s/tubes.vdb -o %s --size 64x64 -q --legend", LEAP_VOLUMES, legend);
+        CHECK_MSG(run(args) == 0 && strstr(out_text, "no legend"), "legend on a segmentation: %s", out_text);
+    }
     /* A range above every value: the image is written (blank), with a warning saying why. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 -q --range 10,20", sphere, out);
     CHECK_MSG(run(args) == 0 && strstr(out_text, "nothing to show: every value is transparent") && exists(out),

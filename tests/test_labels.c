@@ -107,7 +107,7 @@ static void check_picks(leap_renderer *r, leap_scene *s, const char *what)
             y = c / w;
         }
         leap_pick p;
-        CHECK_OK(leap_reference_pick(&rd, x + 0.5, y + 0.5, &p, &err), &err);
+        CHECK_OK(leap_reference_pick(&rd, x + 0.5, y + 0.5, 0.0, &p, &err), &err);
         const int64_t gpu = objects[(size_t)y * w + x];
         hits += p.hit;
         same += p.hit ? gpu == p.object : gpu < 0;

@@ -421,6 +421,43 @@ static void test_linear(const leap_grid *lin)
     }
 }
 
+/* Picking: the first sample above LEAP_DEPTH_OPACITY is where the renderer puts the depth, and
+ * its value is the field's (linear, so trilinear interpolation is exact) at its position. */
+static void test_pick(const leap_grid *lin)
+{
+    leap_error err = {{0}};
+    const leap_march m = {{X0, Y0, Z0}, {1, 1, 1}, {15, 15, 15}, 0.37, 6.0, 90.0, 0, {{0}}, 0, {0}};
+    const double center[3] = {X0 + 8, Y0 + 8, Z0 + 8};
+    leap_camera cam;
+    leap_rays view;
+    CHECK_OK(leap_camera_orbit(center, 10.0, 25, 40, 0, 45, 0, &cam, &err), &err);
+    CHECK_OK(leap_rays_make(&cam, W, H, identity, m.index_origin, &view, &err), &err);
+    if (!render(lin, &tf_ramp, &view, &m, 2, rgba, depth, samples)) return;
+    leap_reference_desc rd = {.grid = lin, .tf = &tf_ramp, .rays = &view, .march = &m};
+    int hits = 0, misses = 0;
+    for (int y = 0; y < H; y += 3)
+        for (int x = 0; x < W; x += 3) {
+            leap_pick p;
+            CHECK_OK(leap_reference_pick(&rd, x + 0.5, y + 0.5, LEAP_DEPTH_OPACITY, &p, &err), &err);
+            const float d = depth[y * W + x];
+            CHECK_MSG(p.hit == !isinf(d), "pixel %d,%d: pick %d, depth %g", x, y, p.hit, d);
+            if (!p.hit) {
+                ++misses;
+                continue;
+            }
+            ++hits;
+            CHECK_NEAR(p.depth, d, 1e-5 * (1 + p.depth));
+            CHECK_NEAR(p.value, linear_value(p.world), 1e-9 * (1 + fabs(p.value)));
+            CHECK(p.opacity > LEAP_DEPTH_OPACITY);
+            double eye_dist = 0;
+            for (int c = 0; c < 3; ++c) eye_dist += (p.world[c] - cam.eye[c]) * (p.world[c] - cam.eye[c]);
+            CHECK_NEAR(sqrt(eye_dist), p.depth, 1e-9 * (1 + p.depth));
+        }
+    CHECK(hits > 50 && misses > 10);
+    leap_pick p;
+    CHECK(leap_reference_pick(&rd, 1.5, 1.5, 1.0, &p, &err) == LEAP_ERR_USAGE);
+}
+
 static void test_errors(const leap_grid *box)
 {
     leap_error err = {{0}};
@@ -508,6 +545,7 @@ int main(void)
     }
     if (lin) {
         test_linear(lin);
+        test_pick(lin);
         timing(lin);
     }
     leap_grid_destroy(box);

@@ -427,6 +427,46 @@ static void test_json(void)
     CHECK(err.msg[0] != 0);
 }
 
+/* Opacity curves: a saved JSON reads back to the very same table; presets come back as their
+ * knots; the curve is the table's opacity. */
+static void test_curves(void)
+{
+    leap_error err = {{0}};
+    char path[1200];
+    snprintf(tmpdir, sizeof tmpdir, "%s", LEAP_TEST_TMP);
+    mkdir(tmpdir, 0777);
+    const char *const *names = leap_tf_preset_names();
+    for (int p = 0; names[p]; ++p) {
+        leap_tf a, b;
+        CHECK_OK(leap_tf_preset(names[p], 8, &a, &err), &err);
+        double pts[LEAP_TF_MAX_POINTS][2];
+        const int n = leap_tf_opacity_points(&a, pts, LEAP_TF_MAX_POINTS);
+        b = a;
+        leap_tf_set_opacity(&b, (const double (*)[2])pts, n);
+        double worst = 0;
+        for (int i = 0; i < N; ++i) worst = fmax(worst, fabs((double)a.rgba[i][3] - b.rgba[i][3]));
+        CHECK_MSG(n >= 2 && (worst < 1e-6 || strcmp(names[p], "labels") == 0), "%s: %d points follow the opacity to %g",
+                  names[p], n, worst);
+        /* an edited curve, saved and read back: bit for bit */
+        const double edit[3][2] = {{0.0, 0.0}, {0.37, 0.81}, {1.0, 0.2}};
+        leap_tf_set_opacity(&b, edit, 3);
+        snprintf(path, sizeof path, "%s/curve-%s.json", tmpdir, names[p]);
+        CHECK_OK(leap_tf_save_json(&b, edit, 3, path, &err), &err);
+        leap_tf c;
+        CHECK_OK(leap_tf_load_json(path, &c, &err), &err);
+        CHECK_MSG(memcmp(b.rgba, c.rgba, sizeof b.rgba) == 0, "%s: the saved curve reads back to another table", names[p]);
+        /* no curve: every entry's opacity, also exact */
+        CHECK_OK(leap_tf_save_json(&a, NULL, 0, path, &err), &err);
+        CHECK_OK(leap_tf_load_json(path, &c, &err), &err);
+        CHECK_MSG(memcmp(a.rgba, c.rgba, sizeof a.rgba) == 0, "%s: the saved table reads back to another", names[p]);
+    }
+    leap_tf grey;
+    double pts[LEAP_TF_MAX_POINTS][2];
+    CHECK_OK(leap_tf_preset("grey", 1, &grey, &err), &err);
+    CHECK(leap_tf_opacity_points(&grey, pts, LEAP_TF_MAX_POINTS) == 2); /* a ramp: its two ends */
+    CHECK(leap_tf_save_json(&grey, NULL, 0, "/nonexistent-dir/x.json", &err) == LEAP_ERR_IO);
+}
+
 int main(void)
 {
     test_presets();
@@ -434,5 +474,6 @@ int main(void)
     test_alpha();
     test_gpu_table();
     test_json();
+    test_curves();
     return check_exit_code();
 }

@@ -9,6 +9,7 @@
  * core renders both on the same device, so they normally agree exactly).
  *
  * The test starts `xvfb-run -a` itself; a missing xvfb-run is a failure. */
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -16,6 +17,7 @@
 #include <sys/wait.h>
 
 #include "check.h"
+#include "image_diff.h"
 #include "leap/image.h"
 
 #define MAX_DIFF 1
@@ -115,6 +117,8 @@ static int render_args_for(const char *shot, char *args, size_t size)
     if (n >= size) return 0;
     memcpy(args, p, n);
     args[n] = '\0';
+    char *remark = strstr(args, " (with the edited opacity curve");
+    if (remark) *remark = '\0';
     return 1;
 }
 
@@ -358,11 +362,130 @@ int main(void)
         if (have_args && exists(shot) && exists(ref)) matches(shot, ref, look_keys[k][0]);
     }
 
+    /* The panel: an opacity curve set by script commands and saved as JSON renders the same
+     * image through `leap render --tf FILE.json`; a screenshot with the panel differs from the
+     * one without only where the panel is; the figures alone sit in the top-left corner. */
+    {
+        char text[2048];
+        snprintf(vol, sizeof vol, "%s/sphere.vdb", LEAP_VOLUMES);
+        expand(text, sizeof text,
+               "panel on\n"
+               "orbit 30 20\n"
+               "screenshot @/preset.png\n"
+               "pick 240 160\n"
+               "pick 3 3\n"
+               "opacity 0 0 0.35 0 0.6 0.9 1 0.3\n"
+               "tfsave @/edited.json\n"
+               "screenshot @/edited.png\n"
+               "screenshot @/edited-panel.png panel\n"
+               "panel off\n"
+               "figures on\n"
+               "screenshot @/figures.png panel\n"
+               "tf viridis\n"
+               "key g\n"
+               "screenshot @/legend.png\n"
+               "quit\n",
+               tmp);
+        snprintf(script, sizeof script, "%s/panel.txt", tmp);
+        write_text(script, text);
+        snprintf(cmd, sizeof cmd, "%s %s view %s --size 480x320 --script %s", xvfb, LEAP_EXE, vol, script);
+        rc = run(cmd);
+        CHECK_MSG(rc == 0, "panel session: exit %d: %s", rc, out_text);
+        char picks[8192];
+        snprintf(picks, sizeof picks, "%s", out_text);
+        snprintf(shot, sizeof shot, "%s/edited.png", tmp);
+        const int have_args = render_args_for(shot, args, sizeof args);
+        CHECK_MSG(have_args, "no render line for %s: %s", shot, out_text);
+        char *tf = have_args ? strstr(args, "--tf viridis ") : NULL;
+        CHECK_MSG(!have_args || tf, "no --tf viridis in: %s", args);
+        {
+            if (tf) {
+                char edited[6000];
+                snprintf(edited, sizeof edited, "%.*s--tf %s/edited.json %s", (int)(tf - args), args, tmp,
+                         tf + strlen("--tf viridis "));
+                snprintf(ref, sizeof ref, "%s/edited-ref.png", tmp);
+                snprintf(cmd, sizeof cmd, "%s render -o %s -q %s", LEAP_EXE, ref, edited); /* the line names the volume */
+                CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
+                cmp_result same = compare(shot, ref);
+                CHECK_MSG(same.ok && same.differing == 0, "edited curve vs leap render --tf edited.json: %ld values differ",
+                          same.differing);
+            }
+        }
+        /* picks: what `leap pick` says for the same pixels of the same frame */
+        char a[1024], b[1024];
+        snprintf(a, sizeof a, "%s/preset.png", tmp);
+        const char *hit = strstr(picks, "pick 240 160: value ");
+        CHECK_MSG(hit && strstr(picks, "pick 3 3: nothing"), "picks: %s", picks);
+        free(out_text); /* render_args_for reads the session's output */
+        out_text = strdup(picks);
+        if (hit && render_args_for(a, args, sizeof args)) {
+            const double viewer_value = strtod(hit + strlen("pick 240 160: value "), NULL);
+            snprintf(cmd, sizeof cmd, "%s pick --pixel 240,160 --json %s", LEAP_EXE, args);
+            CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
+            const char *v = strstr(out_text, "\"value\": ");
+            const double cli_value = v ? strtod(v + strlen("\"value\": "), NULL) : -1e300;
+            CHECK_MSG(fabs(viewer_value - cli_value) <= 1e-7 * (1 + fabs(cli_value)), "pick: viewer %.9g, leap pick %.17g",
+                      viewer_value, cli_value);
+        }
+        /* the legend in the picture: `leap render --legend` (the shade under the bar blends
+         * 8-bit values in the viewer, floats in render: at most 1 apart) */
+        free(out_text);
+        out_text = strdup(picks);
+        char legend[1024];
+        snprintf(legend, sizeof legend, "%s/legend.png", tmp);
+        const int legend_args = render_args_for(legend, args, sizeof args) && strstr(args, " --legend");
+        CHECK_MSG(legend_args, "legend: %s", out_text);
+        if (legend_args) {
+            snprintf(ref, sizeof ref, "%s/legend-ref.png", tmp);
+            snprintf(cmd, sizeof cmd, "%s render -o %s -q %s", LEAP_EXE, ref, args);
+            CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
+            cmp_result lg = compare(legend, ref);
+            CHECK_MSG(lg.ok && lg.max_diff <= 1, "legend vs leap render --legend: max diff %d, %ld values", lg.max_diff,
+                      lg.differing);
+        }
+        cmp_result edit = compare(a, shot);
+        CHECK_MSG(edit.ok && edit.differing > 1000, "the opacity curve changed only %ld values", edit.differing);
+        /* the panel: left PANEL_WIDTH pixels; the figures: a corner */
+        struct { const char *file; int x1, y1; } layered[] = {{"edited-panel.png", 340, 320}, {"figures.png", 400, 140}};
+        for (int k = 0; k < 2; ++k) {
+            snprintf(b, sizeof b, "%s/%s", tmp, layered[k].file);
+            long inside = 0, outside = 0;
+            const int ok = image_diff_split(shot, b, 0, 0, layered[k].x1, layered[k].y1, &inside, &outside);
+            CHECK_MSG(ok && inside > 2000 && outside == 0, "%s: %ld values differ inside the panel's area, %ld outside",
+                      layered[k].file, inside, outside);
+        }
+    }
+
+    /* The panel's object list: objects hidden by script commands render as `leap render --hide`,
+     * also with one stored segment per pixel (the others walk the tree: the same image). */
+    {
+        char text[1024];
+        char tubes[1024];
+        snprintf(tubes, sizeof tubes, "%s/tubes.vdb", LEAP_VOLUMES);
+        expand(text, sizeof text,
+               "panel on\nsegments 1\nhide 235039259\nhide 348224299\nshow 348224299\nhide 620132502\n"
+               "screenshot @/objects.png\nscreenshot @/objects-panel.png panel\nquit\n", tmp);
+        snprintf(script, sizeof script, "%s/objects.txt", tmp);
+        write_text(script, text);
+        snprintf(cmd, sizeof cmd, "%s %s view %s --size 400x300 --script %s", xvfb, LEAP_EXE, tubes, script);
+        rc = run(cmd);
+        CHECK_MSG(rc == 0, "objects session: exit %d: %s", rc, out_text);
+        snprintf(shot, sizeof shot, "%s/objects.png", tmp);
+        const int have_args = render_args_for(shot, args, sizeof args);
+        CHECK_MSG(have_args && strstr(args, "--hide 235039259,620132502"), "objects: render line: %s", out_text);
+        if (have_args) {
+            snprintf(ref, sizeof ref, "%s/objects-ref.png", tmp);
+            snprintf(cmd, sizeof cmd, "%s render -o %s -q %s", LEAP_EXE, ref, args);
+            CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
+            matches(shot, ref, "objects hidden");
+        }
+    }
+
     /* A value window above every value: the frame is blank, and the viewer says why. */
     {
         char text[2048], line[1024] = "";
         for (int k = 0; k < 12; ++k) strcat(line, "key ]\n");
-        strcat(line, "screenshot @/blank.png\nkey q\n"); /* the screenshot waits for the frame */
+        strcat(line, "screenshot @/blank.png\nscreenshot @/blank-said.png panel\nkey q\n"); /* shots wait for the frame */
         expand(text, sizeof text, line, tmp);
         snprintf(script, sizeof script, "%s/blank.txt", tmp);
         write_text(script, text);
@@ -378,6 +501,14 @@ int main(void)
         double sum = 0;
         for (size_t i = 0; px && i < (size_t)w * h * c; ++i) sum += px[i];
         CHECK_MSG(px && sum == 0, "the blank window's screenshot is not black (sum %g)", sum);
+        free(px);
+        /* on screen, the reason is written over the black frame */
+        snprintf(shot, sizeof shot, "%s/blank-said.png", tmp);
+        px = NULL;
+        CHECK_OK(leap_image_read(shot, &w, &h, &c, &px, &e), &e);
+        sum = 0;
+        for (size_t i = 0; px && i < (size_t)w * h * c; ++i) sum += px[i];
+        CHECK_MSG(px && sum > 50, "the blank window shows no reason in the picture (sum %g)", sum);
         free(px);
     }
 

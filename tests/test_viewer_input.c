@@ -285,10 +285,15 @@ static void test_look_keys(void)
     CHECK(leap_viewer_char(&v, 'z') == 0);
     /* segmentations: object operations are counted for the render thread */
     unsigned ops = v.object_ops;
-    CHECK(leap_viewer_char(&v, 'x') == LEAP_VIEWER_OBJECTS && v.object_op == LEAP_VIEWER_OBJECTS_TOGGLE);
-    CHECK(leap_viewer_char(&v, 'i') == LEAP_VIEWER_OBJECTS && v.object_op == LEAP_VIEWER_OBJECTS_ONLY);
-    CHECK(leap_viewer_char(&v, 'a') == LEAP_VIEWER_OBJECTS && v.object_op == LEAP_VIEWER_OBJECTS_ALL);
-    CHECK(v.object_ops == ops + 3);
+#define LAST_OP(v, k) ((v).object_queue[((v).object_ops - (k)) % LEAP_VIEWER_OBJECT_QUEUE].op)
+    CHECK(leap_viewer_char(&v, 'x') == LEAP_VIEWER_OBJECTS && LAST_OP(v, 1) == LEAP_VIEWER_OBJECTS_TOGGLE);
+    CHECK(leap_viewer_char(&v, 'i') == LEAP_VIEWER_OBJECTS && LAST_OP(v, 1) == LEAP_VIEWER_OBJECTS_ONLY);
+    CHECK(leap_viewer_char(&v, 'a') == LEAP_VIEWER_OBJECTS && LAST_OP(v, 1) == LEAP_VIEWER_OBJECTS_ALL);
+    CHECK(leap_viewer_objects(&v, LEAP_VIEWER_OBJECTS_HIDE, 7) == LEAP_VIEWER_OBJECTS && LAST_OP(v, 1) == LEAP_VIEWER_OBJECTS_HIDE &&
+          v.object_queue[(v.object_ops - 1) % LEAP_VIEWER_OBJECT_QUEUE].id == 7);
+    CHECK(LAST_OP(v, 2) == LEAP_VIEWER_OBJECTS_ALL); /* queued, not replaced */
+    CHECK(leap_viewer_objects(&v, 99, 0) == 0);
+    CHECK(v.object_ops == ops + 4);
     /* a click (press and release in place) picks; a drag does not */
     unsigned picks = v.picks;
     CHECK(leap_viewer_button(&v, LEAP_VIEWER_BUTTON_LEFT, 1, 0, 50, 40) == 0);
@@ -445,6 +450,15 @@ static void test_script_parse(void)
         {"repeat 2 repeat 2 rotate 1 1\n", 1, "nested"},
         {"repeat 3\n", 1, "repeat"},
         {"mode sparseleap\nrepeat 2 spin 1\n", 2, "unknown command 'spin'"},
+        {"panel maybe\n", 1, "on or off"},
+        {"opacity 0 0 1\n", 1, "pairs"},
+        {"opacity 0 0 1 1.5\n", 1, "outside [0, 1]"},
+        {"opacity 0.5 0 0.2 1\n", 1, "must not decrease"},
+        {"tfsave a.txt\n", 1, ".json"},
+        {"screenshot a.png ui\n", 1, "panel"},
+        {"segments 13\n", 1, "1..12"},
+        {"pick 1\n", 1, "wrong number"},
+        {"hide x\n", 1, "object ID"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i) {
         leap_viewer_script b;
@@ -457,6 +471,33 @@ static void test_script_parse(void)
         CHECK_MSG(strstr(e.msg, bad[i].needle) != NULL, "script %zu: message '%s' lacks '%s'", i, e.msg, bad[i].needle);
         CHECK(b.cmds == NULL && b.count == 0);
     }
+
+    /* The panel's commands: the panel, the figures, an opacity curve and the screenshot flag. */
+    CHECK_OK(leap_viewer_script_parse("panel on\nfigures off\nopacity 0 0 0.25 0.5 1 1\nscreenshot s.png panel\n"
+                                      "tfsave t.json\n", "panel.txt", &s, &err), &err);
+    CHECK(s.count == 5);
+    if (s.count == 5) {
+        leap_viewer p;
+        init(&p, &d);
+        CHECK(leap_viewer_apply(&p, &s.cmds[0]) == LEAP_VIEWER_PANEL && p.show_panel);
+        CHECK(leap_viewer_apply(&p, &s.cmds[0]) == 0); /* already on */
+        CHECK(leap_viewer_apply(&p, &s.cmds[1]) == 0 && !p.show_figures);
+        CHECK(s.cmds[2].point_count == 3 && s.cmds[2].points[1][0] == 0.25 && s.cmds[2].points[1][1] == 0.5);
+        const unsigned edits = p.tf_edits;
+        CHECK(leap_viewer_apply(&p, &s.cmds[2]) == LEAP_VIEWER_TF && p.tf_point_count == 3 && p.tf_edits == edits + 1);
+        leap_tf t;
+        CHECK_OK(leap_viewer_tf(&p, &t, &err), &err);
+        CHECK_NEAR(t.rgba[LEAP_TF_TABLE_SIZE - 1][3], 1.0, 0);
+        CHECK_NEAR(t.rgba[0][3], 0.0, 0);
+        CHECK(s.cmds[3].op == LEAP_VIEWER_OP_SCREENSHOT && s.cmds[3].mods == 1);
+        CHECK(s.cmds[4].op == LEAP_VIEWER_OP_TF_SAVE && strcmp(s.cmds[4].text, "t.json") == 0);
+        CHECK(leap_viewer_set_tf(&p, "grey") == LEAP_VIEWER_TF && p.tf_point_count == 0); /* a new TF, its own opacity */
+        const double unsorted[2][2] = {{0.5, 0}, {0.2, 1}};
+        CHECK(leap_viewer_set_opacity(&p, unsorted, 2) == 0);
+        CHECK(leap_viewer_char(&p, 'p') == LEAP_VIEWER_PANEL && !p.show_panel);
+        CHECK(leap_viewer_char(&p, 'f') == LEAP_VIEWER_PANEL && p.show_figures);
+    }
+    leap_viewer_script_free(&s);
 
     /* Empty scripts are fine; files load, missing files are I/O errors. */
     CHECK_OK(leap_viewer_script_parse("", "empty", &s, &err), &err);

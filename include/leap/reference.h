@@ -33,19 +33,24 @@ typedef struct leap_reference_desc {
 leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, float *depth,
                                   float *samples, leap_error *err);
 
-/* What the ray of pixel centre (px, py) meets first in a segmentation (desc->labels): the first
- * lattice sample whose object is drawn with opacity > 0, by the same rule as rendering. */
+/* What the ray of pixel centre (px, py) meets first: the first lattice sample (as rendering
+ * takes them, clipping planes included) whose opacity per voxel exceeds min_opacity: in a
+ * segmentation (desc->labels) its object's opacity, in a scalar volume the transfer function's
+ * at the interpolated value. MIP and shading do not change what is picked. */
 typedef struct leap_pick {
-    int hit;            /* 0: the ray meets no visible object */
-    int64_t object;     /* object index (leap_labels order) */
-    int64_t id;         /* its label ID */
+    int hit;            /* 0: the ray meets no such sample */
+    int64_t object;     /* segmentations: object index (leap_labels order) */
+    int64_t id;         /* segmentations: its label ID */
+    double value;       /* the sample's value (segmentations: the ID) */
+    double opacity;     /* its opacity per voxel */
     double t;           /* ray parameter (index-space voxels) */
     double depth;       /* world distance from the eye (ray origin) */
     double world[3];    /* world position of the sample */
 } leap_pick;
 
-/* Errors: LEAP_ERR_USAGE (bad desc, no labels). threads and the outputs of render are unused. */
-leap_result leap_reference_pick(const leap_reference_desc *desc, double px, double py, leap_pick *out, leap_error *err);
+/* Errors: LEAP_ERR_USAGE (bad desc, min_opacity outside [0, 1)). threads is unused. */
+leap_result leap_reference_pick(const leap_reference_desc *desc, double px, double py, double min_opacity, leap_pick *out,
+                                leap_error *err);
 
 #ifdef __cplusplus
 }

@@ -113,6 +113,11 @@ leap_result leap_renderer_set_objects(leap_renderer *r, const leap_labels *label
  * be set again after re-classification (the renderer re-reads them every frame). */
 void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes);
 
+/* Stored segments per pixel from the next frame on (as leap_renderer_desc.max_segments; 0 =
+ * maximum); returns the number in use. The images do not change: pixels with more walk the
+ * occupancy tree. */
+uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments);
+
 /* Bytes of device memory held for the volume (atlas texture + page table). */
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r);
 

@@ -47,6 +47,22 @@ leap_result leap_tf_load_json(const char *path, leap_tf *out, leap_error *err);
 /* `arg` is a preset name or a path ending in .json. */
 leap_result leap_tf_from_arg(const char *arg, int label_count, leap_tf *out, leap_error *err);
 
+/* Opacity curves, as the viewer's editor holds them: points (u, opacity), u non-decreasing
+ * in [0, 1] over the value window, opacity in [0, 1], linear between points. */
+#define LEAP_TF_MAX_POINTS 64
+/* Replaces the table's opacity with the curve (the same evaluation as a JSON file's "Points"
+ * over RGB points spanning [0, 1]). */
+void leap_tf_set_opacity(leap_tf *tf, const double (*points)[2], int count);
+/* A curve of at most max_points (>= 2) points that follows the table's opacity: its bends,
+ * exactly for piecewise-linear presets. Returns the count. */
+int leap_tf_opacity_points(const leap_tf *tf, double (*points)[2], int max_points);
+/* Writes a ParaView colour-map JSON that leap_tf_load_json reads back to exactly this table
+ * with the opacity of the curve (count 0: the table's own opacity): RGBPoints at every entry
+ * over x in [0, 1] (use it with the same --range). Written through a temporary file.
+ * Errors: LEAP_ERR_IO, LEAP_ERR_OOM. */
+leap_result leap_tf_save_json(const leap_tf *tf, const double (*points)[2], int count, const char *path,
+                              leap_error *err);
+
 /* Table lookup with linear interpolation in double, u clamped to [0, 1]. */
 void leap_tf_eval(const leap_tf *tf, double u, double rgba[4]);
 

@@ -107,6 +107,12 @@ size_t leap_grid_brick_count(const leap_grid *grid);
  * sorted by origin (z, then y, then x). */
 leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err);
 
+/* Histogram of the active values (an active tile counts once per voxel it covers): value v
+ * in [lo, hi] falls in bin floor((v - lo) / (hi - lo) * bins), in double, hi in the last bin;
+ * values outside [lo, hi] are not counted. Errors: LEAP_ERR_USAGE (bins < 1, not lo < hi). */
+leap_result leap_grid_histogram(const leap_grid *grid, double lo, double hi, int bins, uint64_t *counts,
+                                leap_error *err);
+
 /* Per-thread voxel reader (an OpenVDB value accessor): one reader per thread. */
 leap_result leap_grid_reader_create(const leap_grid *grid, leap_grid_reader **out, leap_error *err);
 void leap_grid_reader_destroy(leap_grid_reader *reader); /* accepts NULL */

@@ -18,6 +18,9 @@
  *   s                    screenshot (PNG)
  *   r                    reset the camera
  *   q, Escape            quit
+ *   p                    the on-screen panel (transfer-function editor, controls, figures)
+ *   f                    the live figures (in the panel, or alone in a corner)
+ *   g                    the colour legend in the picture (scalar volumes)
  *   ?                    help (key list)
  *   arrow keys           orbit in steps
  *   left click           segmentations: pick the object under the cursor (title bar)
@@ -43,6 +46,16 @@
  *   resize W H                resize the window
  *   mark LABEL                print frames and frames per second since the last mark
  *   click X Y                 left click at window pixel (X, Y) (picks an object)
+ *   panel on|off              the on-screen panel
+ *   figures on|off            the live figures
+ *   opacity U A [U A ...]     the opacity curve: points (U in [0, 1] over the value window,
+ *                             non-decreasing; A in [0, 1]); re-classifies, no reload
+ *   tfsave FILE.json          save the transfer function as applied (ParaView JSON)
+ *   pick X Y                  print what pixel (X, Y) shows first (value or object, position)
+ *   segments N                sparseleap's stored segments per pixel (1..12)
+ *   show ID | all             segmentations: show one object (or all)
+ *   hide ID | all             segmentations: hide one object (or all)
+ *   screenshot FILE.png panel the frame with the panel drawn over it
  *   quit                      end the session
  *   repeat N COMMAND ...      run COMMAND N times, waiting for one frame after each */
 #ifndef LEAP_VIEWER_H
@@ -86,11 +99,25 @@ enum {
     LEAP_VIEWER_HELP = 1u << 7,       /* the key list should be shown */
     LEAP_VIEWER_PICK = 1u << 8,       /* a click asks which object a pixel shows */
     LEAP_VIEWER_OBJECTS = 1u << 9,    /* segmentations: objects shown or hidden: re-classify */
-    LEAP_VIEWER_CLIP = 1u << 10       /* the clipping plane moved or was switched */
+    LEAP_VIEWER_CLIP = 1u << 10,      /* the clipping plane moved or was switched */
+    LEAP_VIEWER_PANEL = 1u << 11      /* the panel or the figures shown or hidden */
 };
 
-/* Object operations of a segmentation (keys x, i, a), on the last picked object. */
-enum { LEAP_VIEWER_OBJECTS_TOGGLE = 1, LEAP_VIEWER_OBJECTS_ONLY, LEAP_VIEWER_OBJECTS_ALL };
+/* Object operations of a segmentation: keys x, i (on the last picked object) and a; the
+ * panel's show, hide (one object by ID) and none. */
+enum {
+    LEAP_VIEWER_OBJECTS_TOGGLE = 1,
+    LEAP_VIEWER_OBJECTS_ONLY,
+    LEAP_VIEWER_OBJECTS_ALL,
+    LEAP_VIEWER_OBJECTS_SHOW,
+    LEAP_VIEWER_OBJECTS_HIDE,
+    LEAP_VIEWER_OBJECTS_NONE
+};
+#define LEAP_VIEWER_OBJECT_QUEUE 64 /* operations kept for the render thread */
+typedef struct leap_viewer_object_op {
+    int op;     /* LEAP_VIEWER_OBJECTS_* */
+    int64_t id; /* SHOW, HIDE */
+} leap_viewer_object_op;
 #define LEAP_VIEWER_CLICK_PIXELS 3.0 /* a left press and release closer than this: a click (pick) */
 
 enum { LEAP_VIEWER_DRAG_NONE = 0, LEAP_VIEWER_DRAG_ORBIT, LEAP_VIEWER_DRAG_PAN, LEAP_VIEWER_DRAG_ZOOM };
@@ -126,6 +153,7 @@ typedef struct leap_viewer_desc {
     int mip;                     /* start with maximum / minimum intensity projection (leap_march.mip) */
     leap_shading shade;          /* shading's terms; shade.on: start shaded */
     int labels;                  /* a segmentation: no MIP, no shading */
+    int show_panel;              /* start with the on-screen panel */
 } leap_viewer_desc;
 
 typedef struct leap_viewer {
@@ -149,6 +177,13 @@ typedef struct leap_viewer {
     double range[2];
     double value_min, value_max;
     int show_boxes, show_heat, show_help;
+    int show_panel, show_figures;  /* keys p, f */
+    int show_legend;               /* key g: the colour legend drawn into the picture */
+    int max_segments;              /* sparseleap's stored segments per pixel (0: the renderer's) */
+    /* an edited opacity curve (tf_point_count > 0) replaces the transfer function's opacity */
+    int tf_point_count;
+    double tf_points[LEAP_TF_MAX_POINTS][2]; /* (u over the value window, opacity) */
+    unsigned tf_edits;             /* curve changes so far */
     int mip;                     /* key m: LEAP_MIP_MAX, LEAP_MIP_MIN or 0 (leap_march.mip) */
     leap_shading shade;          /* key l: shade.on toggles gradient shading (not with MIP) */
     int labels;                  /* a segmentation (no MIP) */
@@ -163,10 +198,11 @@ typedef struct leap_viewer {
     double mouse_x, mouse_y;
     double press_x, press_y;     /* where the left button went down */
     /* segmentations: requests the render thread carries out (counters: each new one once) */
-    unsigned picks;              /* clicks so far */
+    unsigned picks;              /* clicks so far (each sets the orbit centre on what it picks) */
+    double pick_opacity;         /* picking takes the first sample above this opacity per voxel */
     double pick_x, pick_y;       /* the last click, window pixels */
-    unsigned object_ops;         /* object operations so far */
-    int object_op;               /* the last: LEAP_VIEWER_OBJECTS_* */
+    unsigned object_ops;         /* object operations so far; operation n is */
+    leap_viewer_object_op object_queue[LEAP_VIEWER_OBJECT_QUEUE]; /* at n % LEAP_VIEWER_OBJECT_QUEUE */
     leap_viewer_desc home;       /* for reset (tf points into initial_tf) */
     char initial_tf[512];
 } leap_viewer;
@@ -191,12 +227,24 @@ unsigned leap_viewer_rotate(leap_viewer *v, double daz, double del);
 unsigned leap_viewer_zoom(leap_viewer *v, double clicks);
 unsigned leap_viewer_pan(leap_viewer *v, double dx_pixels, double dy_pixels);
 unsigned leap_viewer_reset(leap_viewer *v);
+/* Orbits about world point p from now on: the eye stays, the view turns to p. Returns 0 when
+ * p is not finite or is the eye. */
+unsigned leap_viewer_set_center(leap_viewer *v, const double p[3]);
 
 /* Look changes. set_tf takes a preset or a path; set_range needs lo < hi, both finite. */
 unsigned leap_viewer_set_mode(leap_viewer *v, leap_mode mode);
 unsigned leap_viewer_set_step(leap_viewer *v, double step);
+unsigned leap_viewer_set_segments(leap_viewer *v, int max_segments); /* 1..LEAP_MAX_SEGMENTS */
 unsigned leap_viewer_set_tf(leap_viewer *v, const char *tf);
 unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi);
+/* The opacity curve (leap_tf_set_opacity; count 0: the transfer function's own). Points need
+ * u non-decreasing in [0, 1] and opacity in [0, 1]; otherwise nothing changes (returns 0). */
+unsigned leap_viewer_set_opacity(leap_viewer *v, const double (*points)[2], int count);
+/* The transfer function to render: v->tf with the edited curve. Errors: leap_tf_from_arg's. */
+leap_result leap_viewer_tf(const leap_viewer *v, leap_tf *out, leap_error *err);
+
+/* Queues an object operation (LEAP_VIEWER_OBJECTS_*; id for SHOW and HIDE). Segmentations. */
+unsigned leap_viewer_objects(leap_viewer *v, int op, int64_t id);
 
 /* The camera to render. Errors from leap_camera_orbit. */
 leap_result leap_viewer_camera(const leap_viewer *v, leap_camera *out, leap_error *err);
@@ -227,7 +275,15 @@ typedef enum leap_viewer_op {
     LEAP_VIEWER_OP_RESIZE,
     LEAP_VIEWER_OP_MARK,
     LEAP_VIEWER_OP_QUIT,
-    LEAP_VIEWER_OP_CLICK
+    LEAP_VIEWER_OP_CLICK,
+    LEAP_VIEWER_OP_PANEL,
+    LEAP_VIEWER_OP_FIGURES,
+    LEAP_VIEWER_OP_OPACITY,
+    LEAP_VIEWER_OP_TF_SAVE,
+    LEAP_VIEWER_OP_SHOW,
+    LEAP_VIEWER_OP_HIDE,
+    LEAP_VIEWER_OP_PICK,
+    LEAP_VIEWER_OP_SEGMENTS
 } leap_viewer_op;
 
 typedef struct leap_viewer_cmd {
@@ -238,11 +294,13 @@ typedef struct leap_viewer_cmd {
     double num[5];     /* orbit: az el [dist]; rotate: daz del; zoom: clicks; pan: dx dy;
                           drag: x0 y0 x1 y1; step; range lo hi; frames n; wait ms; resize w h;
                           click: x y */
-    int button, mods;  /* drag */
+    int button, mods;  /* drag; screenshot: mods 1 = with the panel */
     int key;           /* key: LEAP_VIEWER_KEY_* or 0 for a character */
     unsigned codepoint;/* key: the character */
     leap_mode mode;    /* mode */
-    char text[512];    /* tf, screenshot file, mark label */
+    char text[512];    /* tf, screenshot file, mark label, tfsave file */
+    int point_count;   /* opacity */
+    double points[LEAP_TF_MAX_POINTS][2];
 } leap_viewer_cmd;
 
 typedef struct leap_viewer_script {
@@ -329,6 +387,9 @@ void leap_viewer_draw_line(uint8_t *rgb, int w, int h, double x0, double y0, dou
  * magenta), normalised by their maximum. `what` receives the legend ("heat: samples/pixel
  * 0..N"). */
 void leap_viewer_draw_heat(uint8_t *rgb, const float *heat, int w, int h, leap_mode mode, char *what, size_t what_size);
+
+/* Blends a premultiplied RGBA layer (the panel) over an 8-bit RGB image of the same size. */
+void leap_viewer_blend_layer(const uint8_t *rgba, uint8_t *rgb, int w, int h);
 
 /* The boxes overlay keeps the boxes in drawing order between frames. */
 typedef struct leap_viewer_overlay leap_viewer_overlay;

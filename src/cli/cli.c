@@ -26,7 +26,7 @@ static const char *main_help =
     "  segments VOLUME.vdb --pixel X,Y | -o DIR explain the ray events and segment lists\n"
     "  bench VOLUME.vdb ... -o DIR              time every mode against the reference\n"
     "  view VOLUME.vdb                          interactive window (orbit, modes, transfer functions)\n"
-    "  pick SEGMENTATION.vdb --pixel X,Y        the object a pixel shows (ID, depth, position)\n"
+    "  pick VOLUME.vdb --pixel X,Y              what a pixel shows first (object ID or value, position)\n"
     "  convert SCAN.nii.gz -o OUT.vdb           write a volume as an OpenVDB file\n"
     "\n"
     "VOLUME: an OpenVDB file (.vdb); a NIfTI-1/2 scan (.nii, .nii.gz), a TIFF stack, a folder of\n"

@@ -64,12 +64,15 @@ static int starts_with_path(const char *msg, const char *path)
     return n && !strncmp(msg, path, n) && msg[n] == ':';
 }
 
-void cli_warn_blank(const leap_scene *scene)
+void cli_warn_scene(const leap_scene *scene, int legend)
 {
     char why[256];
     if (leap_scene_shows_nothing(scene, why, sizeof why))
         fprintf(stderr, "leap: warning: nothing to show: %s; the image is blank (--range, --tf or --show change "
                         "that)\n", why);
+    if (legend && scene->labels)
+        fprintf(stderr, "leap: warning: no legend: a segmentation's colours belong to its objects, not to a value "
+                        "scale\n");
 }
 
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)

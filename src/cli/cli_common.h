@@ -32,8 +32,9 @@ const char *cli_printable(const char *s, char *buf, size_t cap);
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg);
 
 /* Warns on stderr when the scene can show nothing (leap_scene_shows_nothing): the image will be
- * blank, and the user learns why rather than finding a black file. */
-void cli_warn_blank(const leap_scene *scene);
+ * blank, and the user learns why rather than finding a black file; and when a legend was asked
+ * for a segmentation (it has none). */
+void cli_warn_scene(const leap_scene *scene, int legend);
 /* Exit code for a library error: usage errors are 2, everything else 1. */
 int cli_exit_code(leap_result r);
 
@@ -58,6 +59,7 @@ typedef struct cli_camera_options {
     /* The written image (render): --background R,G,B[,A] under the volume, --alpha. */
     double background[4];
     int has_background, alpha;
+    int legend;                /* --legend: the colour bar and its values drawn into the image */
 } cli_camera_options;
 
 /* Help text for the shared options. */
@@ -76,12 +78,12 @@ int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input
 int cli_input_options_check(const char *verb, const leap_input_options *io);
 
 /* Writes one rendered image of o->width x o->height (render, turntable): the volume over
- * o->background (default black, transparent with o->alpha); PNG/TIFF as RGB, or RGBA with
- * straight alpha (o->alpha); EXR premultiplied RGBA with depth, samples and, for
- * segmentations, the object channels. */
-leap_result cli_write_image(const cli_camera_options *o, const char *path, const float *rgba, const float *depth,
-                            const float *samples, const int64_t *objects, const leap_label_object *objs,
-                            leap_error *err);
+ * o->background (default black, transparent with o->alpha), with the scene's colour legend
+ * over it (o->legend); PNG/TIFF as RGB, or RGBA with straight alpha (o->alpha); EXR
+ * premultiplied RGBA with depth, samples and, for segmentations, the object channels
+ * (objects: per pixel an index into the scene's objects, -1 for none; NULL otherwise). */
+leap_result cli_write_image(const cli_camera_options *o, const leap_scene *scene, const char *path, const float *rgba,
+                            const float *depth, const float *samples, const int64_t *objects, leap_error *err);
 /* Turntables (cli_turntable.c): a frame-name pattern holds exactly one %d (%0Nd); the frames. */
 int cli_frame_pattern_ok(const char *pattern);
 int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, int quiet);

@@ -8,7 +8,7 @@
 #include "leap/input.h"
 
 static const char *info_help =
-    "usage: leap info VOLUME [--json] [--objects] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
+    "usage: leap info VOLUME [--json] [--objects] [--histogram N] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
     "\n"
     "Lists every grid: value type, class, transform, active bounding box, voxel, leaf and\n"
     "tile counts, value range, memory. Scalar grids are loaded to count their contents.\n"
@@ -18,7 +18,9 @@ static const char *info_help =
     "  --tf T         for each transfer function (preset or JSON file), in order: cell\n"
     "                 classes, occupancy tree nodes, emitted boxes, and the time to\n"
     "                 re-classify and rebuild the boxes when switching to it\n"
-    "  --range LO,HI  value range for --tf (default: each grid's range)\n"
+    "  --histogram N  N bins (1..100000) of the active values over the range (tiles count\n"
+    "                 once per voxel): value v goes to bin floor((v - LO) / (HI - LO) * N)\n"
+    "  --range LO,HI  value range for --tf and --histogram (default: each grid's range)\n"
     "  --threshold V, --raw WxHxD:TYPE[:le|be], --voxel X,Y,Z   as for leap render\n";
 
 /* The active box in world space and its bounding sphere. */
@@ -167,6 +169,33 @@ static int info_tfs(const char *path, const leap_input_options *io, const char *
     return rc;
 }
 
+/* The histogram of the active values, in JSON or as one line per bin. */
+static int info_histogram(const leap_grid *grid, int bins, const double *range, cJSON *json_grid)
+{
+    const leap_grid_info *gi = leap_grid_get_info(grid);
+    const double lo = range ? range[0] : gi->value_min, hi = range ? range[1] : gi->value_max > lo ? gi->value_max : lo + 1;
+    uint64_t *counts = malloc((size_t)bins * sizeof *counts);
+    if (!counts) return cli_runtime_error("out of memory for %d bins", bins);
+    leap_error err;
+    if (leap_grid_histogram(grid, lo, hi, bins, counts, &err)) {
+        free(counts);
+        return cli_runtime_error("%s", err.msg);
+    }
+    if (json_grid) {
+        cJSON *h = cJSON_AddObjectToObject(json_grid, "histogram");
+        cJSON_AddNumberToObject(h, "lo", lo);
+        cJSON_AddNumberToObject(h, "hi", hi);
+        cJSON *c = cJSON_AddArrayToObject(h, "counts");
+        for (int b = 0; b < bins; ++b) cJSON_AddItemToArray(c, cJSON_CreateNumber((double)counts[b]));
+    } else {
+        printf("  histogram      %d bins over [%.17g, %.17g]: bin, from value, count\n", bins, lo, hi);
+        for (int b = 0; b < bins; ++b)
+            printf("    %6d %14.7g %llu\n", b, lo + (hi - lo) * b / bins, (unsigned long long)counts[b]);
+    }
+    free(counts);
+    return 0;
+}
+
 /* The objects of a label grid: a count, and with `list` every object. */
 static int info_objects(const leap_grid *grid, int list, cJSON *json_grid)
 {
@@ -205,7 +234,7 @@ static int info_objects(const leap_grid *grid, int list, cJSON *json_grid)
 int cli_info(int argc, char **argv)
 {
     const char *input = NULL;
-    int json = 0, ntf = 0, has_range = 0, objects = 0, c;
+    int json = 0, ntf = 0, has_range = 0, objects = 0, bins = 0, c;
     leap_input_options io = {0};
     const char *tfs[16];
     double range[2];
@@ -225,6 +254,11 @@ int cli_info(int argc, char **argv)
             if (missing || leap__parse_numbers(v, range, 2, 2) != 2 || !(range[1] > range[0]))
                 return cli_usage_error("info", "--range must be LO,HI with LO < HI");
             has_range = 1;
+        } else if ((v = cli_option_value(argc, argv, &i, "--histogram", &missing)) || missing) {
+            double n;
+            if (missing || leap__parse_numbers(v, &n, 1, 1) != 1 || n != (int)n || n < 1 || n > 100000)
+                return cli_usage_error("info", "--histogram needs a bin count in 1..100000");
+            bins = (int)n;
         } else if (!strcmp(argv[i], "--json")) {
             json = 1;
         } else if (!strcmp(argv[i], "--objects")) {
@@ -281,6 +315,7 @@ int cli_info(int argc, char **argv)
         if (jg) cJSON_AddItemToArray(grids, jg);
         else print_info_text(&gi, loaded);
         if (grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
+        if (!rc && grid && bins) rc = info_histogram(grid, bins, has_range ? range : NULL, jg);
         if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, tfs, ntf, has_range ? range : NULL, jg);
         leap_grid_destroy(grid);
     }

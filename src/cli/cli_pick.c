@@ -1,4 +1,5 @@
-/* `leap pick`: which object of a segmentation a pixel shows. */
+/* `leap pick`: what a pixel shows first: the object of a segmentation, or the value of a scalar
+ * volume. */
 #include <stdio.h>
 #include <string.h>
 
@@ -6,17 +7,19 @@
 #include "leap/reference.h"
 
 static const char *pick_help_head =
-    "usage: leap pick SEGMENTATION.vdb --pixel X,Y [options]\n"
+    "usage: leap pick VOLUME --pixel X,Y [options]\n"
     "\n"
-    "Prints the first object drawn (opacity above 0) along the ray of pixel (X, Y) of the\n"
-    "image the same options would render: its ID, the world distance from the camera and the\n"
-    "world position of that sample (the same lattice and nearest-voxel rule as rendering,\n"
+    "Prints the first sample along the ray of pixel (X, Y) of the image the same options\n"
+    "would render whose opacity exceeds --opacity (default 0): in a segmentation its object's\n"
+    "ID, in a scalar volume its value; the world distance from the camera and the world\n"
+    "position of that sample (the same lattice, interpolation and clipping as rendering,\n"
     "computed in double precision on the CPU).\n"
     "\n";
 
 static const char *pick_help_tail =
     "pick:\n"
     "  --pixel X,Y         pixel column and row, from the top-left corner (required)\n"
+    "  --opacity A         the opacity per voxel a sample must exceed, in [0, 1) (default 0)\n"
     "  --json              machine-readable output on stdout\n";
 
 int cli_pick(int argc, char **argv)
@@ -25,6 +28,7 @@ int cli_pick(int argc, char **argv)
     cli_camera_options_init(&o);
     double pixel[2];
     int has_pixel = 0, json = 0;
+    double min_opacity = 0.0;
     for (int i = 2; i < argc; ++i) {
         const char *a = argv[i], *v;
         int missing = 0;
@@ -34,6 +38,11 @@ int cli_pick(int argc, char **argv)
         }
         if (!strcmp(a, "--json")) {
             json = 1;
+            continue;
+        }
+        if ((v = cli_option_value(argc, argv, &i, "--opacity", &missing)) || missing) {
+            if (missing || leap__parse_numbers(v, &min_opacity, 1, 1) != 1 || !(min_opacity >= 0 && min_opacity < 1))
+                return cli_usage_error("pick", "--opacity must be a number in [0, 1)");
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--pixel", &missing)) || missing) {
@@ -61,31 +70,31 @@ int cli_pick(int argc, char **argv)
     leap_result r = leap_scene_create(&o.scene, &scene, &err);
     if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
     rc = 0;
-    if (!scene->labels) {
-        rc = cli_usage_error("pick", "%s is not a segmentation (an int32 or int64 grid, or --labels)", o.input);
-        goto done;
-    }
     leap_camera cam;
     leap_rays rays;
     leap_pick p;
     leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &rays, .march = &scene->march,
                               .labels = scene->labels};
     if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_rays(scene, &cam, o.width, o.height, &rays, &err)) ||
-        (r = leap_reference_pick(&rd, pixel[0] + 0.5, pixel[1] + 0.5, &p, &err))) {
+        (r = leap_reference_pick(&rd, pixel[0] + 0.5, pixel[1] + 0.5, min_opacity, &p, &err))) {
         rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
     }
     if (json) {
         printf("{\"pixel\": [%.0f, %.0f], \"hit\": %s", pixel[0], pixel[1], p.hit ? "true" : "false");
+        if (p.hit && scene->labels) printf(", \"id\": %lld", (long long)p.id);
         if (p.hit)
-            printf(", \"id\": %lld, \"depth\": %.17g, \"world\": [%.17g, %.17g, %.17g]", (long long)p.id, p.depth,
-                   p.world[0], p.world[1], p.world[2]);
+            printf(", \"value\": %.17g, \"opacity\": %.17g, \"depth\": %.17g, \"world\": [%.17g, %.17g, %.17g]",
+                   p.value, p.opacity, p.depth, p.world[0], p.world[1], p.world[2]);
         printf("}\n");
-    } else if (p.hit) {
+    } else if (p.hit && scene->labels) {
         printf("pixel %.0f,%.0f: object %lld at depth %g, world (%g, %g, %g)\n", pixel[0], pixel[1], (long long)p.id,
                p.depth, p.world[0], p.world[1], p.world[2]);
+    } else if (p.hit) {
+        printf("pixel %.0f,%.0f: value %g (opacity %g) at depth %g, world (%g, %g, %g)\n", pixel[0], pixel[1], p.value,
+               p.opacity, p.depth, p.world[0], p.world[1], p.world[2]);
     } else {
-        printf("pixel %.0f,%.0f: no visible object along the ray\n", pixel[0], pixel[1]);
+        printf("pixel %.0f,%.0f: no sample above opacity %g along the ray\n", pixel[0], pixel[1], min_opacity);
     }
 done:
     leap_scene_destroy(scene);

@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 
 #include "cli_common.h"
+#include "leap/legend.h"
 #include "leap/files.h"
 #include "leap/image.h"
 #include "leap/reference.h"
@@ -90,19 +91,28 @@ static const char *render_help_tail =
     "  --list-tf           print the transfer-function presets and what each is for\n"
     "  --alpha             PNG/TIFF with an alpha channel (straight colour; the volume over\n"
     "                      a transparent background unless --background is given)\n"
+    "  --legend            draw the colour legend into the image: the transfer function's\n"
+    "                      colours over the value window, with its ends and middle\n"
     "  -q, --quiet         no summary line on stderr\n";
 
 typedef struct stage_times {
     double load, atlas, occupancy, classify, boxes, setup, upload, order, render, readback, write;
 } stage_times;
 
-/* objects: per pixel the first object's index into objs (-1: none), or NULL. */
-leap_result cli_write_image(const cli_camera_options *o, const char *path, const float *rgba, const float *depth,
-                            const float *samples, const int64_t *objects, const leap_label_object *objs,
-                            leap_error *err)
+leap_result cli_write_image(const cli_camera_options *o, const leap_scene *scene, const char *path, const float *rgba,
+                            const float *depth, const float *samples, const int64_t *objects, leap_error *err)
 {
     const int w = o->width, h = o->height;
     size_t n = (size_t)w * h;
+    const leap_label_object *objs = scene->labels ? leap_labels_objects(scene->labels) : NULL;
+    float *with_legend = NULL;
+    if (o->legend && !scene->labels) {
+        with_legend = malloc(n * 4 * sizeof(float));
+        if (!with_legend) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the legend");
+        memcpy(with_legend, rgba, n * 4 * sizeof(float));
+        leap_legend_draw(with_legend, w, h, &scene->tf, scene->march.range_lo, scene->march.range_hi);
+        rgba = with_legend;
+    }
     const char *ext = strrchr(path, '.');
     int exr = ext && !strcasecmp(ext, ".exr");
     int channels = exr ? (objects ? 9 : 6) : o->alpha ? 4 : 3;
@@ -111,7 +121,10 @@ leap_result cli_write_image(const cli_camera_options *o, const char *path, const
     const double bg[4] = {o->has_background ? o->background[0] * bga : 0, o->has_background ? o->background[1] * bga : 0,
                           o->has_background ? o->background[2] * bga : 0, bga};
     float *px = malloc(n * channels * sizeof(float));
-    if (!px) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the output image");
+    if (!px) {
+        free(with_legend);
+        return leap_fail(err, LEAP_ERR_OOM, "out of memory for the output image");
+    }
     for (size_t i = 0; i < n; ++i) {
         const float *c = rgba + 4 * i;
         const double a = c[3], out_a = a + (1 - a) * bg[3];
@@ -139,6 +152,7 @@ leap_result cli_write_image(const cli_camera_options *o, const char *path, const
     static const char *exr_names[] = {"R", "G", "B", "A", "depth", "samples", "object.lo", "object.mid", "object.hi"};
     leap_result r = leap_image_write(path, w, h, channels, exr ? exr_names : NULL, px, err);
     free(px);
+    free(with_legend);
     return r;
 }
 
@@ -267,6 +281,10 @@ int cli_render(int argc, char **argv)
             o.alpha = 1;
             continue;
         }
+        if (!strcmp(a, "--legend")) {
+            o.legend = 1;
+            continue;
+        }
         if ((v = cli_option_value(argc, argv, &i, "--background", &missing)) || missing) {
             o.background[3] = 1.0;
             const int k = missing ? -1 : leap__parse_numbers(v, o.background, 3, 4);
@@ -349,7 +367,7 @@ int cli_render(int argc, char **argv)
         rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
     }
-    cli_warn_blank(scene);
+    cli_warn_scene(scene, o.legend);
     times.load = scene->load_ms;
     times.atlas = scene->atlas_ms;
     times.occupancy = scene->bricks_ms + scene->occupancy_ms;
@@ -421,8 +439,7 @@ int cli_render(int argc, char **argv)
         }
     }
     double t = leap__now_ms();
-    if (cli_write_image(&o, output, rgba, depth, samples, ids,
-                     scene->labels ? leap_labels_objects(scene->labels) : NULL, &err)) {
+    if (cli_write_image(&o, scene, output, rgba, depth, samples, ids, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;
     }

@@ -74,7 +74,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
         rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
         goto done;
     }
-    cli_warn_blank(scene);
+    cli_warn_scene(scene, o->legend);
     if (!rgba || !depth || !samples || (scene->labels && !(ids = malloc(n * sizeof *ids)))) {
         cli_runtime_error("out of memory for a %dx%d image", o->width, o->height);
         goto done;
@@ -110,8 +110,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
             cli_runtime_error("the object channel of frame %d could not be read", k);
             goto done;
         }
-        if ((r = cli_write_image(o, path, rgba, depth, samples, ids,
-                                 scene->labels ? leap_labels_objects(scene->labels) : NULL, &err))) {
+        if ((r = cli_write_image(o, scene, path, rgba, depth, samples, ids, &err))) {
             if (!quiet) fputc('\n', stderr);
             cli_runtime_error("%s", err.msg);
             goto done;

@@ -26,6 +26,8 @@ static const char *view_help_tail =
     "  --script FILE       run a script of camera moves, keys and screenshots, then quit\n"
     "                      (format in docs/VIEWER.md)\n"
     "  --keep-open         stay open after the script ends\n"
+    "  --panel             start with the on-screen panel (transfer-function editor over the\n"
+    "                      value histogram, rendering controls, live figures; key p)\n"
     "  --frames N          render N full-resolution frames, then quit\n"
     "  --screenshot OUT.png  with --frames (or alone): save the last frame, then quit\n"
     "  --budget MS         frame-time target while the camera moves (default 50); frames\n"
@@ -40,7 +42,7 @@ typedef struct view_options {
     cli_camera_options view;
     const char *script, *screenshot;
     long frames;
-    int keep_open, adaptive, quiet;
+    int keep_open, adaptive, quiet, panel;
     double budget_ms;
 } view_options;
 
@@ -63,6 +65,10 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
         }
         if (!strcmp(a, "--keep-open")) {
             o->keep_open = 1;
+            continue;
+        }
+        if (!strcmp(a, "--panel")) {
+            o->panel = 1;
             continue;
         }
         if (!strcmp(a, "--no-adaptive")) {
@@ -145,6 +151,7 @@ static leap_result viewer_from_options(const view_options *vo, leap_scene *s, le
     d.mip = s->march.mip;
     d.shade = o->scene.shade;
     d.labels = s->labels != NULL;
+    d.show_panel = vo->panel;
     return leap_viewer_init(v, &d, err);
 }
 

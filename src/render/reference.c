@@ -463,37 +463,49 @@ leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, 
     return LEAP_OK;
 }
 
-leap_result leap_reference_pick(const leap_reference_desc *desc, double px, double py, leap_pick *out, leap_error *err)
+leap_result leap_reference_pick(const leap_reference_desc *desc, double px, double py, double min_opacity, leap_pick *out,
+                                leap_error *err)
 {
     memset(out, 0, sizeof *out);
     leap_result r = validate(desc, err);
     if (r) return r;
-    if (!desc->labels) return leap_fail(err, LEAP_ERR_USAGE, "picking needs a segmentation");
+    if (!(min_opacity >= 0.0 && min_opacity < 1.0))
+        return leap_fail(err, LEAP_ERR_USAGE, "picking: the opacity threshold %g is outside [0, 1)", min_opacity);
     const leap_march *m = desc->march;
     double o[3], d[3], k0, k1;
     leap_rays_at(desc->rays, px, py, o, d);
     if (!lattice_range(m, o, d, &k0, &k1)) return LEAP_OK;
     leap_grid_reader *reader;
     if ((r = leap_grid_reader_create(desc->grid, &reader, err))) return r;
+    cell_cache cache = {0};
+    const double span = m->range_hi - m->range_lo;
     const int64_t count = (int64_t)(k1 - k0) + 1;
     for (int64_t i = 0; i < count; ++i) {
         const double t = (k0 + (double)i) * m->step;
-        double p[3], rgba[4];
+        double p[3], rgba[4], value;
+        int64_t id = 0, index = -1;
         ray_point(o, d, t, p);
         for (int c = 0; c < 3; ++c) p[c] += m->index_origin[c];
-        int32_t v[3];
-        const int32_t one[3] = {1, 1, 1};
-        for (int c = 0; c < 3; ++c) v[c] = (int32_t)floor(p[c] + 0.5);
-        int64_t id;
-        leap_grid_reader_labels(reader, v, one, &id);
-        const int64_t index = leap_labels_find(desc->labels, id);
-        if (index < 0) continue;
-        leap_labels_rgba(desc->labels, (size_t)index, rgba);
-        if (!(rgba[3] > 0)) continue;
+        if (desc->labels) { /* the same nearest-voxel rule as sample_label */
+            int32_t v[3];
+            const int32_t one[3] = {1, 1, 1};
+            for (int c = 0; c < 3; ++c) v[c] = (int32_t)floor(p[c] + 0.5);
+            leap_grid_reader_labels(reader, v, one, &id);
+            index = leap_labels_find(desc->labels, id);
+            if (index < 0) continue;
+            leap_labels_rgba(desc->labels, (size_t)index, rgba);
+            value = (double)id;
+        } else {
+            value = sample_trilinear(reader, &cache, p);
+            leap_tf_eval(desc->tf, span != 0.0 ? (value - m->range_lo) / span : 0.0, rgba);
+        }
+        if (!(rgba[3] > min_opacity)) continue;
         const leap_grid_info *gi = leap_grid_get_info(desc->grid);
         out->hit = 1;
         out->object = index;
         out->id = id;
+        out->value = value;
+        out->opacity = rgba[3];
         out->t = t;
         out->depth = leap_rays_world_distance(desc->rays, d, t);
         for (int row = 0; row < 3; ++row)

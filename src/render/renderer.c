@@ -299,6 +299,17 @@ void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, co
     r->box_set = boxes;
 }
 
+uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
+{
+    uint32_t n = max_segments && max_segments < LEAP_MAX_SEGMENTS ? max_segments : LEAP_MAX_SEGMENTS;
+    if (n != r->max_segments) {
+        if (vkDeviceWaitIdle(r->gpu->device) != VK_SUCCESS) return r->max_segments; /* keep what works */
+        renderer_destroy_frame_buffers(r); /* the segment buffer is sized by it */
+        r->max_segments = n;
+    }
+    return n;
+}
+
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
 {
     if (!r->has_volume) return 0;

@@ -148,4 +148,22 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
     });
 }
 
+leap_result leap_grid_histogram(const leap_grid *grid, double lo, double hi, int bins, uint64_t *counts,
+                                leap_error *err)
+{
+    if (!grid || !counts || bins < 1 || !(hi > lo) || !std::isfinite(lo) || !std::isfinite(hi))
+        return leap_fail(err, LEAP_ERR_USAGE, "histogram: needs a grid, at least one bin and a finite range lo < hi");
+    std::fill(counts, counts + bins, uint64_t(0));
+    return guarded(err, LEAP_ERR_FORMAT, std::string("grid '") + grid->info.name + "'", [&]() -> leap_result {
+        for (auto it = grid->grid->cbeginValueOn(); it; ++it) {
+            const double v = double(*it);
+            if (v < lo || v > hi) continue;
+            const double t = (v - lo) / (hi - lo) * bins;
+            const int b = t >= bins ? bins - 1 : int(t);
+            counts[b] += it.isVoxelValue() ? 1 : it.getVoxelCount();
+        }
+        return LEAP_OK;
+    });
+}
+
 } // extern "C"

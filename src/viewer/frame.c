@@ -9,6 +9,7 @@
 #include <time.h>
 
 #include "leap/image.h"
+#include "leap/legend.h"
 #include "leap/reference.h"
 #include "session.h"
 #include "util.h"
@@ -16,6 +17,8 @@
 typedef struct frame_figures {
     double render_ms, raster_ms, resolve_ms, composite_ms, readback_ms, compose_ms, present_ms, total_ms;
     uint64_t samples, pixels;
+    double segments;  /* sum over the pixels (sparseleap) */
+    uint64_t overflowed;
     int scale;
     int refining;     /* 1 while a refinement pass is under way */
     double progress;  /* of the refinement pass, 0..1 */
@@ -34,6 +37,8 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
     acc->total_ms += f->total_ms;
     acc->samples += f->samples;
     acc->pixels += f->pixels;
+    acc->segments += f->segments;
+    acc->overflowed += f->overflowed;
     acc->scale = f->scale;
     memcpy(acc->heat, f->heat, sizeof acc->heat);
 }
@@ -43,7 +48,7 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
 static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
 {
     const int same_tf = !strcmp(st->tf, s->applied_tf) && st->range[0] == s->applied_range[0] &&
-                        st->range[1] == s->applied_range[1];
+                        st->range[1] == s->applied_range[1] && st->tf_edits == s->applied_tf_edits;
     if (same_tf && st->step == s->scene->march.step && st->mip == s->scene->march.mip &&
         !!st->shade.on == s->scene->march.shade.on)
         return LEAP_OK;
@@ -56,8 +61,9 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
         memcpy(s->applied_tf, st->tf, sizeof s->applied_tf);
         s->applied_range[0] = st->range[0];
         s->applied_range[1] = st->range[1];
+        s->applied_tf_edits = st->tf_edits;
         leap_tf tf;
-        r = leap_tf_from_arg(st->tf, leap_scene_label_count(st->range[0], st->range[1]), &tf, err);
+        r = leap_viewer_tf(st, &tf, err);
         if (!r) r = leap_scene_set_tf(s->scene, &tf, st->range[0], st->range[1], err);
     }
     if (!r) r = leap_scene_set_step(s->scene, st->step, err);
@@ -71,6 +77,66 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     return r;
 }
 
+/* The first sample under window point (x, y) of state st, as rendered (step, clipping plane). */
+static leap_result pick_ray(leap_viewer_session *s, const leap_viewer *st, double x, double y, leap_pick *p, leap_error *err)
+{
+    leap_scene *scene = s->scene;
+    leap_camera cam;
+    leap_rays rays;
+    leap_march march = scene->march;
+    march.step = st->step;
+    if (st->clip_on && march.clip_count < LEAP_MAX_CLIPS)
+        leap_scene_clip_to_index(scene, st->clip, march.clip[march.clip_count++]);
+    leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &rays, .march = &march, .labels = scene->labels};
+    leap_result r = leap_viewer_camera(st, &cam, err);
+    if (!r) r = leap_scene_rays(scene, &cam, st->width, st->height, &rays, err);
+    if (!r) r = leap_reference_pick(&rd, x, y, st->pick_opacity, p, err);
+    return r;
+}
+
+static void describe_pick(const leap_scene *scene, const leap_pick *p, char *out, size_t size)
+{
+    if (scene->labels)
+        snprintf(out, size, " | object %lld at (%.4g, %.4g, %.4g)", (long long)p->id, p->world[0], p->world[1], p->world[2]);
+    else
+        snprintf(out, size, " | value %.6g at (%.4g, %.4g, %.4g)", p->value, p->world[0], p->world[1], p->world[2]);
+}
+
+/* Answers the main thread's newest hover (or script pick) request: no frame is rendered. */
+static void answer_hover(leap_viewer_session *s, const leap_viewer *st, double x, double y, uint64_t seq)
+{
+    leap_pick p;
+    leap_error err = {{0}};
+    char text[sizeof s->pub.hover_text];
+    if (s->base_ok && pick_ray(s, st, x, y, &p, &err) == LEAP_OK) {
+        if (!p.hit)
+            snprintf(text, sizeof text, "nothing above opacity %g", st->pick_opacity);
+        else if (s->scene->labels)
+            snprintf(text, sizeof text, "object %lld at (%.6g, %.6g, %.6g), depth %.6g", (long long)p.id, p.world[0],
+                     p.world[1], p.world[2], p.depth);
+        else
+            snprintf(text, sizeof text, "value %.9g (opacity %.4g) at (%.6g, %.6g, %.6g), depth %.6g", p.value, p.opacity,
+                     p.world[0], p.world[1], p.world[2], p.depth);
+    } else {
+        snprintf(text, sizeof text, "no pick: %s", err.msg[0] ? err.msg : "no frame yet");
+    }
+    pthread_mutex_lock(&s->mu);
+    snprintf(s->pub.hover_text, sizeof s->pub.hover_text, "%s", text);
+    s->pub.hover_done = seq;
+    pthread_mutex_unlock(&s->mu);
+    session_wake();
+}
+
+/* Segmentations: each object's visibility, for the panel's list (under the mutex). */
+static void publish_shown(leap_viewer_session *s)
+{
+    const leap_labels *l = s->scene->labels;
+    pthread_mutex_lock(&s->mu);
+    for (size_t i = 0; i < s->object_count; ++i) s->shared_shown[i] = (uint8_t)leap_labels_visible(l, i);
+    s->shown_gen++;
+    pthread_mutex_unlock(&s->mu);
+}
+
 /* Segmentations: a new click picks the object under it (exact, on the CPU: one ray), and a new
  * object operation (keys x, i, a) changes what is shown, re-classifies and re-binds. */
 static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
@@ -78,50 +144,60 @@ static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, 
     leap_scene *scene = s->scene;
     if (st->picks != s->applied_picks) {
         s->applied_picks = st->picks;
-        if (!scene->labels) {
-            snprintf(s->pick_text, sizeof s->pick_text, " | picking needs a segmentation");
-        } else {
-            leap_camera cam;
-            leap_rays rays;
-            leap_pick p;
-            leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &rays, .march = &scene->march,
-                                      .labels = scene->labels};
-            leap_result r = leap_viewer_camera(st, &cam, err);
-            if (!r) r = leap_scene_rays(scene, &cam, st->width, st->height, &rays, err);
-            if (!r) r = leap_reference_pick(&rd, st->pick_x, st->pick_y, &p, err);
-            if (r) return r;
-            s->picked = p.hit;
-            if (p.hit) {
+        leap_pick p;
+        leap_result r = pick_ray(s, st, st->pick_x, st->pick_y, &p, err);
+        if (r) return r;
+        s->picked = p.hit && scene->labels;
+        if (p.hit) {
+            if (scene->labels) {
                 s->picked_id = p.id;
                 s->picked_index = p.object;
-                snprintf(s->pick_text, sizeof s->pick_text, " | object %lld at (%.4g, %.4g, %.4g)", (long long)p.id,
-                         p.world[0], p.world[1], p.world[2]);
-            } else {
-                snprintf(s->pick_text, sizeof s->pick_text, " | no object under (%.0f, %.0f)", st->pick_x, st->pick_y);
             }
+            describe_pick(scene, &p, s->pick_text, sizeof s->pick_text);
+            pthread_mutex_lock(&s->mu); /* the main thread turns the orbit about the picked point */
+            memcpy(s->pub.center, p.world, sizeof p.world);
+            s->pub.center_seq++;
+            pthread_mutex_unlock(&s->mu);
+            session_wake();
+        } else {
+            snprintf(s->pick_text, sizeof s->pick_text, " | nothing under (%.0f, %.0f)", st->pick_x, st->pick_y);
         }
     }
     if (st->object_ops == s->applied_object_ops) return LEAP_OK;
+    unsigned n = s->applied_object_ops;
+    if (st->object_ops - n > LEAP_VIEWER_OBJECT_QUEUE) n = st->object_ops - LEAP_VIEWER_OBJECT_QUEUE; /* overwritten */
     s->applied_object_ops = st->object_ops;
     if (!scene->labels) return LEAP_OK;
-    if (st->object_op != LEAP_VIEWER_OBJECTS_ALL && !s->picked) {
-        snprintf(s->pick_text, sizeof s->pick_text, " | click an object first (x, i act on the picked one)");
-        return LEAP_OK;
-    }
     double t = leap__now_ms();
-    if (st->object_op == LEAP_VIEWER_OBJECTS_ALL) {
-        leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 1);
-    } else if (st->object_op == LEAP_VIEWER_OBJECTS_ONLY) {
-        leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 0);
-        leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, 1);
-    } else {
-        const int shown = leap_labels_visible(scene->labels, (size_t)s->picked_index);
-        leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, !shown);
+    int changed = 0;
+    for (; n != st->object_ops; ++n) {
+        const leap_viewer_object_op *o = &st->object_queue[n % LEAP_VIEWER_OBJECT_QUEUE];
+        if ((o->op == LEAP_VIEWER_OBJECTS_TOGGLE || o->op == LEAP_VIEWER_OBJECTS_ONLY) && !s->picked) {
+            snprintf(s->pick_text, sizeof s->pick_text, " | click an object first (x, i act on the picked one)");
+            continue;
+        }
+        changed = 1;
+        switch (o->op) {
+        case LEAP_VIEWER_OBJECTS_ALL: leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 1); break;
+        case LEAP_VIEWER_OBJECTS_NONE: leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 0); break;
+        case LEAP_VIEWER_OBJECTS_SHOW: leap_labels_set_visible(scene->labels, o->id, o->id, 1); break;
+        case LEAP_VIEWER_OBJECTS_HIDE: leap_labels_set_visible(scene->labels, o->id, o->id, 0); break;
+        case LEAP_VIEWER_OBJECTS_ONLY:
+            leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 0);
+            leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, 1);
+            break;
+        default: {
+            const int shown = leap_labels_visible(scene->labels, (size_t)s->picked_index);
+            leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, !shown);
+        }
+        }
     }
+    if (!changed) return LEAP_OK;
     leap_result r = leap_scene_update_objects(scene, err);
     if (!r) r = leap_renderer_bind_scene(s->renderer, scene, err);
     s->tf_apply_ms = leap__now_ms() - t;
     snprintf(s->pick_text, sizeof s->pick_text, " | %zu objects shown", leap_labels_visible_count(scene->labels));
+    publish_shown(s);
     return r;
 }
 
@@ -155,6 +231,7 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     march.step = st->step;
     if (st->clip_on && march.clip_count < LEAP_MAX_CLIPS)
         leap_scene_clip_to_index(s->scene, st->clip, march.clip[march.clip_count++]);
+    if (st->max_segments > 0) leap_renderer_set_max_segments(s->renderer, (uint32_t)st->max_segments);
     int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
     leap_frame_stats fs;
     double t0 = leap__now_ms();
@@ -168,6 +245,8 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     ff->readback_ms = fs.readback_ms;
     ff->samples = fs.total_samples;
     ff->pixels = band;
+    ff->segments = fs.segments_mean * (double)band;
+    ff->overflowed = fs.overflow_pixels;
     ff->scale = scale;
     leap_viewer_schedule_rendered(&s->schedule, p, st->mode, ff->render_ms, (double)band);
     /* premultiplied colour over black = the RGB channels, as leap render writes PNGs */
@@ -204,9 +283,19 @@ static leap_result compose_output(leap_viewer_session *s, const leap_viewer *st,
     const int W = s->width, H = s->height;
     uint8_t *rgb = s->base8;
     ff->heat[0] = '\0';
-    if (st->show_heat || st->show_boxes) {
+    const int legend = st->show_legend && !s->scene->labels;
+    if (st->show_heat || st->show_boxes || legend) {
         memcpy(s->rgb8, s->base8, (size_t)W * H * 3);
         rgb = s->rgb8;
+        if (legend && leap__grow((void **)&s->legend, &s->legend_cap, (size_t)W * H * 4, sizeof(float))) {
+            for (size_t i = 0; i < (size_t)W * H; ++i) {
+                for (int c = 0; c < 3; ++c) s->legend[4 * i + c] = rgb[3 * i + c] / 255.0f;
+                s->legend[4 * i + 3] = 1.0f;
+            }
+            leap_legend_draw(s->legend, W, H, &s->scene->tf, s->scene->march.range_lo, s->scene->march.range_hi);
+            for (size_t i = 0; i < (size_t)W * H; ++i)
+                for (int c = 0; c < 3; ++c) rgb[3 * i + c] = leap_viewer_to_u8(s->legend[4 * i + c]);
+        }
         if (st->show_heat && s->heat) leap_viewer_draw_heat(rgb, s->heat, W, H, st->mode, ff->heat, sizeof ff->heat);
         if (st->show_boxes) {
             leap_camera cam;
@@ -221,6 +310,30 @@ static leap_result compose_output(leap_viewer_session *s, const leap_viewer *st,
     *out = rgb;
     ff->compose_ms += leap__now_ms() - t0;
     return LEAP_OK;
+}
+
+/* The image with the panel over it, when the panel is on and drawn for this size. */
+static const uint8_t *with_panel(leap_viewer_session *s, const uint8_t *rgb)
+{
+    const int W = s->width, H = s->height;
+    if (!s->layer_on || s->layer_w != W || s->layer_h != H || !leap__grow((void **)&s->ui8, &s->ui8_cap, (size_t)W * H * 3, 1))
+        return rgb;
+    memcpy(s->ui8, rgb, (size_t)W * H * 3);
+    leap_viewer_blend_layer(s->layer, s->ui8, W, H);
+    return s->ui8;
+}
+
+/* Takes the main thread's newest panel layer (mutex held). Returns 1 if it changed. */
+static int take_layer(leap_viewer_session *s)
+{
+    if (s->ui_seq == s->applied_ui_seq) return 0;
+    s->applied_ui_seq = s->ui_seq;
+    const size_t bytes = (size_t)s->shared_w * s->shared_h * 4;
+    s->layer_on = s->shared_on && leap__grow((void **)&s->layer, &s->layer_cap, bytes, 1);
+    if (s->layer_on) memcpy(s->layer, s->shared_layer, bytes);
+    s->layer_w = s->shared_w;
+    s->layer_h = s->shared_h;
+    return 1;
 }
 
 /* Writes the presented frame as a PNG. */
@@ -256,6 +369,33 @@ static void make_title(const leap_viewer_session *s, const leap_viewer *st, cons
              st->range[1], tf_ms, ff->heat[0] ? " | " : "", ff->heat, s->pick_text);
 }
 
+/* The figures the panel shows (mutex held). */
+static void publish_figures(leap_viewer_session *s, const frame_figures *ff, session_published *p)
+{
+    const double classify_ms = s->tf_apply_ms > 0 ? s->tf_apply_ms : p->fig.classify_ms;
+    p->fig = (leap_ui_figures){
+        .frame_ms = ff->total_ms,
+        .render_ms = ff->render_ms,
+        .raster_ms = ff->raster_ms,
+        .resolve_ms = ff->resolve_ms,
+        .composite_ms = ff->composite_ms,
+        .readback_ms = ff->readback_ms,
+        .compose_ms = ff->compose_ms,
+        .present_ms = ff->present_ms,
+        .classify_ms = classify_ms,
+        .samples_pp = ff->pixels ? (double)ff->samples / (double)ff->pixels : 0.0,
+        .segments_pp = ff->pixels ? ff->segments / (double)ff->pixels : 0.0,
+        .boxes = leap_boxes_count(s->scene->boxes),
+        .overflowed = (unsigned)ff->overflowed,
+        .width = (unsigned)s->width,
+        .height = (unsigned)s->height,
+        .scale = ff->scale,
+        .gpu_bytes = leap_renderer_volume_bytes(s->renderer),
+        .frames = p->frames,
+    };
+    if (!leap_scene_shows_nothing(s->scene, p->blank, sizeof p->blank)) p->blank[0] = '\0';
+}
+
 static void set_fatal(leap_viewer_session *s, leap_result code, const char *msg)
 {
     pthread_mutex_lock(&s->mu);
@@ -275,6 +415,8 @@ static int frame_needed(leap_viewer_session *s, double now, double *wake_at)
     if (s->fb_seq != s->applied_fb_seq || leap_presenter_stale(s->presenter)) return 1;
     if (s->width <= 0 || s->height <= 0) return 0;
     if (s->seq != s->pub.rendered_seq || s->force_frames > 0 || s->shot_req != s->pub.shot_done) return 1;
+    if (s->ui_seq != s->applied_ui_seq) return 1; /* the panel changed: present again */
+    if (s->hover_seq != s->pub.hover_done) return 1; /* a pick under the cursor */
     if (leap_viewer_schedule_pending(&s->schedule)) { /* refine once idle */
         if (now >= s->moving_until) return 1;
         *wake_at = s->moving_until;
@@ -351,9 +493,11 @@ static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char 
                            : st->show_heat                 ? " (overlay: heat map)"
                                                            : "";
     const char *grid = s->desc.grid;
-    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s%s --size %ux%u %s%s", path,
+    session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s%s --size %ux%u %s%s%s", path,
                  overlays, s->desc.volume_path, s->desc.open_options ? s->desc.open_options : "", grid ? " --grid " : "",
-                 grid ? grid : "", (unsigned)s->width, (unsigned)s->height, args, objects);
+                 grid ? grid : "", (unsigned)s->width, (unsigned)s->height, args, objects,
+                 st->tf_point_count ? " (with the edited opacity curve: save it with tfsave or the panel, then give "
+                                      "that file to --tf)" : "");
 }
 
 void *session_render_thread(void *arg)
@@ -378,7 +522,12 @@ void *session_render_thread(void *arg)
         char shot_path[1024];
         snprintf(shot_path, sizeof shot_path, "%s", s->shot_path);
         int script_mode = s->script_mode;
+        const int shot_panel = s->shot_panel;
+        const int panel_changed = take_layer(s);
+        const uint64_t hover_seq = s->hover_seq != s->pub.hover_done ? s->hover_seq : 0;
+        const double hover_x = s->hover_x, hover_y = s->hover_y;
         pthread_mutex_unlock(&s->mu);
+        if (hover_seq) answer_hover(s, &s->shown_state, hover_x, hover_y, hover_seq);
 
         double t0 = leap__now_ms();
         int is_new = seq != rendered_seq;
@@ -396,8 +545,26 @@ void *session_render_thread(void *arg)
                              leap_presenter_format_name(s->presenter), leap_presenter_mode_name(s->presenter));
             if (s->width > 0) s->device_announced = 1;
             leap_viewer_schedule_restart(&s->schedule);
+            s->base_ok = 0;
             is_new = 1;
             if (s->width <= 0 || s->height <= 0) continue;
+        }
+        if (!panel_changed && hover_seq && !is_new && !forced && !shot_id && s->base_ok &&
+            fb_seq == s->applied_fb_seq && !leap_presenter_stale(s->presenter))
+            continue; /* only a pick was asked for */
+        if (panel_changed && !is_new && !forced && !shot_id && s->base_ok) {
+            /* only the panel changed: the last frame again, with the new panel over it */
+            frame_figures ff;
+            memset(&ff, 0, sizeof ff);
+            const uint8_t *rgb = NULL;
+            int shown = 0;
+            leap_result r = compose_output(s, &st, &ff, &rgb, &err);
+            if (!r) r = leap_presenter_present(s->presenter, with_panel(s, rgb), s->width, s->height, &shown, &err);
+            if (r) {
+                set_fatal(s, r, err.msg);
+                break;
+            }
+            continue;
         }
         s->tf_apply_ms = 0;
         leap_result tr = apply_tf(s, &st, &err);
@@ -420,14 +587,17 @@ void *session_render_thread(void *arg)
         memset(&ff, 0, sizeof ff);
         const uint8_t *shown_rgb = NULL;
         leap_result r = render_rows(s, &st, &plan, &ff, &err);
+        s->base_ok = !r;
+        s->shown_state = st;
         if (!r) r = compose_output(s, &st, &ff, &shown_rgb, &err);
         if (r) {
             set_fatal(s, r, err.msg);
             break;
         }
+        const uint8_t *presented = with_panel(s, shown_rgb);
         double t1 = leap__now_ms();
         int shown = 0;
-        if ((r = leap_presenter_present(s->presenter, shown_rgb, W, H, &shown, &err))) {
+        if ((r = leap_presenter_present(s->presenter, presented, W, H, &shown, &err))) {
             set_fatal(s, r, err.msg);
             break;
         }
@@ -447,7 +617,7 @@ void *session_render_thread(void *arg)
         }
         int shot_failed = 0;
         if (shot_id) {
-            if (save_presented(s, shown_rgb, shot_path, &err)) {
+            if (save_presented(s, shot_panel ? presented : shown_rgb, shot_path, &err)) {
                 session_note(s, LEAP_VIEWER_NOTE_STATUS, "screenshot: %s", err.msg);
                 shot_failed = 1;
             } else if (!s->desc.quiet) {
@@ -465,6 +635,10 @@ void *session_render_thread(void *arg)
         p->frames++;
         p->frames_full += full_image;
         p->frame_ms_sum += frame_total_ms;
+        if (s->tf_apply_ms > 0) {
+            p->classify_ms_sum += s->tf_apply_ms;
+            p->classifies++;
+        }
         p->render_ms_sum += frame_render_ms;
         p->width = W;
         p->height = H;
@@ -478,6 +652,7 @@ void *session_render_thread(void *arg)
         }
         snprintf(p->title, sizeof p->title, "%s", title);
         p->title_new = 1;
+        publish_figures(s, &ff, p);
         pthread_mutex_unlock(&s->mu);
         session_wake();
     }

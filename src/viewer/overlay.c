@@ -165,3 +165,17 @@ void leap_viewer_draw_heat(uint8_t *rgb, const float *heat, int w, int h, leap_m
         for (int k = 0; k < 3; ++k) px[k] = leap_viewer_to_u8(0.35f * px[k] / 255.0f + 0.65f * c[k]);
     }
 }
+
+void leap_viewer_blend_layer(const uint8_t *rgba, uint8_t *rgb, int w, int h)
+{
+    const size_t n = (size_t)w * h;
+    for (size_t i = 0; i < n; ++i) {
+        const uint8_t *l = rgba + 4 * i;
+        if (!l[3]) continue;
+        uint8_t *d = rgb + 3 * i;
+        for (int c = 0; c < 3; ++c) {
+            const int v = l[c] + (d[c] * (255 - l[3]) + 127) / 255; /* premultiplied over */
+            d[c] = (uint8_t)(v > 255 ? 255 : v);
+        }
+    }
+}

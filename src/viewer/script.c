@@ -12,6 +12,8 @@
 #include <string.h>
 
 #define DRAG_MOVES 8
+#define TEXT_(x) #x
+#define TEXT(x) TEXT_(x)
 
 unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *c)
 {
@@ -39,11 +41,26 @@ unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *c)
     case LEAP_VIEWER_OP_CLICK:
         bits |= leap_viewer_button(v, LEAP_VIEWER_BUTTON_LEFT, 1, 0, c->num[0], c->num[1]);
         return bits | leap_viewer_button(v, LEAP_VIEWER_BUTTON_LEFT, 0, 0, c->num[0], c->num[1]);
+    case LEAP_VIEWER_OP_PANEL:
+        if (v->show_panel == (int)c->num[0]) return 0;
+        v->show_panel = (int)c->num[0];
+        return LEAP_VIEWER_PANEL;
+    case LEAP_VIEWER_OP_FIGURES:
+        if (v->show_figures == (int)c->num[0]) return 0;
+        v->show_figures = (int)c->num[0];
+        return LEAP_VIEWER_PANEL;
+    case LEAP_VIEWER_OP_SEGMENTS: return leap_viewer_set_segments(v, (int)c->num[0]);
+    case LEAP_VIEWER_OP_OPACITY: return leap_viewer_set_opacity(v, (const double (*)[2])c->points, c->point_count);
+    case LEAP_VIEWER_OP_SHOW: case LEAP_VIEWER_OP_HIDE: {
+        const int show = c->op == LEAP_VIEWER_OP_SHOW;
+        if (c->count == 0) return leap_viewer_objects(v, show ? LEAP_VIEWER_OBJECTS_ALL : LEAP_VIEWER_OBJECTS_NONE, 0);
+        return leap_viewer_objects(v, show ? LEAP_VIEWER_OBJECTS_SHOW : LEAP_VIEWER_OBJECTS_HIDE, (int64_t)c->num[0]);
+    }
     default: return 0;
     }
 }
 
-#define MAX_TOKENS 12
+#define MAX_TOKENS (2 * LEAP_TF_MAX_POINTS + 1)
 
 typedef struct parse_ctx {
     const char *name;
@@ -101,11 +118,25 @@ static const struct {
     {"drag", LEAP_VIEWER_OP_DRAG, 5, 6},         {"key", LEAP_VIEWER_OP_KEY, 1, 1},
     {"mode", LEAP_VIEWER_OP_MODE, 1, 1},         {"tf", LEAP_VIEWER_OP_TF, 1, 1},
     {"step", LEAP_VIEWER_OP_STEP, 1, 1},         {"range", LEAP_VIEWER_OP_RANGE, 2, 2},
-    {"screenshot", LEAP_VIEWER_OP_SCREENSHOT, 1, 1}, {"frames", LEAP_VIEWER_OP_FRAMES, 1, 1},
+    {"screenshot", LEAP_VIEWER_OP_SCREENSHOT, 1, 2}, {"frames", LEAP_VIEWER_OP_FRAMES, 1, 1},
     {"wait", LEAP_VIEWER_OP_WAIT, 1, 1},         {"resize", LEAP_VIEWER_OP_RESIZE, 2, 2},
     {"mark", LEAP_VIEWER_OP_MARK, 0, MAX_TOKENS}, {"quit", LEAP_VIEWER_OP_QUIT, 0, 0},
-    {"click", LEAP_VIEWER_OP_CLICK, 2, 2},
+    {"click", LEAP_VIEWER_OP_CLICK, 2, 2},       {"panel", LEAP_VIEWER_OP_PANEL, 1, 1},
+    {"figures", LEAP_VIEWER_OP_FIGURES, 1, 1},   {"opacity", LEAP_VIEWER_OP_OPACITY, 2, 2 * LEAP_TF_MAX_POINTS},
+    {"tfsave", LEAP_VIEWER_OP_TF_SAVE, 1, 1},    {"show", LEAP_VIEWER_OP_SHOW, 1, 1},
+    {"hide", LEAP_VIEWER_OP_HIDE, 1, 1},         {"pick", LEAP_VIEWER_OP_PICK, 2, 2},
+    {"segments", LEAP_VIEWER_OP_SEGMENTS, 1, 1},
 };
+
+/* A file argument that must end in ext (".png"), copied into c->text. */
+static leap_result parse_file(parse_ctx *p, const char *arg, const char *ext, leap_viewer_cmd *c)
+{
+    const size_t len = strlen(arg), n = strlen(ext);
+    if (len <= n || strcmp(arg + len - n, ext) != 0) return perr(p, "file '%s' must end in %s", arg, ext);
+    if (len >= sizeof c->text) return perr(p, "file path too long (at most 511 bytes)", NULL, NULL);
+    memcpy(c->text, arg, len + 1);
+    return LEAP_OK;
+}
 
 /* Parses tokens tok[0..n-1] (tok[0] the command) into *c. */
 static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cmd *c)
@@ -123,7 +154,7 @@ static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cm
     switch (c->op) {
     case LEAP_VIEWER_OP_ORBIT: case LEAP_VIEWER_OP_ROTATE: case LEAP_VIEWER_OP_ZOOM: case LEAP_VIEWER_OP_PAN:
     case LEAP_VIEWER_OP_STEP: case LEAP_VIEWER_OP_RANGE: case LEAP_VIEWER_OP_FRAMES: case LEAP_VIEWER_OP_WAIT:
-    case LEAP_VIEWER_OP_RESIZE: case LEAP_VIEWER_OP_CLICK:
+    case LEAP_VIEWER_OP_RESIZE: case LEAP_VIEWER_OP_CLICK: case LEAP_VIEWER_OP_PICK: case LEAP_VIEWER_OP_SEGMENTS:
         for (int i = 0; i < args; ++i) {
             if (!parse_number(tok[1 + i], &c->num[i])) return perr(p, "'%s' is not a number (in '%s')", tok[1 + i], tok[0]);
             c->count = i + 1;
@@ -145,6 +176,10 @@ static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cm
     case LEAP_VIEWER_OP_FRAMES:
         if (c->num[0] != floor(c->num[0]) || c->num[0] < 1 || c->num[0] > 1e6)
             return perr(p, "frames needs a whole number in 1..1000000", NULL, NULL);
+        break;
+    case LEAP_VIEWER_OP_SEGMENTS:
+        if (c->num[0] != floor(c->num[0]) || c->num[0] < 1 || c->num[0] > LEAP_MAX_SEGMENTS)
+            return perr(p, "segments needs a whole number in 1..%s", TEXT(LEAP_MAX_SEGMENTS), NULL);
         break;
     case LEAP_VIEWER_OP_WAIT:
         if (c->num[0] < 0 || c->num[0] > 3.6e6) return perr(p, "wait needs milliseconds in 0..3600000", NULL, NULL);
@@ -188,13 +223,38 @@ static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cm
         break;
     }
     case LEAP_VIEWER_OP_SCREENSHOT: {
-        size_t len = strlen(tok[1]);
-        if (len < 5 || strcmp(tok[1] + len - 4, ".png") != 0)
-            return perr(p, "screenshot file '%s' must end in .png", tok[1], NULL);
-        if (len >= sizeof c->text) return perr(p, "screenshot path too long", NULL, NULL);
-        memcpy(c->text, tok[1], len + 1);
+        leap_result r = parse_file(p, tok[1], ".png", c);
+        if (r) return r;
+        if (args == 2 && strcmp(tok[2], "panel") != 0)
+            return perr(p, "screenshot takes 'panel' after the file (to include the panel), not '%s'", tok[2], NULL);
+        c->mods = args == 2;
         break;
     }
+    case LEAP_VIEWER_OP_PANEL: case LEAP_VIEWER_OP_FIGURES:
+        if (strcmp(tok[1], "on") && strcmp(tok[1], "off")) return perr(p, "'%s' takes on or off, not '%s'", tok[0], tok[1]);
+        c->num[0] = strcmp(tok[1], "on") == 0;
+        c->count = 1;
+        break;
+    case LEAP_VIEWER_OP_OPACITY:
+        if (args % 2) return perr(p, "opacity takes pairs U A (an odd count of numbers was given)%s", NULL, NULL);
+        c->point_count = args / 2;
+        for (int i = 0; i < args; ++i) {
+            double x;
+            if (!parse_number(tok[1 + i], &x)) return perr(p, "'%s' is not a number (in '%s')", tok[1 + i], tok[0]);
+            if (x < 0 || x > 1) return perr(p, "opacity: %s is outside [0, 1]", tok[1 + i], NULL);
+            c->points[i / 2][i % 2] = x;
+            if (i % 2 == 0 && i > 0 && x < c->points[i / 2 - 1][0])
+                return perr(p, "opacity: the points' U must not decrease (%s)", tok[1 + i], NULL);
+        }
+        break;
+    case LEAP_VIEWER_OP_SHOW: case LEAP_VIEWER_OP_HIDE:
+        if (strcmp(tok[1], "all") != 0) {
+            if (!parse_number(tok[1], &c->num[0]) || c->num[0] != floor(c->num[0]) || fabs(c->num[0]) > 9007199254740992.0)
+                return perr(p, "'%s' is not an object ID (a whole number) or 'all'", tok[1], NULL);
+            c->count = 1;
+        }
+        break;
+    case LEAP_VIEWER_OP_TF_SAVE: return parse_file(p, tok[1], ".json", c);
     case LEAP_VIEWER_OP_MARK: {
         c->text[0] = '\0';
         size_t used = 0;

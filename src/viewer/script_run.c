@@ -24,19 +24,26 @@ void script_mark(leap_viewer_session *s, script_run *run, const char *label)
     double now = leap__now_ms();
     uint64_t frames = p.frames - run->mark_frames, full = p.frames_full - run->mark_full;
     double ms = now - run->mark_ms;
+    const uint64_t classifies = p.classifies - run->mark_classifies;
+    char classify[96] = "";
+    if (classifies)
+        snprintf(classify, sizeof classify, "; %llu re-classifications, mean %.2f ms", (unsigned long long)classifies,
+                 (p.classify_ms_sum - run->mark_classify_ms) / (double)classifies);
     if (label)
         session_note(s, LEAP_VIEWER_NOTE_RESULT,
                      "mark %s: %llu frames (%llu full resolution, %llu reduced) in %.1f ms: %.2f fps; mean frame %.1f ms "
-                     "(render %.1f ms)",
+                     "(render %.1f ms)%s",
                      label[0] ? label : "-", (unsigned long long)frames, (unsigned long long)full,
                      (unsigned long long)(frames - full), ms, ms > 0 ? frames * 1000.0 / ms : 0.0,
                      frames ? (p.frame_ms_sum - run->mark_frame_ms) / frames : 0.0,
-                     frames ? (p.render_ms_sum - run->mark_render_ms) / frames : 0.0);
+                     frames ? (p.render_ms_sum - run->mark_render_ms) / frames : 0.0, classify);
     run->mark_ms = now;
     run->mark_frames = p.frames;
     run->mark_full = p.frames_full;
     run->mark_frame_ms = p.frame_ms_sum;
     run->mark_render_ms = p.render_ms_sum;
+    run->mark_classify_ms = p.classify_ms_sum;
+    run->mark_classifies = p.classifies;
 }
 
 /* Whether what the current command waits for has happened; -1: a screenshot failed. */
@@ -50,6 +57,11 @@ static int wait_done(leap_viewer_session *s, script_run *run)
         if (p.shot_done < run->wait_value) return 0;
         return p.shot_failed ? -1 : 1;
     case 4: return leap__now_ms() >= run->wait_until;
+    case 6:
+        if (p.hover_done < run->wait_value) return 0;
+        session_note(s, LEAP_VIEWER_NOTE_RESULT, "pick %g %g: %s", run->wait_cmd->num[0], run->wait_cmd->num[1],
+                     p.hover_text);
+        return 1;
     case 5:
         if (p.width == run->wait_w && p.height == run->wait_h && p.rendered_seq >= run->wait_value) return 1;
         if (leap__now_ms() <= run->wait_until) return 0;
@@ -84,7 +96,8 @@ int script_step(leap_viewer_session *s, script_run *run)
         case LEAP_VIEWER_OP_SCREENSHOT: {
             ++s->v.screenshots;
             session_post_state(s);
-            uint64_t id = session_request_shot(s, c->text);
+            if (c->mods) session_update_ui(s, 1); /* the panel as of this state, laid out */
+            uint64_t id = session_request_shot(s, c->text, c->mods);
             if (!id) return 0; /* one still pending: retry */
             run->waiting = 3;
             run->wait_value = id;
@@ -113,6 +126,19 @@ int script_step(leap_viewer_session *s, script_run *run)
             run->wait_value = current_seq(s);
             break;
         case LEAP_VIEWER_OP_MARK: script_mark(s, run, c->text); break;
+        case LEAP_VIEWER_OP_PICK:
+            if (published_now(s).rendered_seq < current_seq(s)) { /* pick in the frame of the state so far */
+                run->waiting = 1;
+                run->wait_value = current_seq(s);
+                continue;
+            }
+            run->wait_value = session_request_hover(s, c->num[0] + 0.5, c->num[1] + 0.5); /* the pixel's centre */
+            run->wait_cmd = c;
+            run->waiting = 6;
+            break;
+        case LEAP_VIEWER_OP_TF_SAVE:
+            if (session_save_tf(s, c->text)) return -1;
+            break;
         case LEAP_VIEWER_OP_QUIT: s->v.quit = 1; return 1;
         default:
             s->bits |= leap_viewer_apply(&s->v, c);

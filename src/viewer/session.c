@@ -43,6 +43,7 @@ void session_post_state(leap_viewer_session *s)
 {
     unsigned bits = s->bits;
     s->bits = 0;
+    if (bits) s->ui_dirty = 1;
     if (bits & LEAP_VIEWER_HELP) session_note(s, LEAP_VIEWER_NOTE_HELP, "%s", leap_viewer_help_text());
     if (!(bits & (LEAP_VIEWER_CAMERA | LEAP_VIEWER_MODE | LEAP_VIEWER_STEP | LEAP_VIEWER_TF | LEAP_VIEWER_OVERLAY |
                   LEAP_VIEWER_PICK | LEAP_VIEWER_OBJECTS | LEAP_VIEWER_CLIP)))
@@ -58,12 +59,13 @@ void session_post_state(leap_viewer_session *s)
     pthread_mutex_unlock(&s->mu);
 }
 
-uint64_t session_request_shot(leap_viewer_session *s, const char *path)
+uint64_t session_request_shot(leap_viewer_session *s, const char *path, int with_panel)
 {
     uint64_t id = 0;
     pthread_mutex_lock(&s->mu);
     if (s->shot_req == s->pub.shot_done) {
         snprintf(s->shot_path, sizeof s->shot_path, "%s", path);
+        s->shot_panel = with_panel;
         id = ++s->shot_req;
         pthread_cond_signal(&s->cv);
     }
@@ -71,19 +73,9 @@ uint64_t session_request_shot(leap_viewer_session *s, const char *path)
     return id;
 }
 
-static void key_screenshot(leap_viewer_session *s)
-{
-    char path[64];
-    struct stat sb;
-    do {
-        snprintf(path, sizeof path, "leap-view-%03u.png", ++s->shot_counter);
-    } while (stat(path, &sb) == 0 && s->shot_counter < 100000);
-    if (!session_request_shot(s, path)) session_note(s, LEAP_VIEWER_NOTE_STATUS, "a screenshot is already being taken");
-}
-
 void session_handle_bits(leap_viewer_session *s)
 {
-    if (s->bits & LEAP_VIEWER_SCREENSHOT) key_screenshot(s);
+    if (s->bits & LEAP_VIEWER_SCREENSHOT) session_key_screenshot(s, 0);
     session_post_state(s);
 }
 
@@ -92,22 +84,64 @@ void session_resize_window(leap_viewer_session *s, int width, int height)
     glfwSetWindowSize(s->window, width, height);
 }
 
+uint64_t session_request_hover(leap_viewer_session *s, double x, double y)
+{
+    pthread_mutex_lock(&s->mu);
+    s->hover_x = x;
+    s->hover_y = y;
+    const uint64_t id = ++s->hover_seq;
+    pthread_cond_signal(&s->cv);
+    pthread_mutex_unlock(&s->mu);
+    return id;
+}
+
 static leap_viewer_session *session_of(GLFWwindow *w)
 {
     return glfwGetWindowUserPointer(w);
 }
 
+/* The panel takes the mouse while it is over the panel (and the keyboard while a text field
+ * has it); a drag that began over the picture stays the viewer's. */
+static int panel_has_mouse(const leap_viewer_session *s)
+{
+    return s->ui && (s->v.show_panel || s->v.show_figures) && s->v.drag == LEAP_VIEWER_DRAG_NONE &&
+           leap_ui_wants_mouse(s->ui);
+}
+
 static void on_char(GLFWwindow *w, unsigned int cp)
 {
     leap_viewer_session *s = session_of(w);
+    s->ui_dirty = 1;
+    if (s->ui && s->v.show_panel && leap_ui_wants_keyboard(s->ui)) {
+        leap_ui_char(s->ui, cp);
+        return;
+    }
     s->bits |= leap_viewer_char(&s->v, cp);
+}
+
+static int ui_key_of(int key)
+{
+    switch (key) {
+    case GLFW_KEY_BACKSPACE: return LEAP_UI_KEY_BACKSPACE;
+    case GLFW_KEY_DELETE: return LEAP_UI_KEY_DELETE;
+    case GLFW_KEY_ENTER: case GLFW_KEY_KP_ENTER: return LEAP_UI_KEY_ENTER;
+    case GLFW_KEY_LEFT: return LEAP_UI_KEY_LEFT;
+    case GLFW_KEY_RIGHT: return LEAP_UI_KEY_RIGHT;
+    case GLFW_KEY_HOME: return LEAP_UI_KEY_HOME;
+    case GLFW_KEY_END: return LEAP_UI_KEY_END;
+    case GLFW_KEY_TAB: return LEAP_UI_KEY_TAB;
+    case GLFW_KEY_ESCAPE: return LEAP_UI_KEY_ESCAPE;
+    default: return 0;
+    }
 }
 
 static void on_key(GLFWwindow *w, int key, int scancode, int action, int mods)
 {
     (void)scancode;
-    if (action == GLFW_RELEASE) return;
     leap_viewer_session *s = session_of(w);
+    s->ui_dirty = 1;
+    if (s->ui && ui_key_of(key)) leap_ui_key(s->ui, ui_key_of(key), action != GLFW_RELEASE);
+    if (action == GLFW_RELEASE || (s->ui && s->v.show_panel && leap_ui_wants_keyboard(s->ui))) return;
     int k = key == GLFW_KEY_ESCAPE ? LEAP_VIEWER_KEY_ESCAPE
             : key == GLFW_KEY_LEFT ? LEAP_VIEWER_KEY_LEFT
             : key == GLFW_KEY_RIGHT ? LEAP_VIEWER_KEY_RIGHT
@@ -129,6 +163,10 @@ static void on_button(GLFWwindow *w, int button, int action, int mods)
     if (b < 0) return;
     double x, y;
     glfwGetCursorPos(w, &x, &y);
+    s->ui_dirty = 1;
+    if (s->ui) leap_ui_mouse_button(s->ui, b == LEAP_VIEWER_BUTTON_LEFT ? 0 : b == LEAP_VIEWER_BUTTON_RIGHT ? 1 : 2,
+                                    action == GLFW_PRESS);
+    if (action == GLFW_PRESS && panel_has_mouse(s)) return;
     s->bits |= leap_viewer_button(&s->v, b, action == GLFW_PRESS, mods & GLFW_MOD_SHIFT ? LEAP_VIEWER_MOD_SHIFT : 0,
                                   x * s->cursor_scale_x, y * s->cursor_scale_y);
 }
@@ -136,6 +174,10 @@ static void on_button(GLFWwindow *w, int button, int action, int mods)
 static void on_cursor(GLFWwindow *w, double x, double y)
 {
     leap_viewer_session *s = session_of(w);
+    s->ui_dirty = 1;
+    if (s->ui) leap_ui_mouse_move(s->ui, x * s->cursor_scale_x, y * s->cursor_scale_y);
+    if (s->ui && (s->v.show_panel || s->v.show_figures) && s->v.drag == LEAP_VIEWER_DRAG_NONE && !panel_has_mouse(s))
+        session_request_hover(s, x * s->cursor_scale_x, y * s->cursor_scale_y); /* the panel shows what is under it */
     s->bits |= leap_viewer_cursor(&s->v, x * s->cursor_scale_x, y * s->cursor_scale_y);
 }
 
@@ -143,6 +185,11 @@ static void on_scroll(GLFWwindow *w, double dx, double dy)
 {
     (void)dx;
     leap_viewer_session *s = session_of(w);
+    s->ui_dirty = 1;
+    if (panel_has_mouse(s)) {
+        leap_ui_scroll(s->ui, dy);
+        return;
+    }
     s->bits |= leap_viewer_scroll(&s->v, dy);
 }
 
@@ -157,6 +204,7 @@ static void update_cursor_scale(leap_viewer_session *s, int fb_w, int fb_h)
 static void on_framebuffer(GLFWwindow *w, int width, int height)
 {
     leap_viewer_session *s = session_of(w);
+    s->ui_dirty = 1;
     update_cursor_scale(s, width, height);
     leap_viewer_resize(&s->v, width, height);
     pthread_mutex_lock(&s->mu);
@@ -212,7 +260,8 @@ leap_result leap_viewer_session_start_gpu(leap_viewer_session *s, leap_error *er
 leap_result leap_viewer_session_bind(leap_viewer_session *s, leap_scene *scene, leap_error *err)
 {
     s->scene = scene;
-    return leap_renderer_bind_scene(s->renderer, scene, err);
+    leap_result r = session_list_objects(s, err);
+    return r ? r : leap_renderer_bind_scene(s->renderer, scene, err);
 }
 
 static VkResult make_window_surface(VkInstance instance, void *user, VkSurfaceKHR *surface)
@@ -223,6 +272,7 @@ static VkResult make_window_surface(VkInstance instance, void *user, VkSurfaceKH
 leap_result leap_viewer_session_open(leap_viewer_session *s, const leap_viewer *v, int scripted, leap_error *err)
 {
     s->v = *v;
+    s->v.max_segments = s->desc.max_segments ? (int)s->desc.max_segments : LEAP_MAX_SEGMENTS;
     memcpy(s->applied_tf, s->v.tf, sizeof s->applied_tf);
     s->applied_range[0] = s->v.range[0];
     s->applied_range[1] = s->v.range[1];
@@ -238,6 +288,7 @@ leap_result leap_viewer_session_open(leap_viewer_session *s, const leap_viewer *
     if (r) /* the window system's own words help most when the surface is missing */
         return leap_fail(err, r, "%s%s%s", perr.msg, r == LEAP_ERR_VULKAN && glfw_error_text[0] ? "; " : "",
                          r == LEAP_ERR_VULKAN ? glfw_error_text : "");
+    if (leap_ui_create(&s->ui, &perr)) s->ui = NULL; /* no memory for a panel: the view works without */
     glfwSetWindowUserPointer(s->window, s);
     glfwSetCharCallback(s->window, on_char);
     glfwSetKeyCallback(s->window, on_key);
@@ -287,6 +338,10 @@ leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_sc
         leap_result fatal = s->pub.fatal;
         char msg[1100], title[1024] = "";
         snprintf(msg, sizeof msg, "%s", s->pub.fatal_msg);
+        if (s->pub.center_seq != s->applied_center_seq) { /* a click picked a point: orbit about it */
+            s->applied_center_seq = s->pub.center_seq;
+            s->bits |= leap_viewer_set_center(&s->v, s->pub.center);
+        }
         if (s->pub.title_new) {
             snprintf(title, sizeof title, "%s", s->pub.title);
             s->pub.title_new = 0;
@@ -301,7 +356,7 @@ leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_sc
         if (!script_done) {
             int r = script_step(s, &run);
             if (r < 0) {
-                rc = leap_fail(err, LEAP_ERR_IO, "%s", ""); /* the screenshot's failure was reported */
+                rc = leap_fail(err, LEAP_ERR_IO, "%s", ""); /* the failed screenshot or tfsave was reported */
                 break;
             }
             if (r > 0) {
@@ -312,6 +367,10 @@ leap_result leap_viewer_session_run(leap_viewer_session *s, const leap_viewer_sc
                 pthread_mutex_unlock(&s->mu);
             }
         }
+        /* the panel last: a state the script just posted and the new panel reach the render
+         * thread together, one frame instead of a frame and a re-present */
+        session_update_ui(s, 0);
+        session_handle_bits(s);
     }
     if (s->window) glfwHideWindow(s->window); /* gone at once, even while a slow frame finishes */
     return rc;
@@ -334,9 +393,19 @@ void leap_viewer_session_destroy(leap_viewer_session *s)
     leap_renderer_destroy(s->renderer);
     if (s->glfw_started) glfwTerminate();
     leap_viewer_overlay_destroy(s->overlay);
+    leap_ui_destroy(s->ui);
+    free(s->layer);
+    free(s->ui8);
+    free(s->shared_layer);
+    free(s->ui_layer);
+    free(s->ui_prev);
+    free(s->objects);
+    free(s->ui_shown);
+    free(s->shared_shown);
     free(s->rgba);
     free(s->rgb8);
     free(s->base8);
     free(s->heat);
+    free(s->legend);
     free(s);
 }

@@ -33,6 +33,9 @@ static const char *help_text =
     "  c                    clipping plane on / off: facing the view, through the target\n"
     "  , .                  move the clipping plane nearer / farther (a twentieth of the radius)\n"
     "  r                    reset the camera\n"
+    "  p                    on-screen panel: transfer-function editor, controls, figures\n"
+    "  f                    live figures (in the panel, or alone in a corner)\n"
+    "  g                    colour legend in the picture (scalar volumes)\n"
     "segmentations:\n"
     "  left click           pick the object under the cursor (shown in the title)\n"
     "  x                    hide / show the picked object\n"
@@ -70,6 +73,8 @@ static void set_tf_name(leap_viewer *v, const char *name)
 {
     snprintf(v->tf, sizeof v->tf, "%s", name);
     v->tf_index = viewer_preset_index(v->tf);
+    if (v->tf_point_count) ++v->tf_edits; /* a new transfer function brings its own opacity */
+    v->tf_point_count = 0;
 }
 
 /* Orbit parameters that put the eye where `cam` has it, about cam->target. */
@@ -96,6 +101,21 @@ static void orbit_from_camera(leap_viewer *v, const leap_camera *cam)
     if (v->el < -LEAP_VIEWER_MAX_ELEVATION) v->el = -LEAP_VIEWER_MAX_ELEVATION;
     v->az = (dx == 0 && dz == 0) ? 0 : atan2(dx, dz) * RAD2DEG;
     v->dist_radii = len / v->radius;
+}
+
+unsigned leap_viewer_set_center(leap_viewer *v, const double p[3])
+{
+    leap_camera cam;
+    leap_error ignore;
+    if (!finite3(p) || leap_viewer_camera(v, &cam, &ignore)) return 0;
+    double d2 = 0;
+    for (int i = 0; i < 3; ++i) d2 += (cam.eye[i] - p[i]) * (cam.eye[i] - p[i]);
+    if (!(d2 > 0)) return 0;
+    memcpy(cam.target, p, sizeof cam.target);
+    orbit_from_camera(v, &cam);
+    if (v->dist_radii < LEAP_VIEWER_DIST_MIN) v->dist_radii = LEAP_VIEWER_DIST_MIN;
+    v->use_initial = 0;
+    return LEAP_VIEWER_CAMERA;
 }
 
 static void camera_home(leap_viewer *v)
@@ -148,6 +168,8 @@ leap_result leap_viewer_init(leap_viewer *v, const leap_viewer_desc *desc, leap_
     v->mode = desc->mode;
     v->step = desc->step;
     v->labels = desc->labels;
+    v->show_panel = desc->show_panel;
+    v->show_figures = desc->show_panel;
     v->mip = desc->labels ? 0 : desc->mip;
     v->shade = desc->shade;
     v->shade.on = desc->shade.on && !v->mip && !desc->labels;
@@ -314,6 +336,33 @@ unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi)
     return LEAP_VIEWER_TF;
 }
 
+unsigned leap_viewer_set_segments(leap_viewer *v, int max_segments)
+{
+    if (max_segments < 1 || max_segments > LEAP_MAX_SEGMENTS || max_segments == v->max_segments) return 0;
+    v->max_segments = max_segments;
+    return LEAP_VIEWER_STEP; /* a new frame, same scene */
+}
+
+unsigned leap_viewer_set_opacity(leap_viewer *v, const double (*points)[2], int count)
+{
+    if (count < 0 || count > LEAP_TF_MAX_POINTS || v->labels) return 0;
+    for (int i = 0; i < count; ++i)
+        if (!(points[i][0] >= 0.0 && points[i][0] <= 1.0 && points[i][1] >= 0.0 && points[i][1] <= 1.0) ||
+            (i > 0 && points[i][0] < points[i - 1][0]))
+            return 0;
+    v->tf_point_count = count;
+    if (count) memcpy(v->tf_points, points, (size_t)count * sizeof *points);
+    ++v->tf_edits;
+    return LEAP_VIEWER_TF;
+}
+
+leap_result leap_viewer_tf(const leap_viewer *v, leap_tf *out, leap_error *err)
+{
+    leap_result r = leap_tf_from_arg(v->tf, leap_scene_label_count(v->range[0], v->range[1]), out, err);
+    if (!r && v->tf_point_count > 0) leap_tf_set_opacity(out, (const double (*)[2])v->tf_points, v->tf_point_count);
+    return r;
+}
+
 static unsigned next_tf(leap_viewer *v)
 {
     int n = preset_count();
@@ -373,9 +422,10 @@ static unsigned move_clip(leap_viewer *v, double sign)
     return LEAP_VIEWER_CLIP;
 }
 
-static unsigned object_op(leap_viewer *v, int op)
+unsigned leap_viewer_objects(leap_viewer *v, int op, int64_t id)
 {
-    v->object_op = op;
+    if (op < LEAP_VIEWER_OBJECTS_TOGGLE || op > LEAP_VIEWER_OBJECTS_NONE) return 0; /* scalar volumes ignore them */
+    v->object_queue[v->object_ops % LEAP_VIEWER_OBJECT_QUEUE] = (leap_viewer_object_op){op, id};
     ++v->object_ops;
     return LEAP_VIEWER_OBJECTS;
 }
@@ -396,6 +446,9 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case '}': return scale_range(v, 1.0 / LEAP_VIEWER_RANGE_SCALE);
     case 'b': case 'B': v->show_boxes = !v->show_boxes; return LEAP_VIEWER_OVERLAY;
     case 'h': case 'H': v->show_heat = !v->show_heat; return LEAP_VIEWER_OVERLAY;
+    case 'p': case 'P': v->show_panel = !v->show_panel; return LEAP_VIEWER_PANEL;
+    case 'f': case 'F': v->show_figures = !v->show_figures; return LEAP_VIEWER_PANEL;
+    case 'g': case 'G': v->show_legend = !v->show_legend; return LEAP_VIEWER_OVERLAY;
     case 's': case 'S': ++v->screenshots; return LEAP_VIEWER_SCREENSHOT;
     case 'r': case 'R': return leap_viewer_reset(v);
     case 'u': case 'U': return leap_viewer_next_up(v);
@@ -415,9 +468,9 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case '.': return move_clip(v, 1.0);
     case 'q': case 'Q': v->quit = 1; return LEAP_VIEWER_QUIT;
     case '?': v->show_help = !v->show_help; return LEAP_VIEWER_HELP;
-    case 'x': case 'X': return object_op(v, LEAP_VIEWER_OBJECTS_TOGGLE);
-    case 'i': case 'I': return object_op(v, LEAP_VIEWER_OBJECTS_ONLY);
-    case 'a': case 'A': return object_op(v, LEAP_VIEWER_OBJECTS_ALL);
+    case 'x': case 'X': return leap_viewer_objects(v, LEAP_VIEWER_OBJECTS_TOGGLE, 0);
+    case 'i': case 'I': return leap_viewer_objects(v, LEAP_VIEWER_OBJECTS_ONLY, 0);
+    case 'a': case 'A': return leap_viewer_objects(v, LEAP_VIEWER_OBJECTS_ALL, 0);
     default: return 0;
     }
 }
@@ -512,8 +565,8 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     }
     return snprintf(buf, size,
                     "--mode %s --tf %s --range %.17g,%.17g --step %.17g --eye %.17g,%.17g,%.17g "
-                    "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s",
+                    "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s%s",
                     leap_mode_name(v->mode), v->tf, v->range[0], v->range[1], v->step, cam.eye[0], cam.eye[1],
                     cam.eye[2], cam.target[0], cam.target[1], cam.target[2], cam.up[0], cam.up[1], cam.up[2],
-                    cam.fov_deg, cam.ortho ? " --ortho" : "", clip);
+                    cam.fov_deg, cam.ortho ? " --ortho" : "", clip, v->show_legend && !v->labels ? " --legend" : "");
 }

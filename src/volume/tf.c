@@ -522,6 +522,78 @@ done:
     return r;
 }
 
+void leap_tf_set_opacity(leap_tf *tf, const double (*points)[2], int count)
+{
+    double xs[LEAP_TF_MAX_POINTS], as[LEAP_TF_MAX_POINTS];
+    const int n = count < LEAP_TF_MAX_POINTS ? count : LEAP_TF_MAX_POINTS;
+    if (n < 1) return;
+    for (int p = 0; p < n; ++p) {
+        xs[p] = points[p][0];
+        as[p] = points[p][1];
+    }
+    /* as the JSON reader evaluates "Points" over RGB points spanning [0, 1]: x = u */
+    for (int i = 0; i < N_TABLE; ++i) {
+        double a;
+        pwl_eval(xs, as, n, 1, table_u(i), &a);
+        tf->rgba[i][3] = clamp01f(a);
+    }
+}
+
+/* Keeps the table entries where the opacity's slope
+ * changes by more than `tol`, so presets come back as their few knots. */
+int leap_tf_opacity_points(const leap_tf *tf, double (*points)[2], int max_points)
+{
+    if (max_points < 2) return 0;
+    double tol = 1e-6;
+    for (;;) {
+        int n = 0;
+        points[n][0] = 0.0;
+        points[n++][1] = tf->rgba[0][3];
+        for (int i = 1; i < N_TABLE - 1 && n < max_points - 1; ++i) {
+            const double d0 = (double)tf->rgba[i][3] - tf->rgba[i - 1][3];
+            const double d1 = (double)tf->rgba[i + 1][3] - tf->rgba[i][3];
+            if (fabs(d1 - d0) > tol) {
+                points[n][0] = table_u(i);
+                points[n++][1] = tf->rgba[i][3];
+            }
+        }
+        if (n < max_points - 1 || tol > 1.0) {
+            points[n][0] = 1.0;
+            points[n++][1] = tf->rgba[N_TABLE - 1][3];
+            return n;
+        }
+        tol *= 4.0; /* too many bends: keep only the sharper ones */
+    }
+}
+
+leap_result leap_tf_save_json(const leap_tf *tf, const double (*points)[2], int count, const char *path,
+                              leap_error *err)
+{
+    /* RGBPoints at every table entry (x = u_i, floats printed to round-trip), so the file
+     * reads back to the same table; opacity as the curve's points, or every entry's. */
+    char name[sizeof tf->name];
+    snprintf(name, sizeof name, "%s", tf->name[0] ? tf->name : "leap");
+    for (char *c = name; *c; ++c)
+        if (*c == '"' || *c == '\\' || (unsigned char)*c < 0x20) *c = '_';
+    const size_t cap = (size_t)N_TABLE * 4 * 28 + (size_t)(count > 0 ? count : N_TABLE) * 4 * 28 + 256;
+    char *text = malloc(cap);
+    if (!text) return leap_fail(err, LEAP_ERR_OOM, "out of memory");
+    size_t len = (size_t)snprintf(text, cap, "[\n  {\n    \"Name\": \"%s\",\n    \"ColorSpace\": \"RGB\",\n    \"RGBPoints\": [",
+                                  name);
+    for (int i = 0; i < N_TABLE; ++i)
+        len += (size_t)snprintf(text + len, cap - len, "%s\n      %.17g, %.9g, %.9g, %.9g", i ? "," : "", table_u(i),
+                                tf->rgba[i][0], tf->rgba[i][1], tf->rgba[i][2]);
+    len += (size_t)snprintf(text + len, cap - len, "\n    ],\n    \"Points\": [");
+    const int n = count > 0 ? count : N_TABLE;
+    for (int p = 0; p < n; ++p)
+        len += (size_t)snprintf(text + len, cap - len, "%s\n      %.17g, %.17g, 0.5, 0.0", p ? "," : "",
+                                count > 0 ? points[p][0] : table_u(p), count > 0 ? points[p][1] : (double)tf->rgba[p][3]);
+    snprintf(text + len, cap - len, "\n    ]\n  }\n]\n");
+    leap_result r = leap_file_publish_text(path, text, err);
+    free(text);
+    return r;
+}
+
 static int ends_with_json(const char *s)
 {
     const size_t n = strlen(s);
