@@ -19,6 +19,7 @@
 #include "check.h"
 #include "image_diff.h"
 #include "leap/image.h"
+#include "leap/tf.h"
 
 #define MAX_DIFF 1
 #define MAX_DIFF_FRACTION 0.001
@@ -144,6 +145,40 @@ static void expand(char *out, size_t size, const char *t, const char *dir)
         }
     }
     out[n] = '\0';
+}
+
+/* The opacity points ("Points": x, a, midpoint, sharpness ...) of a saved transfer function;
+ * returns their count (-1: unreadable). */
+static int json_points(const char *path, double (*pts)[2])
+{
+    FILE *f = fopen(path, "r");
+    if (!f) return -1;
+    char *text = malloc(1 << 20);
+    size_t len = text ? fread(text, 1, (1 << 20) - 1, f) : 0;
+    fclose(f);
+    if (!text) return -1;
+    text[len] = '\0';
+    const char *p = strstr(text, "\"Points\"");
+    int n = 0;
+    p = p ? strchr(p, '[') : NULL;
+    while (p && n < LEAP_TF_MAX_POINTS) {
+        double v[4];
+        char *end = (char *)p + 1;
+        int k = 0;
+        for (; k < 4; ++k) {
+            const char *s = end;
+            while (*s == ',' || *s == ' ' || *s == '\n') ++s;
+            v[k] = strtod(s, &end);
+            if (end == s) break;
+        }
+        if (k < 4) break;
+        pts[n][0] = v[0];
+        pts[n][1] = v[1];
+        ++n;
+        p = end - 1;
+    }
+    free(text);
+    return n;
 }
 
 /* Pixels of a screenshot that have exactly the colour c (8-bit). */
@@ -454,6 +489,39 @@ int main(void)
             CHECK_MSG(ok && inside > 2000 && outside == 0, "%s: %ld values differ inside the panel's area, %ld outside",
                       layered[k].file, inside, outside);
         }
+    }
+
+    /* The panel under the mouse: scripted clicks and drags that start over the panel are the
+     * panel's. A click in the editor adds a curve point, a drag moves it, a right click deletes
+     * it (each state saved with tfsave), and a click on the "naive" button switches the mode. */
+    {
+        char text[1024];
+        expand(text, sizeof text,
+               "panel on\nframes 1\nclick 30 180\ntfsave @/added.json\ndrag left 30 180 60 120\n"
+               "tfsave @/moved.json\ndrag right 60 120 60 120\ntfsave @/deleted.json\nclick 18 443\n"
+               "screenshot @/clicked.png\nquit\n",
+               tmp);
+        snprintf(script, sizeof script, "%s/mouse.txt", tmp);
+        write_text(script, text);
+        snprintf(cmd, sizeof cmd, "%s %s view %s/sphere.vdb --size 480x600 --script %s", xvfb, LEAP_EXE, LEAP_VOLUMES,
+                 script);
+        rc = run(cmd);
+        CHECK_MSG(rc == 0, "panel mouse session: exit %d: %s", rc, out_text);
+        snprintf(shot, sizeof shot, "%s/clicked.png", tmp);
+        CHECK_MSG(render_args_for(shot, args, sizeof args) && strstr(args, "--mode naive "), "mode button: %s", out_text);
+        double pts[3][LEAP_TF_MAX_POINTS][2];
+        int n[3];
+        static const char *saved[] = {"added", "moved", "deleted"};
+        for (int k = 0; k < 3; ++k) {
+            char path[1200];
+            snprintf(path, sizeof path, "%s/%s.json", tmp, saved[k]);
+            n[k] = json_points(path, pts[k]);
+        }
+        CHECK_MSG(n[0] == 3 && pts[0][1][0] > 0.03 && pts[0][1][0] < 0.12 && fabs(pts[0][1][1] - 0.4) < 0.02,
+                  "click: %d points, the new one at (%g, %g)", n[0], pts[0][1][0], pts[0][1][1]);
+        CHECK_MSG(n[1] == 3 && pts[1][1][0] > pts[0][1][0] + 0.05 && fabs(pts[1][1][1] - 0.8) < 0.02,
+                  "drag: %d points, the moved one at (%g, %g)", n[1], pts[1][1][0], pts[1][1][1]);
+        CHECK_MSG(n[2] == 2, "right click: %d points left", n[2]);
     }
 
     /* The panel's object list: objects hidden by script commands render as `leap render --hide`,

@@ -34,6 +34,7 @@
  *   zoom CLICKS               wheel clicks (positive = closer)
  *   pan DX DY                 pan as a drag of DX, DY pixels
  *   drag BUTTON X0 Y0 X1 Y1 [shift]   mouse drag (BUTTON left, middle or right) in 8 moves
+ *                             (starting over the panel: the panel's, as the mouse's would be)
  *   key NAME                  a key press: one character (t [ ] { } + - ? 1 ...) or esc,
  *                             escape, left, right, up, down, plus, minus, space
  *   mode NAME                 naive, bbox, octree, sparseleap
@@ -45,7 +46,7 @@
  *   wait MS                   let MS milliseconds pass (idle refinement happens)
  *   resize W H                resize the window
  *   mark LABEL                print frames and frames per second since the last mark
- *   click X Y                 left click at window pixel (X, Y) (picks an object)
+ *   click X Y                 left click at window pixel (X, Y) (picks; over the panel: the panel's)
  *   panel on|off              the on-screen panel
  *   figures on|off            the live figures
  *   opacity U A [U A ...]     the opacity curve: points (U in [0, 1] over the value window,
@@ -119,6 +120,7 @@ typedef struct leap_viewer_object_op {
     int64_t id; /* SHOW, HIDE */
 } leap_viewer_object_op;
 #define LEAP_VIEWER_CLICK_PIXELS 3.0 /* a left press and release closer than this: a click (pick) */
+#define LEAP_VIEWER_DRAG_MOVES 8     /* cursor moves of a scripted drag */
 
 enum { LEAP_VIEWER_DRAG_NONE = 0, LEAP_VIEWER_DRAG_ORBIT, LEAP_VIEWER_DRAG_PAN, LEAP_VIEWER_DRAG_ZOOM };
 

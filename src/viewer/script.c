@@ -11,7 +11,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define DRAG_MOVES 8
 #define TEXT_(x) #x
 #define TEXT(x) TEXT_(x)
 
@@ -25,8 +24,8 @@ unsigned leap_viewer_apply(leap_viewer *v, const leap_viewer_cmd *c)
     case LEAP_VIEWER_OP_PAN: return leap_viewer_pan(v, c->num[0], c->num[1]);
     case LEAP_VIEWER_OP_DRAG:
         bits |= leap_viewer_button(v, c->button, 1, c->mods, c->num[0], c->num[1]);
-        for (int i = 1; i <= DRAG_MOVES; ++i) {
-            double f = (double)i / DRAG_MOVES;
+        for (int i = 1; i <= LEAP_VIEWER_DRAG_MOVES; ++i) {
+            double f = (double)i / LEAP_VIEWER_DRAG_MOVES;
             bits |= leap_viewer_cursor(v, c->num[0] + f * (c->num[2] - c->num[0]), c->num[1] + f * (c->num[3] - c->num[1]));
         }
         bits |= leap_viewer_button(v, c->button, 0, c->mods, c->num[2], c->num[3]);

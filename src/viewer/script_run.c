@@ -73,6 +73,39 @@ static int wait_done(leap_viewer_session *s, script_run *run)
     }
 }
 
+/* One frame of the panel, as after a window event. */
+static void panel_frame(leap_viewer_session *s)
+{
+    s->ui_dirty = 1;
+    session_update_ui(s, 0);
+    session_handle_bits(s);
+}
+
+/* A scripted click or drag that starts over the panel goes to the panel, as the mouse's would:
+ * a panel frame after the press, each of the moves and the release. Returns 0 when the
+ * point is not over the panel (the viewer takes it). */
+static int panel_mouse(leap_viewer_session *s, const leap_viewer_cmd *c)
+{
+    if (!s->ui || !(s->v.show_panel || s->v.show_figures)) return 0;
+    const int drag = c->op == LEAP_VIEWER_OP_DRAG;
+    const double x0 = c->num[0], y0 = c->num[1], x1 = drag ? c->num[2] : x0, y1 = drag ? c->num[3] : y0;
+    const int button = !drag || c->button == LEAP_VIEWER_BUTTON_LEFT ? 0 : c->button == LEAP_VIEWER_BUTTON_RIGHT ? 1 : 2;
+    leap_ui_mouse_move(s->ui, x0, y0);
+    panel_frame(s);
+    if (!leap_ui_wants_mouse(s->ui)) return 0;
+    leap_ui_mouse_button(s->ui, button, 1);
+    panel_frame(s);
+    for (int i = 1; drag && i <= LEAP_VIEWER_DRAG_MOVES; ++i) {
+        const double f = (double)i / LEAP_VIEWER_DRAG_MOVES;
+        leap_ui_mouse_move(s->ui, x0 + f * (x1 - x0), y0 + f * (y1 - y0));
+        panel_frame(s);
+    }
+    leap_ui_mouse_button(s->ui, button, 0);
+    panel_frame(s);
+    panel_frame(s); /* widgets act on the release's frame; the next shows the result */
+    return 1;
+}
+
 static uint64_t current_seq(leap_viewer_session *s)
 {
     pthread_mutex_lock(&s->mu);
@@ -140,6 +173,9 @@ int script_step(leap_viewer_session *s, script_run *run)
             if (session_save_tf(s, c->text)) return -1;
             break;
         case LEAP_VIEWER_OP_QUIT: s->v.quit = 1; return 1;
+        case LEAP_VIEWER_OP_DRAG: case LEAP_VIEWER_OP_CLICK: /* over the picture: the viewer's, as below */
+            if (panel_mouse(s, c)) break;
+            /* fall through */
         default:
             s->bits |= leap_viewer_apply(&s->v, c);
             session_handle_bits(s);
