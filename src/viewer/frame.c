@@ -77,16 +77,24 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     return r;
 }
 
+/* The march a frame of state st renders with: the scene's, at the state's step, with the
+ * viewer's clipping plane (frames and picks alike, so a pick is what the picture shows). */
+static leap_march state_march(const leap_scene *scene, const leap_viewer *st)
+{
+    leap_march march = scene->march;
+    march.step = st->step;
+    if (st->clip_on && march.clip_count < LEAP_MAX_CLIPS)
+        leap_scene_clip_to_index(scene, st->clip, march.clip[march.clip_count++]);
+    return march;
+}
+
 /* The first sample under window point (x, y) of state st, as rendered (step, clipping plane). */
 static leap_result pick_ray(leap_viewer_session *s, const leap_viewer *st, double x, double y, leap_pick *p, leap_error *err)
 {
     leap_scene *scene = s->scene;
     leap_camera cam;
     leap_rays rays;
-    leap_march march = scene->march;
-    march.step = st->step;
-    if (st->clip_on && march.clip_count < LEAP_MAX_CLIPS)
-        leap_scene_clip_to_index(scene, st->clip, march.clip[march.clip_count++]);
+    leap_march march = state_march(scene, st);
     leap_reference_desc rd = {.grid = scene->grid, .tf = &scene->tf, .rays = &rays, .march = &march, .labels = scene->labels};
     leap_result r = leap_viewer_camera(st, &cam, err);
     if (!r) r = leap_scene_rays(scene, &cam, st->width, st->height, &rays, err);
@@ -94,12 +102,21 @@ static leap_result pick_ray(leap_viewer_session *s, const leap_viewer *st, doubl
     return r;
 }
 
-static void describe_pick(const leap_scene *scene, const leap_pick *p, char *out, size_t size)
+/* A hit pick in words: short for the title, full (opacity, depth, more digits) for the
+ * figures and scripts. */
+static void describe_pick(const leap_scene *scene, const leap_pick *p, int full, char *out, size_t size)
 {
+    char what[96], depth[48] = "";
+    const int digits = full ? 6 : 4;
     if (scene->labels)
-        snprintf(out, size, " | object %lld at (%.4g, %.4g, %.4g)", (long long)p->id, p->world[0], p->world[1], p->world[2]);
+        snprintf(what, sizeof what, "object %lld", (long long)p->id);
+    else if (full)
+        snprintf(what, sizeof what, "value %.9g (opacity %.4g)", p->value, p->opacity);
     else
-        snprintf(out, size, " | value %.6g at (%.4g, %.4g, %.4g)", p->value, p->world[0], p->world[1], p->world[2]);
+        snprintf(what, sizeof what, "value %.6g", p->value);
+    if (full) snprintf(depth, sizeof depth, ", depth %.6g", p->depth);
+    snprintf(out, size, "%s at (%.*g, %.*g, %.*g)%s", what, digits, p->world[0], digits, p->world[1], digits,
+             p->world[2], depth);
 }
 
 /* Answers the main thread's newest hover (or script pick) request: no frame is rendered. */
@@ -111,12 +128,8 @@ static void answer_hover(leap_viewer_session *s, const leap_viewer *st, double x
     if (s->base_ok && pick_ray(s, st, x, y, &p, &err) == LEAP_OK) {
         if (!p.hit)
             snprintf(text, sizeof text, "nothing above opacity %g", st->pick_opacity);
-        else if (s->scene->labels)
-            snprintf(text, sizeof text, "object %lld at (%.6g, %.6g, %.6g), depth %.6g", (long long)p.id, p.world[0],
-                     p.world[1], p.world[2], p.depth);
         else
-            snprintf(text, sizeof text, "value %.9g (opacity %.4g) at (%.6g, %.6g, %.6g), depth %.6g", p.value, p.opacity,
-                     p.world[0], p.world[1], p.world[2], p.depth);
+            describe_pick(s->scene, &p, 1, text, sizeof text);
     } else {
         snprintf(text, sizeof text, "no pick: %s", err.msg[0] ? err.msg : "no frame yet");
     }
@@ -153,7 +166,9 @@ static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, 
                 s->picked_id = p.id;
                 s->picked_index = p.object;
             }
-            describe_pick(scene, &p, s->pick_text, sizeof s->pick_text);
+            char text[sizeof s->pick_text - 3];
+            describe_pick(scene, &p, 0, text, sizeof text);
+            snprintf(s->pick_text, sizeof s->pick_text, " | %s", text);
             pthread_mutex_lock(&s->mu); /* the main thread turns the orbit about the picked point */
             memcpy(s->pub.center, p.world, sizeof p.world);
             s->pub.center_seq++;
@@ -227,10 +242,7 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
         (st->show_heat && !leap__grow((void **)&s->heat, &s->heat_cap, (size_t)W * H, sizeof(float))))
         return leap_fail(err, LEAP_ERR_OOM, "out of memory for a %dx%d frame", W, H);
     s->samples = s->rgba + band * 4;
-    leap_march march = s->scene->march;
-    march.step = st->step;
-    if (st->clip_on && march.clip_count < LEAP_MAX_CLIPS)
-        leap_scene_clip_to_index(s->scene, st->clip, march.clip[march.clip_count++]);
+    leap_march march = state_march(s->scene, st);
     if (st->max_segments > 0) leap_renderer_set_max_segments(s->renderer, (uint32_t)st->max_segments);
     int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
     leap_frame_stats fs;
@@ -348,17 +360,19 @@ static leap_result save_presented(const leap_viewer_session *s, const uint8_t *r
     return r;
 }
 
-static void make_title(const leap_viewer_session *s, const leap_viewer *st, const frame_figures *ff, char *out, size_t size)
+/* blank: why nothing can show, or "" (leap_scene_shows_nothing, once per frame). */
+static void make_title(const leap_viewer_session *s, const leap_viewer *st, const frame_figures *ff, const char *blank_why,
+                       char *out, size_t size)
 {
     char res[64] = "";
     if (ff->refining)
         snprintf(res, sizeof res, " (refining%s: %.0f %%)", ff->scale > 1 ? " at reduced res" : "", 100.0 * ff->progress);
     else if (ff->scale > 1)
         snprintf(res, sizeof res, " (1/%d res)", ff->scale);
-    char tf_ms[48] = "", blank[300] = "", why[256];
+    char tf_ms[48] = "", blank[300] = "";
     if (s->tf_apply_ms > 0) snprintf(tf_ms, sizeof tf_ms, " | re-classify %.1f ms", s->tf_apply_ms);
     /* A blank frame says why, first: a silently black window looks like a failure. */
-    if (leap_scene_shows_nothing(s->scene, why, sizeof why)) snprintf(blank, sizeof blank, " | NOTHING TO SHOW: %s", why);
+    if (blank_why[0]) snprintf(blank, sizeof blank, " | NOTHING TO SHOW: %s", blank_why);
     snprintf(out, size,
              "leap view %s%s | %s | %ux%u%s | %.1f ms (%.1f fps) | raster %.1f resolve %.1f composite %.1f "
              "readback %.1f compose %.1f present %.1f ms | %u boxes | %.1f spp | step %g | %s [%g, %g]%s%s%s%s",
@@ -370,7 +384,7 @@ static void make_title(const leap_viewer_session *s, const leap_viewer *st, cons
 }
 
 /* The figures the panel shows (mutex held). */
-static void publish_figures(leap_viewer_session *s, const frame_figures *ff, session_published *p)
+static void publish_figures(leap_viewer_session *s, const frame_figures *ff, const char *blank_why, session_published *p)
 {
     const double classify_ms = s->tf_apply_ms > 0 ? s->tf_apply_ms : p->fig.classify_ms;
     p->fig = (leap_ui_figures){
@@ -393,7 +407,7 @@ static void publish_figures(leap_viewer_session *s, const frame_figures *ff, ses
         .gpu_bytes = leap_renderer_volume_bytes(s->renderer),
         .frames = p->frames,
     };
-    if (!leap_scene_shows_nothing(s->scene, p->blank, sizeof p->blank)) p->blank[0] = '\0';
+    snprintf(p->blank, sizeof p->blank, "%s", blank_why);
 }
 
 static void set_fatal(leap_viewer_session *s, leap_result code, const char *msg)
@@ -624,8 +638,9 @@ void *session_render_thread(void *arg)
                 note_shot(s, &st, shot_path);
             }
         }
-        char title[1024];
-        make_title(s, &st, &ff, title, sizeof title);
+        char title[1024], blank_why[sizeof s->pub.blank];
+        if (!leap_scene_shows_nothing(s->scene, blank_why, sizeof blank_why)) blank_why[0] = '\0';
+        make_title(s, &st, &ff, blank_why, title, sizeof title);
         pthread_mutex_lock(&s->mu);
         session_published *p = &s->pub;
         p->rendered_seq = seq;
@@ -652,7 +667,7 @@ void *session_render_thread(void *arg)
         }
         snprintf(p->title, sizeof p->title, "%s", title);
         p->title_new = 1;
-        publish_figures(s, &ff, p);
+        publish_figures(s, &ff, blank_why, p);
         pthread_mutex_unlock(&s->mu);
         session_wake();
     }

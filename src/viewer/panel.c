@@ -141,18 +141,16 @@ void session_update_ui(leap_viewer_session *s, int settle)
     if (!s->ui) return;
     const int W = s->v.width, H = s->v.height;
     pthread_mutex_lock(&s->mu);
-    const int blank_frame = s->pub.blank[0] != '\0';
-    pthread_mutex_unlock(&s->mu);
     /* a frame that shows nothing says why in the picture, panel or not */
-    const int on = (s->v.show_panel || s->v.show_figures || blank_frame) && W > 0 && H > 0;
+    const int on = (s->v.show_panel || s->v.show_figures || s->pub.blank[0] != '\0') && W > 0 && H > 0;
     if (!on) {
+        pthread_mutex_unlock(&s->mu);
         if (s->ui_prev_on) publish_layer(s, NULL, 0, 0, 0);
         s->ui_prev_on = 0;
         return;
     }
     /* Built only when something it shows may have changed: building and drawing it costs CPU
      * that a software GPU renders with. */
-    pthread_mutex_lock(&s->mu);
     const int news = s->pub.frames != s->ui_seen_frames || s->pub.hover_done != s->ui_seen_hover ||
                      s->shown_gen != s->ui_seen_shown;
     s->ui_seen_frames = s->pub.frames;
