@@ -109,7 +109,8 @@ void main()
         // What naive marching takes for this pixel: the same lattice from the domain entry
         // to the domain exit, or to the sample where early termination stopped every mode.
         float j_end = leap_lattice_end(lat, t_exit);
-        finished = leap_accum_done(acc) || j_end <= j_hi;
+        // bbox_max.w: the skipping modes take no sample beyond it (renderer_chunk_count).
+        finished = leap_accum_done(acc) || leap_lattice_end(lat, min(t_exit, frame.bbox_max.w)) <= j_hi;
         if (leap_accum_done(acc)) j_end = j_next;
         naive_samples = max(j_end - leap_lattice_first(lat, t_enter), 0.0);
     }

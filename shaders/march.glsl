@@ -21,6 +21,8 @@ layout(constant_id = 2) const bool leap_labels = false;
 layout(constant_id = 3) const bool leap_mip = false;
 // leap_shade: gradient shading (leap_march.shade; frame.normal_row*, shade, light).
 layout(constant_id = 4) const bool leap_shade = false;
+// The page table has middle levels (frame.keep_count.y of them): a long box.
+layout(constant_id = 5) const bool leap_page_middle = false;
 
 struct leap_ray {
     vec3 origin;
@@ -100,7 +102,20 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
     ivec3 block = cell >> shift;
     if (any(notEqual(block, cur.block))) {
         cur.block = block;
-        cur.block_entry = pages[block.x + frame.top_dims.x * (block.y + frame.top_dims.y * block.z)];
+        if (leap_page_middle) {
+            // A long box: the top level's entry, then middle nodes down to the block (a few
+            // reads when a ray enters a new block, none per cell).
+            int up = LEAP_PAGE_NODE_SHIFT * int(frame.keep_count.y);
+            ivec3 top = block >> up;
+            uint e = pages[top.x + frame.top_dims.x * (top.y + frame.top_dims.y * top.z)];
+            for (int s = up - LEAP_PAGE_NODE_SHIFT; s >= 0 && (e & LEAP_PAGE_CONST) == 0u; s -= LEAP_PAGE_NODE_SHIFT) {
+                ivec3 m = (block >> s) & ((1 << LEAP_PAGE_NODE_SHIFT) - 1);
+                e = pages[e + uint(m.x | (m.y << LEAP_PAGE_NODE_SHIFT) | (m.z << (2 * LEAP_PAGE_NODE_SHIFT)))];
+            }
+            cur.block_entry = e;
+        } else {
+            cur.block_entry = pages[block.x + frame.top_dims.x * (block.y + frame.top_dims.y * block.z)];
+        }
     }
     uint entry = cur.block_entry;
     if ((entry & LEAP_PAGE_CONST) == 0u) {

@@ -55,14 +55,17 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * LEAP_SLOT^3 texels holding the cell's voxels plus the next voxel on each + side, so
  * trilinear filtering inside a slot never reads a neighbour (seamless bricks).
  * Page table, one storage buffer of uints:
- *   [0, top_count)           one entry per block of B^3 cells, B = 1 << block_shift
- *   [top_count + b * B^3 ...] the cell entries of block b
+ *   [0, top_count)           the top level: one entry per N^L blocks of B^3 cells,
+ *                            B = 1 << block_shift, N = 1 << LEAP_PAGE_NODE_SHIFT,
+ *                            L = middle levels (frame keep_count.y; 0 unless the box is long)
+ *   [top_count, block_base)  middle nodes of N^3 entries, each for N^l blocks (l = L-1 .. 0)
+ *   [block_base + b * B^3 ...] the cell entries of block b (block_base: frame top_dims.w)
  * block_shift (frame slot_dims.w) is LEAP_BLOCK_SHIFT_MAX unless the page table would not
- * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN, and a
- * sparse grid whose box is too long for the top level gets larger ones, up to _HUGE.
+ * fit in a storage buffer; scattered data then gets smaller blocks, down to _MIN.
  * An entry with LEAP_PAGE_CONST set holds a constant value in its low 16 bits (the same
- * 16-bit quantisation as the atlas texels: value / 65535); otherwise it
- * is a block index (top level) or a slot's atlas position (cell level), packed as
+ * 16-bit quantisation as the atlas texels: value / 65535) for everything below it; otherwise
+ * it is the word offset of a middle node (levels above the blocks), a block index (the
+ * level above the blocks) or a slot's atlas position (cell level), packed as
  * x | y << LEAP_SLOT_BITS | z << 2 * LEAP_SLOT_BITS in slot units, so the shader needs no
  * integer division (which lavapipe runs lane by lane). */
 #define LEAP_CELL 8
@@ -70,7 +73,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_SLOT 9
 #define LEAP_BLOCK_SHIFT_MAX 4
 #define LEAP_BLOCK_SHIFT_MIN 2
-#define LEAP_BLOCK_SHIFT_HUGE 6 /* larger blocks when the top level alone would not fit */
+#define LEAP_PAGE_NODE_SHIFT 2 /* middle nodes are 4^3 entries */
 #define LEAP_PAGE_CONST 0x80000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
@@ -159,7 +162,7 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
     LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity (of the table), lattice indices per
                                  composite chunk, scale of world_row* (a power of two) */
-    LEAP_UVEC4 top_dims;      /* 224: top-level blocks per axis, w = top_count */
+    LEAP_UVEC4 top_dims;      /* 224: top-level entries per axis, w = block_base */
     LEAP_UVEC4 slot_dims;     /* 240: atlas slots per axis, w = page block shift */
     LEAP_UVEC4 image;         /* 256: width, height, 1 = minimum intensity projection (with the MIP
                                  pipeline), ortho */
@@ -170,13 +173,13 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 raster;         /* 336: x = pixel size per unit distance (perspective) or per
                                  pixel (ortho), y = box growth in pixels for raster coverage */
     LEAP_VEC4 bbox_min;       /* 352: xyz, non-empty bounds (bbox mode) */
-    LEAP_VEC4 bbox_max;       /* 368 */
+    LEAP_VEC4 bbox_max;       /* 368: w = the farthest t of any sample a skipping mode may take (naive: inf) */
     LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,
                                  w = occupancy tree depth (root edge = 2^w cells) */
     LEAP_UVEC4 labels;        /* 400: label volumes: x = first label word in pages[], y = objects */
     LEAP_VEC4 keep[4];        /* 416: clipping planes (a, b, c, d), relative index space: a ray keeps
                                  the points where a x + b y + c z + d >= 0 for every plane in use */
-    LEAP_UVEC4 keep_count;    /* 480: x = planes in use (0..4) */
+    LEAP_UVEC4 keep_count;    /* 480: x = planes in use (0..4), y = middle page levels */
     LEAP_VEC4 normal_row0;    /* 496: rows of the inverse transpose of world_row* (gradients to world) */
     LEAP_VEC4 normal_row1;    /* 512 */
     LEAP_VEC4 normal_row2;    /* 528 */

@@ -107,10 +107,23 @@ static long expected_code(const leap_atlas *a, double v)
     return lrint(s * 65535.0);
 }
 
+/* Index of the top-level entry above cell c. */
+static size_t top_index(const leap_atlas *a, const uint32_t c[3])
+{
+    const uint32_t s = a->block_shift + LEAP_PAGE_NODE_SHIFT * a->mid_levels;
+    return (c[0] >> s) + a->top_dims[0] * ((c[1] >> s) + (size_t)a->top_dims[1] * (c[2] >> s));
+}
+
+/* The entry above cell c's block: a constant or the block's index (through the middle nodes). */
 static uint32_t top_entry(const leap_atlas *a, const uint32_t c[3])
 {
-    const uint32_t s = a->block_shift;
-    return a->pages[(c[0] >> s) + a->top_dims[0] * ((c[1] >> s) + a->top_dims[1] * (c[2] >> s))];
+    const uint32_t s = a->block_shift, n = LEAP_PAGE_NODE_SHIFT, m = (1u << n) - 1;
+    uint32_t e = a->pages[top_index(a, c)];
+    for (int l = (int)a->mid_levels - 1; l >= 0 && !(e & LEAP_PAGE_CONST); --l) {
+        const uint32_t b[3] = {c[0] >> s >> (n * l) & m, c[1] >> s >> (n * l) & m, c[2] >> s >> (n * l) & m};
+        e = a->pages[e + (b[0] | b[1] << n | b[2] << (2 * n))];
+    }
+    return e;
 }
 
 /* The cell entry of cell c: a constant (LEAP_PAGE_CONST | code) or a packed slot position. */
@@ -119,7 +132,7 @@ static uint32_t cell_entry(const leap_atlas *a, const uint32_t c[3])
     uint32_t e = top_entry(a, c);
     if (e & LEAP_PAGE_CONST) return e;
     const uint32_t s = a->block_shift, m = (1u << s) - 1;
-    size_t at = a->top_count + (size_t)e * (1u << (3 * s)) + ((c[0] & m) | (c[1] & m) << s | (c[2] & m) << (2 * s));
+    size_t at = a->block_base + (size_t)e * (1u << (3 * s)) + ((c[0] & m) | (c[1] & m) << s | (c[2] & m) << (2 * s));
     return a->pages[at];
 }
 
@@ -183,8 +196,7 @@ static scan_result scan(const leap_atlas *a, int dense, const char *what)
                         c[i] = (uint32_t)q;
                     }
                     if (!ok) continue;
-                    const uint32_t s = a->block_shift;
-                    near_data[(c[0] >> s) + a->top_dims[0] * ((c[1] >> s) + a->top_dims[1] * (c[2] >> s))] = 1;
+                    near_data[top_index(a, c)] = 1;
                 }
             }
     /* aprons and constant cells */
@@ -233,20 +245,49 @@ static scan_result scan(const leap_atlas *a, int dense, const char *what)
     return r;
 }
 
+typedef struct node_check {
+    const leap_atlas *a;
+    uint8_t *block_named;
+    long nodes, bad;
+} node_check;
+
+/* An entry `level` levels above the blocks: a constant, a block index (level 0, each block
+ * named once) or a node-aligned middle node between the top level and the blocks. */
+static void check_entry(node_check *nc, uint32_t e, uint32_t level)
+{
+    const leap_atlas *a = nc->a;
+    const uint32_t node_words = 1u << (3 * LEAP_PAGE_NODE_SHIFT);
+    if (e & LEAP_PAGE_CONST) return;
+    if (level == 0) {
+        nc->bad += e >= a->block_count || (nc->block_named && nc->block_named[e]++);
+        return;
+    }
+    if (e < a->top_count || e + node_words > a->block_base || (e - a->top_count) % node_words != 0) {
+        nc->bad++;
+        return;
+    }
+    nc->nodes++;
+    for (uint32_t i = 0; i < node_words; ++i) check_entry(nc, a->pages[e + i], level - 1);
+}
+
 /* Page table well-formed: sizes, block indices, slot positions in range, each slot position
  * used by exactly one cell entry. Returns the number of slot cells. */
 static long check_structure(const leap_atlas *a, const char *what)
 {
     const uint32_t bc = 1u << (3 * a->block_shift);
-    CHECK_MSG(a->page_words == (size_t)a->top_count + (size_t)a->block_count * bc, "%s: page words %zu", what,
+    CHECK_MSG(a->page_words == (size_t)a->block_base + (size_t)a->block_count * bc, "%s: page words %zu", what,
               a->page_words);
     CHECK_MSG(a->top_count == a->top_dims[0] * a->top_dims[1] * a->top_dims[2], "%s: top count", what);
+    const uint32_t nodes = LEAP_PAGE_NODE_SHIFT * a->mid_levels, node_words = 1u << (3 * LEAP_PAGE_NODE_SHIFT);
+    CHECK_MSG((a->block_base - a->top_count) % node_words == 0, "%s: middle words %u", what, a->block_base - a->top_count);
+    CHECK_MSG(a->mid_levels > 0 || a->block_base == a->top_count, "%s: middle nodes without middle levels", what);
     for (int i = 0; i < 3; ++i) {
-        CHECK_MSG(a->top_dims[i] == (a->cells[i] + (1u << a->block_shift) - 1) >> a->block_shift, "%s: top dims", what);
+        const uint32_t blocks = (a->cells[i] + (1u << a->block_shift) - 1) >> a->block_shift;
+        CHECK_MSG(a->top_dims[i] == (blocks + (1u << nodes) - 1) >> nodes, "%s: top dims", what);
         CHECK_MSG(a->texel_dims[i] == a->slot_dims[i] * LEAP_SLOT, "%s: texel dims", what);
         CHECK_MSG(a->origin[i] % LEAP_CELL == 0, "%s: origin %d not a multiple of 8", what, a->origin[i]);
     }
-    CHECK_MSG(a->block_shift >= LEAP_BLOCK_SHIFT_MIN && a->block_shift <= LEAP_BLOCK_SHIFT_HUGE, "%s: block shift %u",
+    CHECK_MSG(a->block_shift >= LEAP_BLOCK_SHIFT_MIN && a->block_shift <= LEAP_BLOCK_SHIFT_MAX, "%s: block shift %u",
               what, a->block_shift);
     CHECK_MSG(leap_atlas_gpu_bytes(a) == (uint64_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2] * 2 +
                                              (uint64_t)a->page_words * 4,
@@ -254,9 +295,13 @@ static long check_structure(const leap_atlas *a, const char *what)
     long bad_block = 0, bad_slot = 0, slots = 0, twice = 0;
     uint64_t positions = (uint64_t)a->slot_dims[0] * a->slot_dims[1] * a->slot_dims[2];
     uint8_t *used = calloc(positions ? positions : 1, 1);
-    for (uint32_t t = 0; t < a->top_count; ++t)
-        if (!(a->pages[t] & LEAP_PAGE_CONST)) bad_block += a->pages[t] >= a->block_count;
-    for (size_t w = a->top_count; w < a->page_words; ++w) {
+    node_check nc = {a, calloc(a->block_count + 1, 1), 0, 0};
+    for (uint32_t t = 0; t < a->top_count; ++t) check_entry(&nc, a->pages[t], a->mid_levels);
+    free(nc.block_named);
+    bad_block += nc.bad;
+    CHECK_MSG(nc.nodes * node_words == a->block_base - a->top_count, "%s: %ld middle nodes named, %u words of them",
+              what, nc.nodes, a->block_base - a->top_count);
+    for (size_t w = a->block_base; w < a->page_words; ++w) {
         uint32_t e = a->pages[w];
         if (e & LEAP_PAGE_CONST) {
             bad_slot += (e & ~(LEAP_PAGE_CONST | 0xFFFFu)) != 0;
@@ -384,6 +429,99 @@ static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const l
     CHECK(leap_atlas_gradients(sparse, &g, &err) == LEAP_ERR_USAGE && g == NULL);
 }
 
+/* Value of the spread grid at index (x, y, z): 8^3 leaves at the corners of a box `half`
+ * voxels either way from the origin (each its own constant plus one voxel of 1), and a 16^3
+ * tile at the origin. */
+static double spread_value(int64_t half, int64_t x, int64_t y, int64_t z)
+{
+    if (x >= 0 && x < 16 && y >= 0 && y < 16 && z >= 0 && z < 16) return 0.5;
+    int corner = 0;
+    const int64_t p[3] = {x, y, z};
+    for (int i = 0; i < 3; ++i) {
+        if (p[i] >= half - 8 && p[i] < half) corner |= 1 << i;
+        else if (!(p[i] >= -half && p[i] < -half + 8)) return BG;
+    }
+    const int64_t lo[3] = {corner & 1 ? half - 8 : -half, corner & 2 ? half - 8 : -half, corner & 4 ? half - 8 : -half};
+    if (x == lo[0] + 2 && y == lo[1] + 3 && z == lo[2] + 4) return 1.0;
+    return 0.2 + 0.05 * corner;
+}
+
+static leap_atlas *spread_atlas(int32_t half, leap_error *err)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/atlas_spread_%d.vdb", LEAP_TEST_TMP, half);
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, err), err);
+    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, BG, NULL, 1, err) : -1;
+    if (g < 0) {
+        leap_vdb_writer_destroy(w);
+        return NULL;
+    }
+    const int32_t tile_lo[3] = {0, 0, 0}, tile_hi[3] = {15, 15, 15};
+    leap_vdb_writer_fill(w, g, tile_lo, tile_hi, 0.5, 1);
+    for (int c = 0; c < 8; ++c) {
+        const int32_t lo[3] = {c & 1 ? half - 8 : -half, c & 2 ? half - 8 : -half, c & 4 ? half - 8 : -half};
+        const int32_t hi[3] = {lo[0] + 7, lo[1] + 7, lo[2] + 7};
+        leap_vdb_writer_fill(w, g, lo, hi, 0.2 + 0.05 * c, 1);
+        leap_vdb_writer_set(w, g, lo[0] + 2, lo[1] + 3, lo[2] + 4, 1.0);
+    }
+    CHECK_OK(leap_vdb_writer_save(w, path, err), err);
+    leap_vdb_writer_destroy(w);
+    leap_grid *grid = load_grid(path);
+    leap_atlas *a = NULL;
+    if (grid) CHECK_OK(leap_atlas_create(&(leap_atlas_desc){.grid = grid}, &a, err), err);
+    leap_grid_destroy(grid);
+    return a;
+}
+
+/* Boxes of 2^10 and 2^20 voxels per side holding the same leaves: the long one's page table
+ * has middle levels and its bytes follow the leaves, not the box (a dense top level of 16^3-
+ * cell blocks would be 2^39 bytes); both decode every voxel around the leaves, through the
+ * middle nodes, to the grid's values. */
+static void long_boxes(leap_error *err)
+{
+    leap_atlas *atlases[2] = {spread_atlas(512, err), spread_atlas(1 << 19, err)};
+    const int64_t halves[2] = {512, 1 << 19};
+    CHECK(atlases[0] && atlases[1]);
+    if (!atlases[0] || !atlases[1]) goto done;
+    for (int k = 0; k < 2; ++k) {
+        const leap_atlas *a = atlases[k];
+        printf("spread box of %lld^3: %u middle levels, top %u x %u x %u, %u blocks, %u slots, %zu page words, "
+               "GPU %llu bytes\n", 2 * (long long)halves[k], a->mid_levels, a->top_dims[0], a->top_dims[1],
+               a->top_dims[2], a->block_count, a->slot_count, a->page_words,
+               (unsigned long long)leap_atlas_gpu_bytes(a));
+        check_structure(a, k ? "2^20 box" : "2^10 box");
+        long checked = 0, bad = 0;
+        for (int c = 0; c < 9; ++c) { /* around each corner leaf and the tile */
+            int64_t lo[3];
+            for (int i = 0; i < 3; ++i) lo[i] = c == 8 ? -4 : (c >> i & 1) ? halves[k] - 12 : -halves[k] - 4;
+            for (int64_t z = lo[2]; z < lo[2] + 24; ++z)
+                for (int64_t y = lo[1]; y < lo[1] + 24; ++y)
+                    for (int64_t x = lo[0]; x < lo[0] + 24; ++x) {
+                        const int64_t p[3] = {x - a->origin[0], y - a->origin[1], z - a->origin[2]};
+                        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= (int64_t)a->cells[0] * LEAP_CELL ||
+                            p[1] >= (int64_t)a->cells[1] * LEAP_CELL || p[2] >= (int64_t)a->cells[2] * LEAP_CELL)
+                            continue;
+                        const long want = expected_code(a, spread_value(halves[k], x, y, z)), got = lookup(a, p);
+                        checked++;
+                        if (got != want && bad++ == 0)
+                            fprintf(stderr, "spread box %lld: voxel (%lld, %lld, %lld): code %ld, expected %ld\n",
+                                    2 * (long long)halves[k], (long long)x, (long long)y, (long long)z, got, want);
+                    }
+        }
+        CHECK_MSG(bad == 0 && checked > 8 * 24 * 24 * 20, "spread box %lld: %ld of %ld voxels decode wrong",
+                  2 * (long long)halves[k], bad, checked);
+    }
+    CHECK(atlases[0]->mid_levels == 0 && atlases[1]->mid_levels >= 3);
+    CHECK(atlases[0]->slot_count == atlases[1]->slot_count);
+    CHECK_MSG(leap_atlas_gpu_bytes(atlases[1]) <= leap_atlas_gpu_bytes(atlases[0]) * 5 / 4,
+              "2^20 box: GPU %llu bytes, 2^10 box %llu", (unsigned long long)leap_atlas_gpu_bytes(atlases[1]),
+              (unsigned long long)leap_atlas_gpu_bytes(atlases[0]));
+done:
+    leap_atlas_destroy(atlases[0]);
+    leap_atlas_destroy(atlases[1]);
+}
+
 int main(void)
 {
     leap_error err = {{0}};
@@ -430,7 +568,7 @@ int main(void)
             CHECK(shuffled->slot_count == sparse->slot_count);
             /* the same slots in another order: some cell's slot position differs */
             long moved = 0;
-            for (size_t w = sparse->top_count; w < sparse->page_words && w < shuffled->page_words; ++w)
+            for (size_t w = sparse->block_base; w < sparse->page_words && w < shuffled->page_words; ++w)
                 moved += !(sparse->pages[w] & LEAP_PAGE_CONST) && sparse->pages[w] != shuffled->pages[w];
             CHECK_MSG(moved > 0, "shuffle_seed moved no slot");
             CHECK(sparse->serial != dense->serial && dense->serial != shuffled->serial);
@@ -451,7 +589,7 @@ int main(void)
         if (a) {
             CHECK(a->empty);
             CHECK(a->slot_count == 0 && a->block_count == 0);
-            CHECK(a->page_words == a->top_count && a->top_count >= 1);
+            CHECK(a->page_words == a->top_count && a->top_count >= 1 && a->block_base == a->top_count);
             long bg = expected_code(a, BG), bad = 0;
             for (size_t w = 0; w < a->page_words; ++w) bad += a->pages[w] != (LEAP_PAGE_CONST | (uint32_t)bg);
             CHECK_MSG(bad == 0, "empty grid: %ld page entries not the background constant", bad);
@@ -463,6 +601,8 @@ int main(void)
         }
         leap_grid_destroy(eg);
     }
+
+    long_boxes(&err);
 
     /* usage errors */
     static leap_atlas sentinel;

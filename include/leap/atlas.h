@@ -1,8 +1,9 @@
 /* The GPU volume representation, built on the host: a brick atlas (R16 UNORM texels) and
- * a two-level page table (layout in shaders/shared.h) whose block size adapts to how
- * scattered the data is. Memory follows the bricks that hold
- * data: cells whose interpolation footprint is one constant value (background, inside
- * tiles) take no atlas space, and page blocks exist only where such cells are mixed. */
+ * a page table (layout in shaders/shared.h) whose block size adapts to how scattered the
+ * data is. Memory follows the bricks that hold data: cells whose interpolation footprint is
+ * one constant value (background, inside tiles) take no atlas space, page blocks exist only
+ * where such cells are mixed, and a box too long for one small top level gets middle levels
+ * whose nodes exist only above blocks that hold data. */
 #ifndef LEAP_ATLAS_H
 #define LEAP_ATLAS_H
 
@@ -37,8 +38,10 @@ typedef struct leap_atlas {
     int32_t origin[3];         /* absolute index coordinate of relative (0,0,0), multiple of 8 */
     uint32_t cells[3];         /* cells per axis */
     uint32_t block_shift;      /* page blocks are (1 << block_shift)^3 cells */
-    uint32_t top_dims[3];      /* page blocks per axis */
+    uint32_t mid_levels;       /* levels of middle nodes between the top level and the blocks */
+    uint32_t top_dims[3];      /* top-level entries per axis (each spans N^mid_levels blocks, N = 1 << LEAP_PAGE_NODE_SHIFT) */
     uint32_t top_count;        /* top_dims product */
+    uint32_t block_base;       /* first word of the page blocks in pages[] */
     uint32_t block_count;      /* allocated page blocks */
     uint32_t *pages;           /* page table words (see shaders/shared.h) */
     size_t page_words;
@@ -68,6 +71,18 @@ typedef struct leap_atlas {
  * region too large for the page table or the atlas texture limits). */
 leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, leap_error *err);
 void leap_atlas_destroy(leap_atlas *atlas); /* accepts NULL */
+
+/* The page entry of cell c (relative cell coordinates inside a->cells): a constant
+ * (LEAP_PAGE_CONST set) or, as the shader reads it, a slot position / label record offset. */
+uint32_t leap_atlas_cell_entry(const leap_atlas *atlas, const uint32_t cell[3]);
+
+/* Calls visit once per page-table region: a constant entry covering the cube of `edge` cells
+ * from lo (it may reach past a->cells), or a page block (edge = 1 << block_shift) whose
+ * cells' entries are cells[x + edge (y + edge z)] (entry is then its block index). Stops
+ * when visit returns non-zero, and returns that. */
+typedef int (*leap_atlas_visit_fn)(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry,
+                                   const uint32_t *cells);
+int leap_atlas_visit(const leap_atlas *atlas, leap_atlas_visit_fn visit, void *ctx);
 
 /* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);

@@ -140,6 +140,7 @@ typedef struct builder {
     size_t blist_count, blist_cap;
     int oom;
     int exact;                 /* items cover their own cell only (label trees) */
+    const leap_atlas *label_atlas; /* label trees: the atlas whose page table is read */
 } builder;
 
 /* Footprint of a brick in cells, clipped to the grid: the cells c whose closed footprint
@@ -445,8 +446,42 @@ static uint32_t label_set(const leap_atlas *a, uint32_t entry)
     return a->object_count + a->label_words[entry + 1];
 }
 
+/* One page-table region of a label atlas (leap_atlas_visit): a constant region not of the
+ * background's set becomes one big item covering its cells, a block one item per cell. */
+static int add_label_region(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
+{
+    builder *b = ctx;
+    const leap_atlas *a = b->label_atlas;
+    leap_occupancy *occ = b->occ;
+    if (!cells) {
+        const float set = (float)label_set(a, entry);
+        if (set == occ->background) return 0;
+        if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) return b->oom = 1;
+        big_item *it = &b->big[b->big_count++];
+        for (int k = 0; k < 3; ++k) {
+            it->flo[k] = it->ilo[k] = lo[k];
+            it->fhi[k] = it->ihi[k] = ((uint64_t)lo[k] + edge < a->cells[k] ? lo[k] + edge : a->cells[k]) - 1;
+        }
+        it->interior = 1;
+        it->lo = it->hi = it->v = set;
+        return 0;
+    }
+    const uint32_t shift = a->block_shift;
+    for (uint32_t i = 0; i < edge * edge * edge; ++i) {
+        const uint32_t c[3] = {lo[0] + (i & (edge - 1)), lo[1] + (i >> shift & (edge - 1)), lo[2] + (i >> (2 * shift))};
+        if (c[0] >= a->cells[0] || c[1] >= a->cells[1] || c[2] >= a->cells[2]) continue;
+        const float set = (float)label_set(a, cells[i]);
+        if (set == occ->background) continue;
+        if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) return b->oom = 1;
+        small_item *it = &b->arena[b->arena_count++];
+        for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
+        it->lo = it->hi = set;
+    }
+    return 0;
+}
+
 /* Label trees: one exact item per cell not of the background's set, read from the atlas's
- * page table; a constant page block becomes one big item covering its cells. */
+ * page table. */
 static leap_result add_label_cells(builder *b, const leap_atlas *a, leap_error *err)
 {
     leap_occupancy *occ = b->occ;
@@ -457,42 +492,8 @@ static leap_result add_label_cells(builder *b, const leap_atlas *a, leap_error *
     b->exact = 1;
     occ->label_singletons = a->object_count;
     occ->label_sets = a->object_count + a->record_count;
-    const uint32_t shift = a->block_shift, edge = 1u << shift;
-    for (uint32_t t = 0; t < a->top_count && !b->oom; ++t) {
-        const uint32_t bo[3] = {t % a->top_dims[0] * edge, t / a->top_dims[0] % a->top_dims[1] * edge,
-                                t / a->top_dims[0] / a->top_dims[1] * edge};
-        const uint32_t top = a->pages[t];
-        if (top & LEAP_PAGE_CONST) {
-            const float set = (float)label_set(a, top);
-            if (set == occ->background) continue;
-            if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) {
-                b->oom = 1;
-                break;
-            }
-            big_item *it = &b->big[b->big_count++];
-            for (int k = 0; k < 3; ++k) {
-                it->flo[k] = it->ilo[k] = bo[k];
-                it->fhi[k] = it->ihi[k] = (bo[k] + edge < a->cells[k] ? bo[k] + edge : a->cells[k]) - 1;
-            }
-            it->interior = 1;
-            it->lo = it->hi = it->v = set;
-            continue;
-        }
-        const uint32_t *cells = a->pages + a->top_count + ((size_t)top << (3 * shift));
-        for (uint32_t i = 0; i < (1u << (3 * shift)); ++i) {
-            const uint32_t c[3] = {bo[0] + (i & (edge - 1)), bo[1] + (i >> shift & (edge - 1)), bo[2] + (i >> (2 * shift))};
-            if (c[0] >= a->cells[0] || c[1] >= a->cells[1] || c[2] >= a->cells[2]) continue;
-            const float set = (float)label_set(a, cells[i]);
-            if (set == occ->background) continue;
-            if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) {
-                b->oom = 1;
-                break;
-            }
-            small_item *it = &b->arena[b->arena_count++];
-            for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
-            it->lo = it->hi = set;
-        }
-    }
+    b->label_atlas = a;
+    leap_atlas_visit(a, add_label_region, b);
     return LEAP_OK;
 }
 

@@ -87,11 +87,66 @@ static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
  * really marches (a sparse grid whose box is long but thin costs what its rays cross), not
  * the box diagonal. Fails when a ray holds more indices than float can count. */
 
-leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, const leap_frame_gpu *f,
+/* [*t0, *t1] (t0 >= 0) of the ray o + t d inside the box [lo, hi]; 0 when it misses. */
+static int clip_grown(const double o[3], const double d[3], const double lo[3], const double hi[3], double *t0,
+                      double *t1)
+{
+    *t0 = 0, *t1 = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+        if (d[a] == 0) {
+            if (!(o[a] >= lo[a] && o[a] <= hi[a])) return 0;
+        } else {
+            double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+            *t0 = fmax(*t0, fmin(ta, tb));
+            *t1 = fmin(*t1, fmax(ta, tb));
+        }
+    }
+    return *t0 <= *t1;
+}
+
+/* Lattice indices (an upper bound) from the lattice anchored at t0 up to t1. */
+static double lattice_bound(double t0, double t1, double step)
+{
+    return ((t1 - floor(t0 / step) * step) / step + 2) * (1 + 1e-5) + 2;
+}
+
+/* The farthest t at which a skipping mode may take a sample: no ray (unit length in index
+ * space, from an origin inside the image corners' origins) leaves the box of the non-empty
+ * cells later than at that box's farthest corner, grown beyond float error. -1: no box. */
+static double skip_far(const leap_rays *view, const leap_frame_gpu *f)
+{
+    const double lo[3] = {f->bbox_min.x, f->bbox_min.y, f->bbox_min.z};
+    const double hi[3] = {f->bbox_max.x, f->bbox_max.y, f->bbox_max.z};
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return -1;
+    double far = 0, mag = 0;
+    for (int corner = 0; corner < 4; ++corner) {
+        double o[3], d[3];
+        leap_rays_at(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
+        for (int b = 0; b < 8; ++b) {
+            double dist = 0, m = 0;
+            for (int a = 0; a < 3; ++a) {
+                const double c = (b >> a & 1) ? hi[a] : lo[a];
+                dist += (c - o[a]) * (c - o[a]);
+                m += fabs(c) + fabs(o[a]);
+            }
+            far = fmax(far, sqrt(dist));
+            mag = fmax(mag, m);
+        }
+    }
+    return far + 2 * sqrt(3.0) * (1.0 + 1e-5 * mag);
+}
+
+leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, leap_mode mode, leap_frame_gpu *f,
                                uint32_t *count, chunk_rect **rects_out, leap_error *err)
 {
     *count = 1;
     *rects_out = NULL;
+    /* The skipping modes take nothing beyond the box of the non-empty cells (bbox: the box
+     * they march; past it every cell is EMPTY), so a ray is done at t_far however far the
+     * domain goes on (a sphere whose box eight transparent voxels stretch to 32769^3 needs
+     * one dispatch, not ten). The shader ends rays there too (frame.bbox_max.w). */
+    const double t_far = mode == LEAP_RENDER_NAIVE ? INFINITY : skip_far(view, f);
+    f->bbox_max.w = (float)t_far;
     double box_lo[3], box_hi[3], centre[3], diag = 0;
     for (int i = 0; i < 3; ++i) {
         if (!(m->domain_min[i] <= m->domain_max[i])) return LEAP_OK;
@@ -116,7 +171,7 @@ leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, con
     }
     double chord_bound = diag + 2 * sqrt(3.0) * (1.0 + 1e-5 * far_bound);
     double n_bound = ((chord_bound + m->step) / m->step + 2) * (1 + 1e-5) + 2;
-    if (n_bound <= f->limits.z) return LEAP_OK;
+    if (n_bound <= f->limits.z || (t_far < 0 || lattice_bound(0, t_far, m->step) <= f->limits.z)) return LEAP_OK;
     const size_t pixels = (size_t)view->width * view->height;
     uint32_t *need = malloc(pixels * sizeof *need); /* dispatches each pixel's ray needs */
     if (!need) return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %zu pixels", pixels);
@@ -134,19 +189,8 @@ leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, con
                 lo[a] = box_lo[a] - (1.0 + 1e-5 * far);
                 hi[a] = box_hi[a] + (1.0 + 1e-5 * far);
             }
-            double t0 = 0, t1 = INFINITY;
-            int hit = 1;
-            for (int a = 0; a < 3 && hit; ++a) {
-                if (d[a] == 0) {
-                    hit = o[a] >= lo[a] && o[a] <= hi[a];
-                } else {
-                    double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
-                    t0 = fmax(t0, fmin(ta, tb));
-                    t1 = fmin(t1, fmax(ta, tb));
-                }
-            }
-            double n = 0;
-            if (hit && t0 <= t1) n = ((t1 - floor(t0 / m->step) * m->step) / m->step + 2) * (1 + 1e-5) + 2;
+            double t0, t1, n = 0;
+            if (clip_grown(o, d, lo, hi, &t0, &t1) && t0 <= fmin(t1, t_far)) n = lattice_bound(t0, fmin(t1, t_far), m->step);
             if (n > most) most = n;
             double k = n > LATTICE_INDEX_LIMIT ? 0 : ceil(n / f->limits.z);
             need[(size_t)py * view->width + px] = k < 1 ? 1 : (uint32_t)k;
@@ -264,7 +308,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     const int clips = m->clip_count < 0 ? 0 : m->clip_count > LEAP_MAX_CLIPS ? LEAP_MAX_CLIPS : m->clip_count;
     for (int k = 0; k < clips; ++k)
         f->keep[k] = (leap_vec4){(float)m->clip[k][0], (float)m->clip[k][1], (float)m->clip[k][2], (float)m->clip[k][3]};
-    f->keep_count = (leap_uvec4){(uint32_t)clips, 0, 0, 0};
+    f->keep_count = (leap_uvec4){(uint32_t)clips, r->mid_levels, 0, 0};
     f->atlas_inv_size = (leap_vec4){1.0f / r->atlas.extent[0], 1.0f / r->atlas.extent[1],
                                     1.0f / r->atlas.extent[2], 0};
     double range = m->range_hi - m->range_lo;
@@ -275,7 +319,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     double depth_opacity = r->tf_precorrected || r->labels ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
                             (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
-    f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->top_count};
+    f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->block_base};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, m->mip < 0, (uint32_t)view->ortho};
     clip_matrix(view, f);

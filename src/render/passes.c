@@ -254,7 +254,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         st.single_box = 1;
     }
     chunk_rect *rects = NULL;
-    if ((lr = renderer_chunk_count(view, march, r->frame.mapped, &st.composite_chunks, &rects, err))) return lr;
+    if ((lr = renderer_chunk_count(view, march, pass_mode, r->frame.mapped, &st.composite_chunks, &rects, err))) return lr;
     write_descriptors(r);
     double t1 = leap__now_ms();
     st.upload_ms = t1 - t0;

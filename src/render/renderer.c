@@ -82,7 +82,8 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
             for (int i = 0; i < COMPOSITE_KINDS; ++i)
-                if (r->composite[m][i]) vkDestroyPipeline(dev, r->composite[m][i], NULL);
+                for (int l = 0; l < 2; ++l)
+                    if (r->composite[m][i][l]) vkDestroyPipeline(dev, r->composite[m][i][l], NULL);
         if (r->composite_module) vkDestroyShaderModule(dev, r->composite_module, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
         if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);
@@ -176,7 +177,8 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
         r->slot_dims[i] = atlas->slot_dims[i];
     }
     r->block_shift = atlas->block_shift;
-    r->top_count = atlas->top_count;
+    r->block_base = atlas->block_base;
+    r->mid_levels = atlas->mid_levels;
     leap_atlas_march_domain(atlas, &r->domain);
     r->atlas_serial = atlas->serial;
     r->has_volume = 1;

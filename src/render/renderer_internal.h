@@ -34,7 +34,7 @@ struct leap_renderer {
      * constants, so each pipeline holds only the code it runs. Created on first use from
      * composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS];
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][2]; /* [..][..][page table has middle levels] */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -72,7 +72,7 @@ struct leap_renderer {
     uint64_t atlas_serial;  /* the uploaded atlas (0: none or not from a scene binding) */
     leap_march domain;      /* its index origin and marching box */
     double value_min, value_max;
-    uint32_t top_dims[3], top_count, slot_dims[3], block_shift;
+    uint32_t top_dims[3], block_base, mid_levels, slot_dims[3], block_shift;
     uint64_t float_atlas_max_bytes;
     uint32_t texel_bytes; /* 4: R32_SFLOAT, 2: R16_UNORM */
     /* Not owned. */
@@ -101,6 +101,6 @@ leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_erro
 leap_result renderer_upload_objects(leap_renderer *r, double step, leap_error *err);
 /* frame.c: the frame's uniform block and the composite dispatches it needs. */
 void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode, uint32_t box_count, leap_frame_gpu *f);
-leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, const leap_frame_gpu *f, uint32_t *count, chunk_rect **rects_out, leap_error *err);
+leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, leap_mode mode, leap_frame_gpu *f, uint32_t *count, chunk_rect **rects_out, leap_error *err);
 
 #endif

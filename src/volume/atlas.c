@@ -18,6 +18,19 @@
  * its own buffers against the device's actual limit. */
 #define MAX_PAGE_BYTES (128u << 20)
 #define LEAP_ATLAS_MAX_BYTES (2.0 * (1u << 30)) /* lavapipe's largest allocation: the 16-bit atlas */
+/* The top level's most entries; a longer box gets middle levels (LEAP_PAGE_NODE_SHIFT), so
+ * the table's memory follows the blocks that hold data, not the box's volume. */
+#define MAX_TOP_ENTRIES (1u << 15)
+
+/* The page blocks that differ from the background while the atlas is built, by block key
+ * (x + X (y + Y z) in blocks): open addressing, so a sparse grid spanning a huge box costs
+ * memory per touched block only. */
+typedef struct block_directory {
+    uint64_t *keys; /* EMPTY_KEY where free */
+    uint32_t *entries;
+    size_t cap, count;
+} block_directory;
+#define EMPTY_KEY UINT64_MAX
 
 typedef struct builder {
     leap_atlas *a;
@@ -28,7 +41,9 @@ typedef struct builder {
     int page_overflow;        /* the cell level of the page table did not fit */
     const leap_labels *labels; /* label atlas: its objects */
     leap_grid_reader *label_reader;
-    int top_overflow;         /* the top level of the page table did not fit */
+    block_directory dir;
+    uint32_t block_dims[3];   /* page blocks per axis */
+    uint32_t background;      /* entry of a block no write touched */
 } builder;
 
 /* Page blocks are B^3 cells, B = 1 << a->block_shift. */
@@ -56,15 +71,65 @@ static uint32_t label_entry(const leap_labels *labels, int64_t id)
     return LEAP_PAGE_CONST | ((uint32_t)leap_labels_find(labels, id) & LEAP_LABEL_INDEX_MASK);
 }
 
+static uint64_t mix_key(uint64_t k)
+{
+    k ^= k >> 33;
+    k *= 0xff51afd7ed558ccdull;
+    return k ^ (k >> 33);
+}
+
+/* The directory entry of block `key`, added as the background if absent; NULL: out of memory. */
+static uint32_t *block_entry(builder *b, uint64_t key)
+{
+    block_directory *d = &b->dir;
+    if (2 * (d->count + 1) > d->cap) { /* at most half full */
+        size_t cap = d->cap ? 2 * d->cap : 64;
+        uint64_t *keys = malloc(cap * sizeof *keys);
+        uint32_t *entries = malloc(cap * sizeof *entries);
+        if (!keys || !entries) {
+            free(keys);
+            free(entries);
+            return NULL;
+        }
+        for (size_t i = 0; i < cap; ++i) keys[i] = EMPTY_KEY;
+        for (size_t i = 0; i < d->cap; ++i) {
+            if (d->keys[i] == EMPTY_KEY) continue;
+            size_t j = mix_key(d->keys[i]) & (cap - 1);
+            while (keys[j] != EMPTY_KEY) j = (j + 1) & (cap - 1);
+            keys[j] = d->keys[i];
+            entries[j] = d->entries[i];
+        }
+        free(d->keys);
+        free(d->entries);
+        d->keys = keys;
+        d->entries = entries;
+        d->cap = cap;
+    }
+    size_t j = mix_key(key) & (d->cap - 1);
+    while (d->keys[j] != EMPTY_KEY && d->keys[j] != key) j = (j + 1) & (d->cap - 1);
+    if (d->keys[j] == EMPTY_KEY) {
+        d->keys[j] = key;
+        d->entries[j] = b->background;
+        d->count++;
+    }
+    return &d->entries[j];
+}
+
+static uint64_t block_key(const builder *b, uint64_t bx, uint64_t by, uint64_t bz)
+{
+    return bx + b->block_dims[0] * (by + (uint64_t)b->block_dims[1] * bz);
+}
+
 /* Sets the entry of cell c, splitting a constant page block into cells on first write. */
 static leap_result set_cell(builder *b, const uint32_t c[3], uint32_t entry, leap_error *err)
 {
     leap_atlas *a = b->a;
     const uint32_t shift = a->block_shift, n = block_cells(a);
-    uint32_t t = (c[0] >> shift) + a->top_dims[0] * ((c[1] >> shift) + a->top_dims[1] * (c[2] >> shift));
-    if (a->pages[t] & LEAP_PAGE_CONST) {
-        if (a->pages[t] == entry) return LEAP_OK;
-        if (((uint64_t)a->top_count + (uint64_t)(a->block_count + 1) * n) * 4 > MAX_PAGE_BYTES) {
+    uint32_t *top = block_entry(b, block_key(b, c[0] >> shift, c[1] >> shift, c[2] >> shift));
+    if (!top) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    if (*top & LEAP_PAGE_CONST) {
+        if (*top == entry) return LEAP_OK;
+        if (((uint64_t)MAX_TOP_ENTRIES + (uint64_t)(a->block_count + 1) * n) * 4 > MAX_PAGE_BYTES) {
             b->page_overflow = 1; /* known now: stop before reading more of the grid */
             return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                              "atlas: page table exceeds the 128 MiB storage buffer limit, even with the "
@@ -76,12 +141,12 @@ static leap_result set_cell(builder *b, const uint32_t c[3], uint32_t entry, lea
         b->blocks_cap = (uint32_t)cap;
         uint32_t *cells = malloc(n * sizeof *cells);
         if (!cells) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
-        for (uint32_t i = 0; i < n; ++i) cells[i] = a->pages[t];
+        for (uint32_t i = 0; i < n; ++i) cells[i] = *top;
         b->blocks[a->block_count] = cells;
-        a->pages[t] = a->block_count++;
+        *top = a->block_count++;
     }
     uint32_t m = block_edge(a) - 1;
-    b->blocks[a->pages[t]][(c[0] & m) | (c[1] & m) << shift | (c[2] & m) << (2 * shift)] = entry;
+    b->blocks[*top][(c[0] & m) | (c[1] & m) << shift | (c[2] & m) << (2 * shift)] = entry;
     return LEAP_OK;
 }
 
@@ -143,10 +208,13 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
                 int64_t bl[3] = {bx * B, by * B, bz * B};
                 int whole = 1;
                 for (int i = 0; i < 3; ++i) whole &= bl[i] >= lo[i] && bl[i] + B - 1 <= hi[i];
-                uint32_t t = (uint32_t)(bx + a->top_dims[0] * (by + a->top_dims[1] * bz));
-                if (whole && (a->pages[t] & LEAP_PAGE_CONST)) {
-                    a->pages[t] = entry;
-                    continue;
+                if (whole) {
+                    uint32_t *top = block_entry(b, block_key(b, (uint64_t)bx, (uint64_t)by, (uint64_t)bz));
+                    if (!top) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+                    if (*top & LEAP_PAGE_CONST) {
+                        *top = entry;
+                        continue;
+                    }
                 }
                 for (int64_t z = bl[2]; z < bl[2] + B; ++z)
                     for (int64_t y = bl[1]; y < bl[1] + B; ++y)
@@ -388,12 +456,84 @@ static uint32_t xorshift(uint32_t *s)
     return *s;
 }
 
+#define NODE_EDGE (1u << LEAP_PAGE_NODE_SHIFT)
+#define NODE_WORDS (NODE_EDGE * NODE_EDGE * NODE_EDGE)
+
+/* The top level and the middle nodes (see shaders/shared.h) from the block directory, into
+ * *out (malloc'ed, a->block_base words). */
+static leap_result lay_out_levels(builder *b, uint32_t **out, leap_error *err)
+{
+    leap_atlas *a = b->a;
+    uint64_t top = 1;
+    for (a->mid_levels = 0;; ++a->mid_levels) {
+        const uint32_t shift = LEAP_PAGE_NODE_SHIFT * a->mid_levels;
+        top = 1;
+        for (int i = 0; i < 3; ++i) {
+            a->top_dims[i] = (uint32_t)(((uint64_t)b->block_dims[i] + (1u << shift) - 1) >> shift);
+            top *= a->top_dims[i];
+        }
+        if (top <= MAX_TOP_ENTRIES) break;
+    }
+    a->top_count = (uint32_t)top;
+    size_t words = top, cap = top;
+    uint32_t *w = malloc(cap * sizeof *w);
+    if (!w) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    for (size_t i = 0; i < top; ++i) w[i] = b->background;
+    const block_directory *d = &b->dir;
+    for (size_t k = 0; k < d->cap; ++k) {
+        if (d->keys[k] == EMPTY_KEY || d->entries[k] == b->background) continue;
+        const uint64_t key = d->keys[k];
+        const uint64_t bc[3] = {key % b->block_dims[0], key / b->block_dims[0] % b->block_dims[1],
+                                key / b->block_dims[0] / b->block_dims[1]};
+        const uint32_t up = LEAP_PAGE_NODE_SHIFT * a->mid_levels;
+        size_t at = (bc[0] >> up) + a->top_dims[0] * ((bc[1] >> up) + (size_t)a->top_dims[1] * (bc[2] >> up));
+        for (uint32_t l = a->mid_levels; l-- > 0;) {
+            if (w[at] & LEAP_PAGE_CONST) { /* first data below this entry: a node of its constant */
+                if (words + NODE_WORDS > MAX_PAGE_BYTES / 4) {
+                    free(w);
+                    b->page_overflow = 1;
+                    return leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: page table exceeds the 128 MiB storage buffer limit");
+                }
+                if (!leap__grow((void **)&w, &cap, words + NODE_WORDS, sizeof *w)) {
+                    free(w);
+                    return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+                }
+                for (size_t i = 0; i < NODE_WORDS; ++i) w[words + i] = w[at];
+                w[at] = (uint32_t)words;
+                words += NODE_WORDS;
+            }
+            const uint32_t m = NODE_EDGE - 1, s = LEAP_PAGE_NODE_SHIFT * l;
+            at = w[at] + ((bc[0] >> s & m) | (bc[1] >> s & m) << LEAP_PAGE_NODE_SHIFT |
+                          (bc[2] >> s & m) << (2 * LEAP_PAGE_NODE_SHIFT));
+        }
+        w[at] = d->entries[k];
+    }
+    a->block_base = (uint32_t)words;
+    *out = w;
+    return LEAP_OK;
+}
+
 /* Places slots into the 3D atlas (optionally shuffled) and flattens the page table. */
 static leap_result finish(builder *b, uint32_t seed, leap_error *err)
 {
     leap_atlas *a = b->a;
     const uint32_t n_cells = block_cells(a);
-    a->page_words = (size_t)a->top_count + (size_t)a->block_count * n_cells;
+    uint32_t *levels = NULL;
+    leap_result r = lay_out_levels(b, &levels, err);
+    if (r) return r;
+    a->page_words = (size_t)a->block_base + (size_t)a->block_count * n_cells;
+    if (a->page_words * 4 > MAX_PAGE_BYTES) {
+        free(levels);
+        b->page_overflow = 1;
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: page table exceeds the 128 MiB storage buffer limit");
+    }
+    a->pages = malloc(a->page_words * sizeof *a->pages);
+    if (!a->pages) {
+        free(levels);
+        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    }
+    memcpy(a->pages, levels, (size_t)a->block_base * sizeof *levels);
+    free(levels);
     uint32_t n = a->slot_count ? a->slot_count : 1;
     uint32_t *perm = malloc((size_t)n * sizeof *perm);
     if (!perm) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
@@ -439,14 +579,8 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
                        src + LEAP_SLOT * (y + LEAP_SLOT * z), LEAP_SLOT * sizeof(uint16_t));
     }
 
-    uint32_t *pages = realloc(a->pages, a->page_words * sizeof *pages);
-    if (!pages) {
-        free(perm);
-        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
-    }
-    a->pages = pages;
     for (uint32_t k = 0; k < a->block_count; ++k) {
-        uint32_t *dst = pages + a->top_count + (size_t)k * n_cells;
+        uint32_t *dst = a->pages + a->block_base + (size_t)k * n_cells;
         for (uint32_t i = 0; i < n_cells; ++i) {
             uint32_t e = b->blocks[k][i];
             if (!(e & LEAP_PAGE_CONST) && !a->labels) {
@@ -471,7 +605,6 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
     int32_t bmin[3] = {0, 0, 0}, bmax[3] = {0, 0, 0};
     if (!a->empty)
         for (int i = 0; i < 3; ++i) bmin[i] = info->bbox_min[i], bmax[i] = info->bbox_max[i];
-    uint64_t top_count = 1;
     for (int i = 0; i < 3; ++i) {
         /* One spare cell below the active box: its origin must still be an int32 index. */
         int64_t origin = ((int64_t)floor_div8(bmin[i]) - 1) * LEAP_CELL;
@@ -484,23 +617,10 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         /* One spare cell on the + side keeps rounding at the domain's far face in range. */
         int64_t cells = (((int64_t)bmax[i] + 1 - a->origin[i]) >> LEAP_CELL_SHIFT) + 1;
         a->cells[i] = (uint32_t)cells;
-        a->top_dims[i] = (uint32_t)((cells + block_edge(a) - 1) >> a->block_shift);
-        top_count *= a->top_dims[i];
+        b->block_dims[i] = (uint32_t)((cells + block_edge(a) - 1) >> a->block_shift);
         a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - (double)a->origin[i];
         a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - (double)a->origin[i];
     }
-    if (top_count * 4 > MAX_PAGE_BYTES) {
-        b->top_overflow = 1;
-        a->top_count = top_count > UINT32_MAX ? UINT32_MAX : (uint32_t)top_count;
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "atlas: active bounding box of %lld x %lld x %lld voxels is too large for the page "
-                         "table (%llu top-level entries of %u^3 cells exceed the 128 MiB storage buffer limit)",
-                         (long long)bmax[0] - bmin[0] + 1, (long long)bmax[1] - bmin[1] + 1,
-                         (long long)bmax[2] - bmin[2] + 1, (unsigned long long)top_count, block_edge(a));
-    }
-    a->top_count = (uint32_t)top_count;
-    a->pages = malloc(top_count * sizeof *a->pages);
-    if (!a->pages) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
     uint32_t background = const_entry(quantize(a, (float)info->background));
     if (a->labels) {
         background = label_entry(b->labels, leap_grid_background_label(desc->grid));
@@ -508,8 +628,8 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         leap_result rr = leap_grid_reader_create(desc->grid, &b->label_reader, err);
         if (rr) return rr;
     }
+    b->background = background;
     leap_result r = LEAP_OK;
-    for (uint64_t i = 0; i < top_count; ++i) a->pages[i] = background;
     if (a->empty) {
         leap_grid_reader_destroy(b->label_reader);
         b->label_reader = NULL;
@@ -581,9 +701,8 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         free(a);
         return leap_fail(err, LEAP_ERR_USAGE, "atlas: objects given for a grid without labels");
     }
-    /* Large page blocks keep the top level small; when scattered data would touch so many
-     * blocks that their cells overflow the storage buffer, smaller blocks are tried. When the
-     * top level itself overflows (a sparse grid spanning billions of voxels), larger blocks. */
+    /* Large page blocks keep the levels above them small; when scattered data would touch so
+     * many blocks that their cells overflow the storage buffer, smaller blocks are tried. */
     leap_result r = LEAP_OK;
     uint32_t shift = LEAP_BLOCK_SHIFT_MAX;
     for (;;) {
@@ -592,15 +711,13 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
         free(b->blocks);
         free(b->slots);
+        free(b->dir.keys);
+        free(b->dir.entries);
         b->blocks = NULL;
         b->slots = NULL;
         if (!r) break;
-        /* The top level taking most of the buffer is fixed by larger blocks, not smaller. */
-        int top_heavy = b->top_overflow || (uint64_t)a->top_count * 4 > MAX_PAGE_BYTES / 2;
-        if (b->page_overflow && !top_heavy && shift <= LEAP_BLOCK_SHIFT_MAX && shift > LEAP_BLOCK_SHIFT_MIN)
+        if (b->page_overflow && shift > LEAP_BLOCK_SHIFT_MIN)
             shift--;
-        else if (top_heavy && shift >= LEAP_BLOCK_SHIFT_MAX && shift < LEAP_BLOCK_SHIFT_HUGE)
-            shift++;
         else
             break;
         free(a->pages); /* start over */
@@ -675,4 +792,58 @@ const uint32_t *leap_atlas_record_objects(const leap_atlas *atlas, uint32_t reco
     const uint32_t *w = atlas->label_words + atlas->record_offsets[record];
     *count = w[0] >> 8;
     return w + LEAP_LABEL_HEADER;
+}
+
+uint32_t leap_atlas_cell_entry(const leap_atlas *a, const uint32_t cell[3])
+{
+    const uint32_t shift = a->block_shift, up = LEAP_PAGE_NODE_SHIFT * a->mid_levels;
+    uint32_t block[3];
+    for (int i = 0; i < 3; ++i) block[i] = cell[i] >> shift;
+    uint32_t entry = a->pages[(block[0] >> up) + a->top_dims[0] * ((block[1] >> up) + a->top_dims[1] * (block[2] >> up))];
+    for (uint32_t l = a->mid_levels; l-- > 0 && !(entry & LEAP_PAGE_CONST);) {
+        const uint32_t m = NODE_EDGE - 1, s = LEAP_PAGE_NODE_SHIFT * l;
+        entry = a->pages[entry + ((block[0] >> s & m) | (block[1] >> s & m) << LEAP_PAGE_NODE_SHIFT |
+                                  (block[2] >> s & m) << (2 * LEAP_PAGE_NODE_SHIFT))];
+    }
+    if (entry & LEAP_PAGE_CONST) return entry;
+    const uint32_t m = (1u << shift) - 1;
+    return a->pages[a->block_base + ((size_t)entry << (3 * shift)) +
+                    ((cell[0] & m) | (cell[1] & m) << shift | (cell[2] & m) << (2 * shift))];
+}
+
+/* The region of `entry`, `level` levels above the blocks (0: entry names a block), at block
+ * coordinates bc (its first block). */
+static int visit_entry(const leap_atlas *a, uint32_t entry, uint32_t level, const uint32_t bc[3],
+                       leap_atlas_visit_fn visit, void *ctx)
+{
+    const uint32_t shift = a->block_shift;
+    if (entry & LEAP_PAGE_CONST) {
+        const uint32_t lo[3] = {bc[0] << shift, bc[1] << shift, bc[2] << shift};
+        return visit(ctx, lo, 1u << (shift + LEAP_PAGE_NODE_SHIFT * level), entry, NULL);
+    }
+    if (level == 0) {
+        const uint32_t lo[3] = {bc[0] << shift, bc[1] << shift, bc[2] << shift};
+        return visit(ctx, lo, 1u << shift, entry, a->pages + a->block_base + ((size_t)entry << (3 * shift)));
+    }
+    const uint32_t below = LEAP_PAGE_NODE_SHIFT * (level - 1);
+    for (uint32_t i = 0; i < NODE_WORDS; ++i) {
+        const uint32_t c[3] = {bc[0] + ((i & (NODE_EDGE - 1)) << below),
+                               bc[1] + ((i >> LEAP_PAGE_NODE_SHIFT & (NODE_EDGE - 1)) << below),
+                               bc[2] + ((i >> (2 * LEAP_PAGE_NODE_SHIFT)) << below)};
+        int stop = visit_entry(a, a->pages[entry + i], level - 1, c, visit, ctx);
+        if (stop) return stop;
+    }
+    return 0;
+}
+
+int leap_atlas_visit(const leap_atlas *a, leap_atlas_visit_fn visit, void *ctx)
+{
+    const uint32_t up = LEAP_PAGE_NODE_SHIFT * a->mid_levels;
+    for (uint32_t t = 0; t < a->top_count; ++t) {
+        const uint32_t bc[3] = {t % a->top_dims[0] << up, t / a->top_dims[0] % a->top_dims[1] << up,
+                                t / a->top_dims[0] / a->top_dims[1] << up};
+        int stop = visit_entry(a, a->pages[t], a->mid_levels, bc, visit, ctx);
+        if (stop) return stop;
+    }
+    return 0;
 }

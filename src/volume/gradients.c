@@ -14,26 +14,21 @@
  * reads it; v is clamped into the page grid (whose border cells are spare background). */
 static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
 {
-    int32_t v[3], cell[3], block[3];
+    int32_t v[3];
+    uint32_t cell[3];
     const uint32_t shift = a->block_shift, per_block = 1u << shift;
     for (int i = 0; i < 3; ++i) {
-        const int32_t hi = (int32_t)(a->top_dims[i] * per_block * LEAP_CELL) - 1;
+        const uint32_t page_cells = (a->cells[i] + per_block - 1) >> shift << shift;
+        const int32_t hi = (int32_t)(page_cells * LEAP_CELL) - 1;
         v[i] = v_in[i] < 0 ? 0 : v_in[i] > hi ? hi : v_in[i];
-        cell[i] = v[i] >> LEAP_CELL_SHIFT;
-        block[i] = cell[i] >> shift;
+        cell[i] = (uint32_t)v[i] >> LEAP_CELL_SHIFT;
     }
-    uint32_t entry = a->pages[block[0] + a->top_dims[0] * (block[1] + a->top_dims[1] * (uint32_t)block[2])];
-    if (!(entry & LEAP_PAGE_CONST)) {
-        const uint32_t mask = per_block - 1;
-        const uint32_t local = ((uint32_t)cell[0] & mask) | (((uint32_t)cell[1] & mask) << shift) |
-                               (((uint32_t)cell[2] & mask) << (2 * shift));
-        entry = a->pages[a->top_count + ((size_t)entry << (3 * shift)) + local];
-    }
+    const uint32_t entry = leap_atlas_cell_entry(a, cell);
     if (entry & LEAP_PAGE_CONST) return (uint16_t)(entry & 0xffffu);
     size_t texel[3];
     for (int i = 0; i < 3; ++i)
         texel[i] = (size_t)((entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK) * LEAP_SLOT +
-                   (size_t)(v[i] - cell[i] * LEAP_CELL);
+                   (size_t)(v[i] - (int32_t)cell[i] * LEAP_CELL);
     return a->texels[texel[0] + a->texel_dims[0] * (texel[1] + a->texel_dims[1] * texel[2])];
 }
 
@@ -69,6 +64,27 @@ static void slot_gradients(const leap_atlas *a, const int32_t cell[3], uint32_t 
             }
 }
 
+typedef struct block_gradients_job {
+    const leap_atlas *atlas;
+    int16_t *out;
+} block_gradients_job;
+
+/* The slots of one page block (leap_atlas_visit). */
+static int block_gradients(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
+{
+    (void)entry;
+    const block_gradients_job *job = ctx;
+    if (!cells) return 0;
+    const uint32_t shift = job->atlas->block_shift, mask = edge - 1;
+    for (uint32_t k = 0; k < edge * edge * edge; ++k) {
+        if (cells[k] & LEAP_PAGE_CONST) continue;
+        const int32_t cell[3] = {(int32_t)(lo[0] | (k & mask)), (int32_t)(lo[1] | ((k >> shift) & mask)),
+                                 (int32_t)(lo[2] | (k >> (2 * shift)))};
+        slot_gradients(job->atlas, cell, cells[k], job->out);
+    }
+    return 0;
+}
+
 leap_result leap_atlas_gradients(const leap_atlas *a, int16_t **out, leap_error *err)
 {
     *out = NULL;
@@ -80,21 +96,8 @@ leap_result leap_atlas_gradients(const leap_atlas *a, int16_t **out, leap_error 
     if (!g)
         return leap_fail(err, LEAP_ERR_OOM, "out of host memory for the gradients (%.1f MiB)",
                          (double)texels * 8 / (1 << 20));
-    const uint32_t shift = a->block_shift, per_block = 1u << shift, n_cells = per_block * per_block * per_block;
-    for (uint32_t b = 0; b < a->top_count; ++b) {
-        const uint32_t top = a->pages[b];
-        if (top & LEAP_PAGE_CONST) continue;
-        const uint32_t bx = b % a->top_dims[0], by = (b / a->top_dims[0]) % a->top_dims[1],
-                       bz = b / (a->top_dims[0] * a->top_dims[1]);
-        const uint32_t *cells = a->pages + a->top_count + (size_t)top * n_cells;
-        for (uint32_t k = 0; k < n_cells; ++k) {
-            if (cells[k] & LEAP_PAGE_CONST) continue;
-            const uint32_t mask = per_block - 1;
-            const int32_t cell[3] = {(int32_t)((bx << shift) | (k & mask)), (int32_t)((by << shift) | ((k >> shift) & mask)),
-                                     (int32_t)((bz << shift) | (k >> (2 * shift)))};
-            slot_gradients(a, cell, cells[k], g);
-        }
-    }
+    block_gradients_job job = {a, g};
+    leap_atlas_visit(a, block_gradients, &job);
     *out = g;
     return LEAP_OK;
 }
