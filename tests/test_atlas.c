@@ -299,8 +299,9 @@ static long check_structure(const leap_atlas *a, const char *what)
     for (uint32_t t = 0; t < a->top_count; ++t) check_entry(&nc, a->pages[t], a->mid_levels);
     free(nc.block_named);
     bad_block += nc.bad;
-    CHECK_MSG(nc.nodes * node_words == a->block_base - a->top_count, "%s: %ld middle nodes named, %u words of them",
-              what, nc.nodes, a->block_base - a->top_count);
+    CHECK_MSG(nc.nodes * node_words == a->block_base - a->top_count && nc.nodes == (long)a->mid_nodes,
+              "%s: %ld middle nodes named, %u words of them, mid_nodes %u", what, nc.nodes, a->block_base - a->top_count,
+              a->mid_nodes);
     for (size_t w = a->block_base; w < a->page_words; ++w) {
         uint32_t e = a->pages[w];
         if (e & LEAP_PAGE_CONST) {

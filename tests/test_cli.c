@@ -288,6 +288,15 @@ int main(void)
         CHECK(cJSON_GetObjectItem(root, "width")->valuedouble == 64);
         CHECK(cJSON_IsString(cJSON_GetObjectItem(root, "device")));
         CHECK(cJSON_IsString(cJSON_GetObjectItem(root, "driver")));
+        /* the page table: a short box has no middle level, and its bytes are part of the volume's */
+        cJSON *pages = cJSON_GetObjectItem(root, "page_table"), *mem = cJSON_GetObjectItem(root, "memory_bytes");
+        CHECK(cJSON_IsNumber(cJSON_GetObjectItem(pages, "middle_levels")) &&
+              cJSON_GetObjectItem(pages, "middle_levels")->valuedouble == 0 &&
+              cJSON_GetObjectItem(pages, "middle_nodes")->valuedouble == 0 &&
+              cJSON_GetObjectItem(pages, "top_entries")->valuedouble >= 1);
+        CHECK(cJSON_IsNumber(cJSON_GetObjectItem(mem, "page_table")) &&
+              cJSON_GetObjectItem(mem, "page_table")->valuedouble > 0 &&
+              cJSON_GetObjectItem(mem, "page_table")->valuedouble < cJSON_GetObjectItem(mem, "gpu_volume")->valuedouble);
         cJSON_Delete(root);
     }
 

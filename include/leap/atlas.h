@@ -39,6 +39,7 @@ typedef struct leap_atlas {
     uint32_t cells[3];         /* cells per axis */
     uint32_t block_shift;      /* page blocks are (1 << block_shift)^3 cells */
     uint32_t mid_levels;       /* levels of middle nodes between the top level and the blocks */
+    uint32_t mid_nodes;        /* middle nodes made (only above blocks that hold data) */
     uint32_t top_dims[3];      /* top-level entries per axis (each spans N^mid_levels blocks, N = 1 << LEAP_PAGE_NODE_SHIFT) */
     uint32_t top_count;        /* top_dims product */
     uint32_t block_base;       /* first word of the page blocks in pages[] */

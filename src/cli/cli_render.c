@@ -241,6 +241,13 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
         dense *= s->info->bbox_max[i] >= s->info->bbox_min[i] ? s->info->bbox_max[i] - s->info->bbox_min[i] + 1.0 : 0;
     cJSON_AddNumberToObject(mem, "dense_bbox_16bit", dense * 2);
     cJSON_AddNumberToObject(root, "bricks_in_atlas", s->atlas->slot_count);
+    cJSON_AddNumberToObject(mem, "page_table", (double)s->atlas->page_words * 4);
+    cJSON *pages = cJSON_AddObjectToObject(root, "page_table");
+    cJSON_AddNumberToObject(pages, "block_cells", 1u << s->atlas->block_shift);
+    cJSON_AddNumberToObject(pages, "blocks", s->atlas->block_count);
+    cJSON_AddNumberToObject(pages, "top_entries", s->atlas->top_count);
+    cJSON_AddNumberToObject(pages, "middle_levels", s->atlas->mid_levels);
+    cJSON_AddNumberToObject(pages, "middle_nodes", s->atlas->mid_nodes);
     cJSON_AddStringToObject(root, "device", renderer ? leap_renderer_device_name(renderer) : "CPU reference (double)");
     if (renderer) cJSON_AddStringToObject(root, "driver", leap_renderer_driver_name(renderer));
     char *text = cJSON_Print(root);

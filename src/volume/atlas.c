@@ -509,6 +509,7 @@ static leap_result lay_out_levels(builder *b, uint32_t **out, leap_error *err)
         w[at] = d->entries[k];
     }
     a->block_base = (uint32_t)words;
+    a->mid_nodes = (uint32_t)((words - top) / NODE_WORDS);
     *out = w;
     return LEAP_OK;
 }
