@@ -18,9 +18,10 @@
  * its own buffers against the device's actual limit. */
 #define MAX_PAGE_BYTES (128u << 20)
 #define LEAP_ATLAS_MAX_BYTES (2.0 * (1u << 30)) /* lavapipe's largest allocation: the 16-bit atlas */
-/* The top level's most entries; a longer box gets middle levels (LEAP_PAGE_NODE_SHIFT), so
- * the table's memory follows the blocks that hold data, not the box's volume. */
-#define MAX_TOP_ENTRIES (1u << 15)
+/* The top level's most entries (1 MiB); a longer box gets middle levels (LEAP_PAGE_NODE_SHIFT),
+ * so the table's memory follows the blocks that hold data, not the box's volume. Up to that,
+ * one flat level: pipelines that walk middle levels run 3-10 % slower on the same data. */
+#define MAX_TOP_ENTRIES (1u << 18)
 
 /* The page blocks that differ from the background while the atlas is built, by block key
  * (x + X (y + Y z) in blocks): open addressing, so a sparse grid spanning a huge box costs
