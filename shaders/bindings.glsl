@@ -18,5 +18,6 @@ layout(std430, set = 0, binding = LEAP_BINDING_PIXELS) buffer Pixels { uvec4 pix
 layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint tree[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_OBJECTS) readonly buffer Objects { vec4 objects[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_SLOT_RANGES) readonly buffer SlotRanges { uint slot_ranges[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_RAYS) buffer Rays { uint ray_lists[]; };
 
 #endif

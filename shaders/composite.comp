@@ -58,14 +58,34 @@ void leap_march_octree(leap_ray ray, leap_lattice lat, float t_enter, float t_ex
 
 layout(push_constant) uniform Push { leap_push_gpu push; };
 
+// Which pixels a dispatch composites (LEAP_RAY_PASS_*): those of a rectangle, or those of
+// one of the resolve pass's lists (sparseleap).
+layout(constant_id = 6) const uint leap_ray_pass = LEAP_RAY_PASS_IMAGE;
+
+// This invocation's pixel; false if it has none.
+bool leap_dispatched_pixel(out uvec2 pix)
+{
+    if (leap_ray_pass == LEAP_RAY_PASS_IMAGE) {
+        pix = gl_GlobalInvocationID.xy + uvec2(push.pixel_x, push.pixel_y);
+    } else {
+        const uint list = leap_ray_pass == LEAP_RAY_PASS_MARCH ? LEAP_RAYS_MARCH : LEAP_RAYS_OVERFLOW;
+        uint index = gl_WorkGroupID.x * uint(LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP) + gl_LocalInvocationIndex;
+        pix = uvec2(0u);
+        if (index >= ray_lists[list + 3u]) return false;
+        uint ray = ray_lists[LEAP_RAYS_HEADER + list / 4u * frame.image.x * frame.image.y + index];
+        pix = uvec2(ray & 0xffffu, ray >> 16);
+    }
+    return pix.x < frame.image.x && pix.y < frame.image.y;
+}
+
 void main()
 {
-    uvec2 pix = gl_GlobalInvocationID.xy + uvec2(push.pixel_x, push.pixel_y);
-    if (pix.x >= frame.image.x || pix.y >= frame.image.y) return;
+    uvec2 pix;
+    if (!leap_dispatched_pixel(pix)) return;
     uint pixel = pix.y * frame.image.x + pix.x;
+    leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     // Later chunks continue only the rays an earlier chunk left unfinished.
     if (push.chunk > 0u && out_aux[pixel].w != 1.0) return;
-    leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
     if (leap_mip) acc.color.r = -2.0; // below every signed table coordinate (leap_mip_sample)
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
@@ -91,9 +111,9 @@ void main()
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
         if (mode == LEAP_MODE_NAIVE) {
             leap_march_interval(ray, lat, ca, cb, j_next, acc);
-        } else if (mode == LEAP_MODE_OCTREE || (list.x & LEAP_PIXEL_OVERFLOW) != 0u) {
-            // A pixel whose events or segments did not fit walks the exact occupancy tree
-            // instead: it still skips every EMPTY leaf, and takes the same samples.
+        } else if (mode == LEAP_MODE_OCTREE) {
+            // Also sparseleap's rays whose events or segments did not fit (the overflow list):
+            // they still skip every EMPTY leaf, and take the same samples.
             leap_march_octree(ray, lat, ca, cb, j_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;

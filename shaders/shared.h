@@ -47,6 +47,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_SLOT_RANGES 15 /* storage uint[] per atlas slot (x + slots_x * (y + slots_y * z)):
                                      its smallest stored value | its largest << 16 (MIP skips a
                                      cell that cannot raise a ray's maximum); scalar atlases */
+#define LEAP_BINDING_RAYS 16      /* storage uint[]: a sparseleap frame's rays (see LEAP_RAYS_*) */
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 
@@ -103,6 +104,23 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * y: events; z: bit i set = segment i is UNKNOWN; w: 0. */
 #define LEAP_PIXEL_OVERFLOW 0x80000000u /* events or segments did not fit: march the whole ray */
 #define LEAP_PIXEL_COUNT_MASK 0xffffu
+
+/* The rays of a sparseleap frame that have something to march, listed by the resolve pass
+ * (which writes the other rays' outputs itself): rays with segments, which the composite
+ * pass marches, and rays whose events or segments overflowed, which walk the occupancy tree
+ * as octree mode does (a pipeline of their own). lavapipe runs every instruction of a shader
+ * for every group of lanes, masked or not, so with one pass over the image a ray with
+ * nothing to march paid for the whole march, and every segment ray for the tree walk.
+ * List k (k = 0, 1) starts at word 4 k with a dispatch-indirect command (x = work groups of
+ * LEAP_COMPOSITE_GROUP^2 rays, y = z = 1) whose w is its ray count; its rays follow from
+ * word LEAP_RAYS_HEADER + k * width * height (x | y << 16 of their pixels). */
+#define LEAP_RAYS_MARCH 0u           /* word offset of each list's header */
+#define LEAP_RAYS_OVERFLOW 4u
+#define LEAP_RAYS_HEADER 8u
+#define LEAP_RAYS_MAX_SIDE 65535u    /* pixels per image side the lists can address */
+#define LEAP_RAY_PASS_IMAGE 0u       /* composite: every pixel of the dispatched rectangle */
+#define LEAP_RAY_PASS_MARCH 1u       /* composite: the rays with segments */
+#define LEAP_RAY_PASS_OVERFLOW 2u    /* composite (octree walk): the overflowed rays */
 
 /* Composite chunks. lavapipe ends every loop of a shader invocation once it has run 65535
  * loop iterations in all loops together (a driver safety limit), counted per group of

@@ -19,6 +19,7 @@ void renderer_destroy_frame_buffers(leap_renderer *r)
     leap_gpu_buffer_destroy(gpu, &r->event_key);
     leap_gpu_buffer_destroy(gpu, &r->segments);
     leap_gpu_buffer_destroy(gpu, &r->pixel_lists);
+    leap_gpu_buffer_destroy(gpu, &r->ray_lists);
     if (r->framebuffer) vkDestroyFramebuffer(gpu->device, r->framebuffer, NULL);
     r->framebuffer = VK_NULL_HANDLE;
     r->pixels_allocated = 0;
@@ -36,6 +37,9 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
                          "image of %dx%d pixels exceeds the device's %llu MiB per-buffer limit (at most %u pixels)",
                          view->width, view->height, (unsigned long long)(limit >> 20),
                          (unsigned)(limit / (8 * r->max_segments)));
+    if ((uint32_t)view->width > LEAP_RAYS_MAX_SIDE || (uint32_t)view->height > LEAP_RAYS_MAX_SIDE)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "image of %dx%d pixels: at most %u pixels per side", view->width,
+                         view->height, LEAP_RAYS_MAX_SIDE);
     if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width && r->fb_height == (uint32_t)view->height)
         return LEAP_OK;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
@@ -48,6 +52,8 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_key, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, (LEAP_RAYS_HEADER + 2 * pixels) * 4,
+                                         usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, &r->ray_lists, err);
     if (lr) return lr;
     VkFramebufferCreateInfo fci = {
         .sType = VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO,
@@ -102,7 +108,7 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_OUT_RGBA] = &r->out_rgba, [LEAP_BINDING_OUT_AUX] = &r->out_aux,
         [LEAP_BINDING_BOXES] = &r->boxes, [LEAP_BINDING_EVENT_COUNTS] = &r->event_counts,
         [LEAP_BINDING_EVENT_T] = &r->event_t, [LEAP_BINDING_EVENT_KEY] = &r->event_key,
-        [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists,
+        [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists, [LEAP_BINDING_RAYS] = &r->ray_lists,
         [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
         [LEAP_BINDING_SLOT_RANGES] = r->slot_ranges.buffer ? &r->slot_ranges : &r->pages, /* labels: never read */
     };
@@ -145,6 +151,9 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
     VkCommandBuffer cmd = r->gpu->cmd;
     size_t pixels = (size_t)view->width * view->height;
     vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, pixels * 4, 0);
+    /* Every ray list empty: dispatches of (0, 1, 1) work groups. */
+    const uint32_t no_rays[LEAP_RAYS_HEADER] = {0, 1, 1, 0, 0, 1, 1, 0};
+    vkCmdUpdateBuffer(cmd, r->ray_lists.buffer, 0, sizeof no_rays, no_rays);
     shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     VkRenderPassBeginInfo rpbi = {
@@ -168,12 +177,14 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
                    VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    const uint32_t rows = LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP; /* each invocation resolves a column of 8 */
     vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                  ((uint32_t)view->height + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+                  ((uint32_t)view->height + rows - 1) / rows, 1);
     if (r->gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
-    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                   VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 }
 
 leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const leap_march *march_in,
@@ -245,6 +256,9 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
     VkPipeline composite = VK_NULL_HANDLE;
     if ((lr = renderer_composite_pipeline(r, pass_mode, renderer_composite_kind(r, march), &composite, err))) return lr;
+    VkPipeline overflow = VK_NULL_HANDLE; /* sparseleap: the overflowed rays' tree walk */
+    if (lists && !chord && (lr = renderer_overflow_pipeline(r, renderer_composite_kind(r, march), &overflow, err)))
+        return lr;
     renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
     if (chord) {
         leap_frame_gpu *f = r->frame.mapped;
@@ -286,8 +300,14 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
                            VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0};
         vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-        vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                      (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+        if (overflow) { /* sparseleap: the rays the resolve pass listed, with segments or overflowed */
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
+            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, LEAP_RAYS_MARCH * 4);
+            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, overflow);
+            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, LEAP_RAYS_OVERFLOW * 4);
+        } else
+            vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                          (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
     }
     free(rects);
     if (gpu->timestamps)

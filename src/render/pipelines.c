@@ -114,6 +114,7 @@ typedef struct spec_values {
     VkBool32 mip;             /* constant_id 3 */
     VkBool32 shade;           /* constant_id 4 */
     VkBool32 page_middle;     /* constant_id 5 */
+    uint32_t ray_pass;        /* constant_id 6: LEAP_RAY_PASS_* (composite.comp) */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -126,8 +127,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
         {3, offsetof(spec_values, mip), sizeof values.mip},
         {4, offsetof(spec_values, shade), sizeof values.shade},
         {5, offsetof(spec_values, page_middle), sizeof values.page_middle},
+        {6, offsetof(spec_values, ray_pass), sizeof values.ray_pass},
     };
-    VkSpecializationInfo spec = {6, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {7, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -148,25 +150,39 @@ int renderer_composite_kind(const leap_renderer *r, const leap_march *m)
     return r->tf_precorrected ? COMPOSITE_PRECORRECTED : COMPOSITE_PER_SAMPLE;
 }
 
-leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out,
-                                      leap_error *err)
+/* The pipeline cached at *slot, created on first use for these constants. */
+static leap_result cached_composite(leap_renderer *r, VkPipeline *slot, leap_mode mode, int kind, uint32_t ray_pass,
+                                    VkPipeline *out, leap_error *err)
 {
-    /* Only long boxes' pipelines walk middle page levels: the walk costs 3-10 % of the frame
-     * in every other one (lavapipe, measured). */
-    const int middle = r->mid_levels > 0;
-    VkPipeline *p = &r->composite[mode][kind][middle];
-    if (!*p) {
+    if (!*slot) {
         /* Label opacities are corrected for the step in the object table, like a precorrected
          * TF; MIP reads the table's opacities as they are (no step correction at all). */
         spec_values values = {kind == COMPOSITE_PRECORRECTED || kind == COMPOSITE_LABELS ||
                                   kind == COMPOSITE_SHADED_PRECORRECTED,
                               (uint32_t)mode, kind == COMPOSITE_LABELS, kind == COMPOSITE_MIP,
-                              kind == COMPOSITE_SHADED_PER_SAMPLE || kind == COMPOSITE_SHADED_PRECORRECTED, middle};
-        leap_result lr = create_compute(r, r->composite_module, values, p, err);
+                              kind == COMPOSITE_SHADED_PER_SAMPLE || kind == COMPOSITE_SHADED_PRECORRECTED,
+                              r->mid_levels > 0, ray_pass};
+        leap_result lr = create_compute(r, r->composite_module, values, slot, err);
         if (lr) return lr;
     }
-    *out = *p;
+    *out = *slot;
     return LEAP_OK;
+}
+
+/* Only long boxes' pipelines walk middle page levels (the [2] of the caches): the walk costs
+ * 3-10 % of the frame in every other one (lavapipe, measured). */
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out,
+                                      leap_error *err)
+{
+    /* sparseleap marches the rays the resolve pass lists */
+    const uint32_t pass = mode == LEAP_RENDER_SPARSELEAP ? LEAP_RAY_PASS_MARCH : LEAP_RAY_PASS_IMAGE;
+    return cached_composite(r, &r->composite[mode][kind][r->mid_levels > 0], mode, kind, pass, out, err);
+}
+
+leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *out, leap_error *err)
+{
+    return cached_composite(r, &r->overflow[kind][r->mid_levels > 0], LEAP_RENDER_OCTREE, kind,
+                            LEAP_RAY_PASS_OVERFLOW, out, err);
 }
 
 leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
@@ -201,7 +217,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0, 0, 0, 0, 0, 0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0}, &r->resolve, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;

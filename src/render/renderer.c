@@ -84,6 +84,9 @@ void leap_renderer_destroy(leap_renderer *r)
             for (int i = 0; i < COMPOSITE_KINDS; ++i)
                 for (int l = 0; l < 2; ++l)
                     if (r->composite[m][i][l]) vkDestroyPipeline(dev, r->composite[m][i][l], NULL);
+        for (int i = 0; i < COMPOSITE_KINDS; ++i)
+            for (int l = 0; l < 2; ++l)
+                if (r->overflow[i][l]) vkDestroyPipeline(dev, r->overflow[i][l], NULL);
         if (r->composite_module) vkDestroyShaderModule(dev, r->composite_module, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);
         if (r->set_layout) vkDestroyDescriptorSetLayout(dev, r->set_layout, NULL);

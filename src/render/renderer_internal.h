@@ -11,7 +11,7 @@
 
 _Static_assert(sizeof(leap_frame_gpu) == 576, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 16
+#define BINDING_COUNT 17
 
 /* Kinds of composite pipeline: scalar with opacity corrected per sample or in the TF table,
  * labels, MIP, and the two scalar ones shaded. */
@@ -35,6 +35,7 @@ struct leap_renderer {
      * composite_module. */
     VkShaderModule composite_module;
     VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][2]; /* [..][..][page table has middle levels] */
+    VkPipeline overflow[COMPOSITE_KINDS][2]; /* sparseleap's overflowed rays (LEAP_RAY_PASS_OVERFLOW) */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
@@ -62,7 +63,7 @@ struct leap_renderer {
     uint32_t object_count;
     leap_buffer objects;
     double objects_step;     /* 0: the device table is stale */
-    leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, tree;
+    leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, ray_lists, tree;
     uint32_t tree_depth;
     int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
     size_t pixels_allocated;
@@ -93,6 +94,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err);
 /* kind: 0, 1 = scalar volume with opacity corrected per sample / in the table, 2 = labels. */
 int renderer_composite_kind(const leap_renderer *r, const leap_march *m);
 leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out, leap_error *err);
+leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *out, leap_error *err);
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);
 /* renderer.c: the TF table for a step (uploaded again when the step changes). */
