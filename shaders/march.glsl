@@ -200,27 +200,25 @@ float leap_lattice_end(leap_lattice l, float tb)
     return j;
 }
 
+// The lattice indices naive marching takes on the pixel's ray, for a ray that takes no
+// sample (sparseleap: nothing to march); a marched ray reports them itself.
+float leap_naive_samples(uvec2 pix)
+{
+    leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
+    float t_enter, t_exit;
+    if (!leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit) ||
+        !leap_clip_keep(ray, t_enter, t_exit))
+        return 0.0;
+    leap_lattice lat = leap_lattice_make(t_enter);
+    return max(leap_lattice_end(lat, t_exit) - leap_lattice_first(lat, t_enter), 0.0);
+}
+
 // The transfer function's colour of stored values: u in [0, 1] maps onto the first to the
 // last texel centre of the table, folded into one multiply-add of the stored value s, then
 // clamped.
 struct leap_tf_map {
     float scale, offset, lo, hi;
 };
-
-// The outputs of a ray that takes no sample (sparseleap: no segment, no overflow), the same
-// as a marched ray that took none: transparent, and the lattice indices naive marching takes.
-void leap_write_empty_ray(uvec2 pix, uint pixel)
-{
-    leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
-    float t_enter, t_exit, naive_samples = 0.0;
-    if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit) &&
-        leap_clip_keep(ray, t_enter, t_exit)) {
-        leap_lattice lat = leap_lattice_make(t_enter);
-        naive_samples = max(leap_lattice_end(lat, t_exit) - leap_lattice_first(lat, t_enter), 0.0);
-    }
-    out_rgba[pixel] = vec4(0.0);
-    out_aux[pixel] = vec4(1.0 / 0.0, 0.0, naive_samples, -0.0);
-}
 
 leap_tf_map leap_tf_map_make()
 {

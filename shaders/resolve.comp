@@ -12,8 +12,8 @@
 // the class of the region that follows. A boundary is emitted only where the class changes,
 // which realises the merge and delete rules (same-class duplicates, exit-then-entry into the
 // same class, zero-length grazing hits). The CPU twin is leap_resolve_events.
-// It also lists the rays with something to march (LEAP_RAYS_* in shared.h) and writes the
-// other rays' outputs, so that the composite pass runs only for the listed ones.
+// It also lists the rays with something to march (LEAP_RAYS_* in shared.h), so that the
+// composite pass runs only for those.
 layout(local_size_x = LEAP_COMPOSITE_GROUP, local_size_y = LEAP_COMPOSITE_GROUP) in;
 
 bool marched(uint cls) { return cls != LEAP_CLASS_EMPTY; }
@@ -106,15 +106,22 @@ void list_rays(uint list, uint rays, uvec2 column)
 void main()
 {
     uvec2 column = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y * uint(LEAP_COMPOSITE_GROUP));
-    uint marched = 0u, overflowed = 0u; // bit k: the column's pixel k
+    uint marched = 0u, overflowed = 0u, empty = 0u; // bit k: the column's pixel k
     for (uint k = 0u; k < uint(LEAP_COMPOSITE_GROUP); ++k) {
         uvec2 pix = column + uvec2(0u, k);
         if (pix.x < frame.image.x && pix.y < frame.image.y) {
-            uint pixel = pix.y * frame.image.x + pix.x, list = resolve_pixel(pixel);
+            uint list = resolve_pixel(pix.y * frame.image.x + pix.x);
             if (list == LEAP_RAYS_MARCH) marched |= 1u << k;
             else if (list == LEAP_RAYS_OVERFLOW) overflowed |= 1u << k;
-            else leap_write_empty_ray(pix, pixel);
+            else empty |= 1u << k;
         }
+    }
+    // The rays with nothing to march are not composited: the host knows their outputs but
+    // for the naive count (LEAP_PIXEL_* in shared.h). A loop of its own: inside the one
+    // above, the ray's set-up made lavapipe's code slower.
+    for (uint k = 0u; k < uint(LEAP_COMPOSITE_GROUP); ++k) {
+        uvec2 pix = column + uvec2(0u, k);
+        if ((empty & (1u << k)) != 0u) pixel_lists[pix.y * frame.image.x + pix.x].w = floatBitsToUint(leap_naive_samples(pix));
     }
     list_rays(LEAP_RAYS_MARCH, marched, column);
     list_rays(LEAP_RAYS_OVERFLOW, overflowed, column);

@@ -101,12 +101,14 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_TREE_LEAF 0x80000000u
 
 /* Per-pixel list facts (binding LEAP_BINDING_PIXELS), x: segment count | flags;
- * y: events; z: bit i set = segment i is UNKNOWN; w: 0. */
+ * y: events; z: bit i set = segment i is UNKNOWN; w: when x is 0, the ray has nothing to
+ * march and the composite pass does not run for it (its outputs are not written): the float
+ * bits of the lattice indices naive marching takes, else 0. */
 #define LEAP_PIXEL_OVERFLOW 0x80000000u /* events or segments did not fit: march the whole ray */
 #define LEAP_PIXEL_COUNT_MASK 0xffffu
 
 /* The rays of a sparseleap frame that have something to march, listed by the resolve pass
- * (which writes the other rays' outputs itself): rays with segments, which the composite
+ * (the other rays take no sample: the host fills in their outputs): rays with segments, which the composite
  * pass marches, and rays whose events or segments overflowed, which walk the occupancy tree
  * as octree mode does (a pipeline of their own). lavapipe runs every instruction of a shader
  * for every group of lanes, masked or not, so with one pass over the image a ray with

@@ -329,6 +329,17 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     uint64_t events = 0, segs = 0;
     const uint32_t *pl = r->pixel_lists.mapped;
     for (size_t i = 0; i < pixels; ++i) {
+        if (lists && !chord && pl[4 * i] == 0) { /* not composited (LEAP_PIXEL_* in shared.h) */
+            float naive;
+            memcpy(&naive, &pl[4 * i + 3], sizeof naive);
+            st.naive_samples += (uint64_t)naive;
+            if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
+            if (depth) depth[i] = INFINITY;
+            if (samples) samples[i] = 0;
+            events += pl[4 * i + 1];
+            if (pl[4 * i + 1] > st.events_max) st.events_max = pl[4 * i + 1];
+            continue;
+        }
         uint32_t n = (uint32_t)aux[4 * i + 1];
         st.total_samples += n;
         st.naive_samples += (uint64_t)aux[4 * i + 2];

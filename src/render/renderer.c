@@ -364,7 +364,9 @@ int leap_renderer_pixel_objects(const leap_renderer *r, int64_t *out)
 {
     if (!r->labels || !r->last_frame_pixels) return 0;
     const float *aux = r->out_aux.mapped;
-    for (size_t i = 0; i < r->last_frame_pixels; ++i) out[i] = (int64_t)(-aux[4 * i + 3]) - 1;
+    const uint32_t *lists = leap_renderer_pixel_lists(r); /* x = 0: not composited, no object */
+    for (size_t i = 0; i < r->last_frame_pixels; ++i)
+        out[i] = lists && lists[4 * i] == 0 ? -1 : (int64_t)(-aux[4 * i + 3]) - 1;
     return 1;
 }
 
