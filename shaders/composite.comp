@@ -83,9 +83,9 @@ void main()
     uvec2 pix;
     if (!leap_dispatched_pixel(pix)) return;
     uint pixel = pix.y * frame.image.x + pix.x;
-    leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     // Later chunks continue only the rays an earlier chunk left unfinished.
     if (push.chunk > 0u && out_aux[pixel].w != 1.0) return;
+    leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
     if (leap_mip) acc.color.r = -2.0; // below every signed table coordinate (leap_mip_sample)
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;

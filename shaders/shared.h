@@ -108,9 +108,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_PIXEL_COUNT_MASK 0xffffu
 
 /* The rays of a sparseleap frame that have something to march, listed by the resolve pass
- * (the other rays take no sample: the host fills in their outputs): rays with segments, which the composite
- * pass marches, and rays whose events or segments overflowed, which walk the occupancy tree
- * as octree mode does (a pipeline of their own). lavapipe runs every instruction of a shader
+ * (the other rays take no sample: the host fills in their outputs): rays with segments,
+ * which the composite pass marches, and rays whose events or segments overflowed, which walk
+ * the occupancy tree as octree mode does (a pipeline of their own). lavapipe runs every instruction of a shader
  * for every group of lanes, masked or not, so with one pass over the image a ray with
  * nothing to march paid for the whole march, and every segment ray for the tree walk.
  * List k (k = 0, 1) starts at word 4 k with a dispatch-indirect command (x = work groups of

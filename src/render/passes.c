@@ -329,23 +329,20 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     uint64_t events = 0, segs = 0;
     const uint32_t *pl = r->pixel_lists.mapped;
     for (size_t i = 0; i < pixels; ++i) {
-        if (lists && !chord && pl[4 * i] == 0) { /* not composited (LEAP_PIXEL_* in shared.h) */
-            float naive;
+        /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
+         * sample, its naive count in the list facts. */
+        const int skipped = lists && !chord && pl[4 * i] == 0;
+        float naive = 0;
+        if (skipped) {
             memcpy(&naive, &pl[4 * i + 3], sizeof naive);
-            st.naive_samples += (uint64_t)naive;
             if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
-            if (depth) depth[i] = INFINITY;
-            if (samples) samples[i] = 0;
-            events += pl[4 * i + 1];
-            if (pl[4 * i + 1] > st.events_max) st.events_max = pl[4 * i + 1];
-            continue;
         }
-        uint32_t n = (uint32_t)aux[4 * i + 1];
+        uint32_t n = skipped ? 0 : (uint32_t)aux[4 * i + 1];
         st.total_samples += n;
-        st.naive_samples += (uint64_t)aux[4 * i + 2];
+        st.naive_samples += (uint64_t)(skipped ? naive : aux[4 * i + 2]);
         if (n > st.samples_max) st.samples_max = n;
-        if (depth) depth[i] = aux[4 * i];
-        if (samples) samples[i] = aux[4 * i + 1];
+        if (depth) depth[i] = skipped ? INFINITY : aux[4 * i];
+        if (samples) samples[i] = skipped ? 0.0f : aux[4 * i + 1];
         if (lists && !chord) {
             uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
             events += e;
