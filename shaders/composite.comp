@@ -58,8 +58,8 @@ void leap_march_octree(leap_ray ray, leap_lattice lat, float t_enter, float t_ex
 
 layout(push_constant) uniform Push { leap_push_gpu push; };
 
-// Which pixels a dispatch composites (LEAP_RAY_PASS_*): those of a rectangle, or those of
-// one of the resolve pass's lists (sparseleap).
+// Which pixels a dispatch composites (LEAP_RAY_PASS_IMAGE: those of a rectangle), or which
+// of the resolve pass's lists (LEAP_RAYS_* in shared.h; sparseleap).
 layout(constant_id = 6) const uint leap_ray_pass = LEAP_RAY_PASS_IMAGE;
 
 // This invocation's pixel; false if it has none.
@@ -68,12 +68,8 @@ bool leap_dispatched_pixel(out uvec2 pix)
     if (leap_ray_pass == LEAP_RAY_PASS_IMAGE) {
         pix = gl_GlobalInvocationID.xy + uvec2(push.pixel_x, push.pixel_y);
     } else {
-        const uint list = leap_ray_pass == LEAP_RAY_PASS_MARCH ? LEAP_RAYS_MARCH : LEAP_RAYS_OVERFLOW;
         uint index = gl_WorkGroupID.x * uint(LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP) + gl_LocalInvocationIndex;
-        pix = uvec2(0u);
-        if (index >= ray_lists[list + 3u]) return false;
-        uint ray = ray_lists[LEAP_RAYS_HEADER + list / 4u * frame.image.x * frame.image.y + index];
-        pix = uvec2(ray & 0xffffu, ray >> 16);
+        if (!leap_listed_ray(leap_ray_pass, index, pix)) return false;
     }
     return pix.x < frame.image.x && pix.y < frame.image.y;
 }

@@ -200,6 +200,24 @@ float leap_lattice_end(leap_lattice l, float tb)
     return j;
 }
 
+// The first of the event mask's two words for a tile of pixels (LEAP_PIXEL_TILE in shared.h).
+uint leap_tile_word(uvec2 tile)
+{
+    uint tiles_x = (frame.image.x + LEAP_PIXEL_TILE - 1u) / LEAP_PIXEL_TILE;
+    return frame.image.x * frame.image.y + 2u * (tile.y * tiles_x + tile.x);
+}
+
+// Ray `index` of the resolve pass's list `list` (LEAP_RAYS_* in shared.h): false past the
+// list's end.
+bool leap_listed_ray(uint list, uint index, out uvec2 pix)
+{
+    pix = uvec2(0u);
+    if (index >= ray_lists[4u * list + 3u]) return false;
+    uint ray = ray_lists[LEAP_RAYS_HEADER + list * frame.image.x * frame.image.y + index];
+    pix = uvec2(ray & 0xffffu, ray >> 16);
+    return true;
+}
+
 // The lattice indices naive marching takes on the pixel's ray, for a ray that takes no
 // sample (sparseleap: nothing to march); a marched ray reports them itself.
 float leap_naive_samples(uvec2 pix)

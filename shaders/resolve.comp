@@ -12,23 +12,21 @@
 // the class of the region that follows. A boundary is emitted only where the class changes,
 // which realises the merge and delete rules (same-class duplicates, exit-then-entry into the
 // same class, zero-length grazing hits). The CPU twin is leap_resolve_events.
-// It also lists the rays with something to march (LEAP_RAYS_* in shared.h), so that the
-// composite pass runs only for those.
+// Two stages (leap_ray_pass, LEAP_RAYS_* in shared.h): the first lists the pixels with events
+// (from the event mask, LEAP_PIXEL_TILE); the second sorts only those and lists the rays with
+// something to march, so that the composite pass runs only for them.
 layout(local_size_x = LEAP_COMPOSITE_GROUP, local_size_y = LEAP_COMPOSITE_GROUP) in;
+layout(constant_id = 6) const uint leap_ray_pass = LEAP_RAY_PASS_IMAGE;
 
 bool marched(uint cls) { return cls != LEAP_CLASS_EMPTY; }
 
-// Writes the pixel's list facts and segments; returns the list its ray goes to
+// Writes the list facts and segments of a pixel with events; returns the list its ray goes to
 // (LEAP_RAYS_MARCH, _OVERFLOW: it walks the tree), or ~0u: nothing to march.
 uint resolve_pixel(uint pixel)
 {
     uint total = event_counts[pixel];
     uint flags = total > frame.lists.x ? LEAP_PIXEL_OVERFLOW : 0u;
     uint n = min(total, frame.lists.x);
-    if (total == 0u) { // most pixels of a sparse scene: nothing to sort or walk
-        pixel_lists[pixel] = uvec4(0u);
-        return ~0u;
-    }
 
     // Sorted insertion into a fixed set of slots indexed only by constants (the loops over
     // slots unroll), so the arrays live in registers: lavapipe runs dynamically indexed
@@ -81,48 +79,68 @@ uint resolve_pixel(uint pixel)
     return flags != 0u ? LEAP_RAYS_OVERFLOW : count > 0u ? LEAP_RAYS_MARCH : ~0u;
 }
 
-// Appends the pixels (column.x, column.y + k) for the bits k set in `rays` to the list whose
-// header is at word `list` (LEAP_RAYS_* in shared.h): one atomic per subgroup.
-void list_rays(uint list, uint rays, uvec2 column)
+// Reserves n entries of list `list` (LEAP_RAYS_* in shared.h) for this invocation, with one
+// atomic per subgroup (atomics on one counter from every core are slow), and keeps the list's
+// dispatch-indirect command up to date; returns the word of the first entry.
+uint reserve_rays(uint list, uint n)
 {
-    const uint per_group = uint(LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP); // rays per composite work group
-    uint n = bitCount(rays), total = subgroupAdd(n);
-    if (total == 0u) return;
+    const uint per_group = uint(LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP); // rays per work group
+    uint total = subgroupAdd(n), header = 4u * list;
+    if (total == 0u) return 0u;
     uint base = 0u;
     if (subgroupElect()) {
-        base = atomicAdd(ray_lists[list + 3u], total);
+        base = atomicAdd(ray_lists[header + 3u], total);
         uint groups = (base + total + per_group - 1u) / per_group;
-        if (groups > (base + per_group - 1u) / per_group) atomicMax(ray_lists[list], groups);
+        if (groups > (base + per_group - 1u) / per_group) atomicMax(ray_lists[header], groups);
     }
-    uint at = LEAP_RAYS_HEADER + list / 4u * frame.image.x * frame.image.y + subgroupBroadcastFirst(base) +
-              subgroupExclusiveAdd(n);
-    for (uint k = 0u; k < uint(LEAP_COMPOSITE_GROUP); ++k) {
-        if ((rays & (1u << k)) != 0u) ray_lists[at++] = column.x | (column.y + k) << 16;
-    }
+    return LEAP_RAYS_HEADER + list * frame.image.x * frame.image.y + subgroupBroadcastFirst(base) +
+           subgroupExclusiveAdd(n);
 }
 
-// Each invocation resolves a column of LEAP_COMPOSITE_GROUP pixels, so that a subgroup lists
-// many rays with one atomic per list (atomics on one counter from every core are slow).
+void list_ray(uint list, bool take, uint ray)
+{
+    uint at = reserve_rays(list, take ? 1u : 0u);
+    if (take) ray_lists[at] = ray;
+}
+
 void main()
 {
-    uvec2 column = uvec2(gl_GlobalInvocationID.x, gl_GlobalInvocationID.y * uint(LEAP_COMPOSITE_GROUP));
-    uint marched = 0u, overflowed = 0u, empty = 0u; // bit k: the column's pixel k
-    for (uint k = 0u; k < uint(LEAP_COMPOSITE_GROUP); ++k) {
-        uvec2 pix = column + uvec2(0u, k);
-        if (pix.x < frame.image.x && pix.y < frame.image.y) {
-            uint list = resolve_pixel(pix.y * frame.image.x + pix.x);
-            if (list == LEAP_RAYS_MARCH) marched |= 1u << k;
-            else if (list == LEAP_RAYS_OVERFLOW) overflowed |= 1u << k;
-            else empty |= 1u << k;
+    if (leap_ray_pass == LEAP_RAY_PASS_IMAGE) {
+        // Each invocation takes a tile of the event mask and lists its pixels with events:
+        // with one atomic per subgroup, without reading every pixel's count.
+        uvec2 tile = gl_GlobalInvocationID.xy;
+        const uint side = LEAP_PIXEL_TILE;
+        if (tile.x * side >= frame.image.x || tile.y * side >= frame.image.y) return;
+        uint word = leap_tile_word(tile);
+        uvec2 mask = uvec2(event_counts[word], event_counts[word + 1u]);
+        uint at = reserve_rays(LEAP_RAYS_EVENTS, bitCount(mask.x) + bitCount(mask.y));
+        for (uint w = 0u; w < 2u; ++w) {
+            for (uint bits = mask[w]; bits != 0u; bits &= bits - 1u) {
+                uint bit = uint(findLSB(bits)) + 32u * w;
+                uvec2 pix = tile * side + uvec2(bit % side, bit / side);
+                ray_lists[at++] = pix.x | pix.y << 16;
+            }
         }
+        // A ray with nothing to march is not composited: the host knows its outputs but for
+        // the naive count (LEAP_PIXEL_* in shared.h), which only the frame's statistics want.
+        // A branch on a uniform, which lavapipe does skip.
+        if (frame.statistics.x != 0u) {
+            for (uint bit = 0u; bit < side * side; ++bit) {
+                uvec2 pix = tile * side + uvec2(bit % side, bit / side);
+                bool events = (mask[bit / 32u] & (1u << (bit % 32u))) != 0u;
+                if (!events && pix.x < frame.image.x && pix.y < frame.image.y)
+                    pixel_lists[pix.y * frame.image.x + pix.x] = uvec4(0u, 0u, 0u, floatBitsToUint(leap_naive_samples(pix)));
+            }
+        }
+        return;
     }
-    // The rays with nothing to march are not composited: the host knows their outputs but
-    // for the naive count (LEAP_PIXEL_* in shared.h). A loop of its own: inside the one
-    // above, the ray's set-up made lavapipe's code slower.
-    for (uint k = 0u; k < uint(LEAP_COMPOSITE_GROUP); ++k) {
-        uvec2 pix = column + uvec2(0u, k);
-        if ((empty & (1u << k)) != 0u) pixel_lists[pix.y * frame.image.x + pix.x].w = floatBitsToUint(leap_naive_samples(pix));
-    }
-    list_rays(LEAP_RAYS_MARCH, marched, column);
-    list_rays(LEAP_RAYS_OVERFLOW, overflowed, column);
+    uint index = gl_WorkGroupID.x * uint(LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP) + gl_LocalInvocationIndex;
+    uvec2 pix;
+    bool listed = leap_listed_ray(LEAP_RAYS_EVENTS, index, pix);
+    uint ray = pix.x | pix.y << 16;
+    uint pixel = pix.y * frame.image.x + pix.x;
+    uint list = listed ? resolve_pixel(pixel) : ~0u;
+    if (listed && list == ~0u && frame.statistics.x != 0u) pixel_lists[pixel].w = floatBitsToUint(leap_naive_samples(pix));
+    list_ray(LEAP_RAYS_MARCH, list == LEAP_RAYS_MARCH, ray);
+    list_ray(LEAP_RAYS_OVERFLOW, list == LEAP_RAYS_OVERFLOW, ray);
 }

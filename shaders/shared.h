@@ -33,7 +33,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
                                      w = 1 while the ray waits for its next chunk, else
                                      -(first object + 1) (see LEAP_LOOP_ITERATIONS_SAFE) */
 #define LEAP_BINDING_BOXES 6      /* storage leap_box_gpu[] in view DFS order */
-#define LEAP_BINDING_EVENT_COUNTS 7 /* storage uint[] per pixel: events appended (may exceed the capacity) */
+#define LEAP_BINDING_EVENT_COUNTS 7 /* storage uint[] per pixel: events appended (may exceed the
+                                       capacity); then the event mask (LEAP_PIXEL_TILE) */
 #define LEAP_BINDING_EVENT_T 8    /* storage float[] per pixel, LEAP_PIXEL_EVENTS each: event t */
 #define LEAP_BINDING_EVENT_KEY 9  /* storage uint[] per pixel, LEAP_PIXEL_EVENTS each: order << 2 | class after */
 #define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel max_segments (t0, t1) */
@@ -107,22 +108,26 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_PIXEL_OVERFLOW 0x80000000u /* events or segments did not fit: march the whole ray */
 #define LEAP_PIXEL_COUNT_MASK 0xffffu
 
-/* The rays of a sparseleap frame that have something to march, listed by the resolve pass
- * (the other rays take no sample: the host fills in their outputs): rays with segments,
- * which the composite pass marches, and rays whose events or segments overflowed, which walk
- * the occupancy tree as octree mode does (a pipeline of their own). lavapipe runs every instruction of a shader
- * for every group of lanes, masked or not, so with one pass over the image a ray with
- * nothing to march paid for the whole march, and every segment ray for the tree walk.
- * List k (k = 0, 1) starts at word 4 k with a dispatch-indirect command (x = work groups of
+/* The rays of a sparseleap frame, listed so that each pass runs only for the rays it has work
+ * for. lavapipe runs every instruction of a shader for every group of lanes, masked or not:
+ * over the whole image, a pixel without events paid for the whole sort of its events, and a
+ * ray with nothing to march for the whole march. The resolve pass lists the pixels with events
+ * (its first stage reads every pixel's event count), then sorts only those and lists the rays
+ * with segments, which the composite pass marches, and the rays whose events or segments
+ * overflowed, which walk the occupancy tree as octree mode does (a pipeline of their own).
+ * The other rays take no sample: the host fills in their outputs.
+ * List k starts at word 4 k with a dispatch-indirect command (x = work groups of
  * LEAP_COMPOSITE_GROUP^2 rays, y = z = 1) whose w is its ray count; its rays follow from
  * word LEAP_RAYS_HEADER + k * width * height (x | y << 16 of their pixels). */
-#define LEAP_RAYS_MARCH 0u           /* word offset of each list's header */
-#define LEAP_RAYS_OVERFLOW 4u
-#define LEAP_RAYS_HEADER 8u
+#define LEAP_RAYS_MARCH 0u           /* rays with segments */
+#define LEAP_RAYS_OVERFLOW 1u        /* rays whose events or segments did not fit */
+#define LEAP_RAYS_EVENTS 2u          /* pixels with events (the resolve's second stage) */
+#define LEAP_RAYS_LISTS 3u
+#define LEAP_RAYS_HEADER (4u * LEAP_RAYS_LISTS)
 #define LEAP_RAYS_MAX_SIDE 65535u    /* pixels per image side the lists can address */
-#define LEAP_RAY_PASS_IMAGE 0u       /* composite: every pixel of the dispatched rectangle */
-#define LEAP_RAY_PASS_MARCH 1u       /* composite: the rays with segments */
-#define LEAP_RAY_PASS_OVERFLOW 2u    /* composite (octree walk): the overflowed rays */
+/* Which pixels a pass runs for (specialisation constant leap_ray_pass): every pixel of the
+ * dispatched rectangle, or the rays of list LEAP_RAYS_k (the value k). */
+#define LEAP_RAY_PASS_IMAGE LEAP_RAYS_LISTS
 
 /* Composite chunks. lavapipe ends every loop of a shader invocation once it has run 65535
  * loop iterations in all loops together (a driver safety limit), counted per group of
@@ -142,6 +147,13 @@ LEAP_STRUCT(leap_push_gpu) {
                                   cover only the pixels whose rays reach them) */
     uint32_t pad;
 } LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
+
+/* The event mask: one bit per pixel, set by the raster pass at the pixel's first event, so
+ * that the resolve pass finds the pixels with events without reading every pixel's count.
+ * Tiles of LEAP_PIXEL_TILE^2 pixels, row-major over the image; tile (tx, ty) owns words
+ * 2 (ty * tiles_x + tx) and + 1 after the width * height counts (tiles_x = ceil(width / 8)),
+ * bit (y % 8) * 8 + x % 8 for pixel (x, y) (bits 32..63 in the second word). */
+#define LEAP_PIXEL_TILE 8u
 
 /* Capacities of the per-pixel lists. Each pixel owns LEAP_PIXEL_EVENTS event slots (the raster
  * pass appends with one atomic on the pixel's own counter, no shared pool), and the resolve
@@ -206,7 +218,9 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 shade;          /* 544: ambient, diffuse, specular, shininess (leap_shading) */
     LEAP_VEC4 light;          /* 560: xyz world direction towards the light (0 = headlight),
                                  w = 1 / full-shading gradient in stored values per voxel */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 576 bytes */
+    LEAP_UVEC4 statistics;    /* 576: x = 1: count what naive marching takes for every ray, also
+                                 for the rays that take no sample (leap_renderer_count_naive) */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 592 bytes */
 
 
 #endif

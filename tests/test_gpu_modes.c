@@ -220,6 +220,37 @@ static int modes_equal_naive(leap_renderer *renderer, const leap_scene *s, int c
         CHECK(st.naive_samples == ns->naive_samples && st.total_samples <= st.naive_samples);
         fewer += st.total_samples < st.naive_samples;
     }
+    /* Without the naive count (leap_renderer_count_naive), sparseleap's image, samples and
+     * list facts are the same; only its naive_samples is 0. Another camera's frame comes
+     * between, so that facts left from an earlier frame would show. */
+    leap_frame_stats counted, uncounted;
+    CHECK_OK(leap_renderer_render(renderer, view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &counted, &err),
+             &err);
+    const uint32_t *lists = leap_renderer_pixel_lists(renderer);
+    uint32_t *facts = lists ? malloc(n * 4 * sizeof *facts) : NULL;
+    if (facts) memcpy(facts, lists, n * 4 * sizeof *facts);
+    leap_renderer_count_naive(renderer, 0);
+    leap_rays other;
+    const int other_cam = (cam_i + 1) % (int)(sizeof camera_names / sizeof camera_names[0]);
+    CHECK(view_for(s, other_cam, &other));
+    if (other.width == view->width && other.height == view->height)
+        CHECK_OK(leap_renderer_render(renderer, &other, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &uncounted,
+                                      &err), &err);
+    CHECK_OK(leap_renderer_render(renderer, view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &uncounted, &err),
+             &err);
+    leap_renderer_count_naive(renderer, 1);
+    image_diff du = compare_rgba(img, naive, n);
+    CHECK_MSG(du.nonfinite == 0 && du.max_abs <= TOL, "%s sparseleap without the naive count: max abs %g vs naive", what,
+              du.max_abs);
+    CHECK(uncounted.naive_samples == 0 && uncounted.total_samples == counted.total_samples &&
+          uncounted.overflow_pixels == counted.overflow_pixels);
+    lists = leap_renderer_pixel_lists(renderer);
+    CHECK((facts == NULL) == (lists == NULL));
+    size_t facts_off = 0;
+    for (size_t i = 0; facts && lists && i < n; ++i)
+        facts_off += memcmp(facts + 4 * i, lists + 4 * i, 3 * sizeof *facts) != 0;
+    CHECK_MSG(facts_off == 0, "%s: %zu pixels' list facts differ without the naive count", what, facts_off);
+    free(facts);
     return fewer;
 }
 

@@ -98,7 +98,9 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     FILE *md = fopen(path, "w");
     if (!md) return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
     fprintf(md, "# leap bench\n\nDevice: %s. %d views on an orbit at elevation %g deg, %d timed frames after %d "
-                "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. ",
+                "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. Timed frames "
+                "are rendered as a user gets them, without the statistics' naive count; one more frame per "
+                "configuration, untimed, gives the samples, events and segments. ",
             device, o->views, o->elevation, o->repeats, o->warmup);
     if (o->mip || o->shade)
         fprintf(md, "Every frame and the reference %s. ", o->mip > 0   ? "are maximum intensity projections"

@@ -44,14 +44,16 @@ static void errors(const float *img, const float *ref, size_t pixels, run_result
     r->psnr = r->rmse > 0 ? 20 * log10(1.0 / r->rmse) : 200.0;
 }
 
-/* Times one mode/step/view/size: warm-up frames, then repeats; the last frame's image is
- * compared with the reference. */
+/* Times one mode/step/view/size: warm-up frames, then repeats, as a user gets them (no count
+ * of naive samples for rays that take none); then one untimed frame gives the statistics, and
+ * its image is compared with the reference. */
 static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_rays *view, int mode,
                             const leap_bench_desc *o, float *img, const float *ref, run_result *out, leap_error *err)
 {
     double frames[1000];
     leap_frame_stats st = {0};
     run_result r = {0};
+    leap_renderer_count_naive(renderer, 0);
     for (int i = 0; i < o->warmup + o->repeats; ++i) {
         leap_result lr = leap_renderer_render(renderer, view, &s->march, (leap_mode)mode, img, NULL, NULL, &st, err);
         if (lr) return lr;
@@ -63,6 +65,9 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_r
         r.composite_ms += st.gpu_composite_ms / o->repeats;
         r.order_ms += st.order_ms / o->repeats;
     }
+    leap_renderer_count_naive(renderer, 1);
+    leap_result lr = leap_renderer_render(renderer, view, &s->march, (leap_mode)mode, img, NULL, NULL, &st, err);
+    if (lr) return lr;
     qsort(frames, (size_t)o->repeats, sizeof frames[0], bench_cmp_double);
     r.frame_ms[0] = frames[o->repeats / 2];
     r.frame_ms[1] = frames[0];

@@ -423,6 +423,7 @@ int cli_render(int argc, char **argv)
             goto done;
         }
         times.upload = leap__now_ms() - t;
+        leap_renderer_count_naive(renderer, stats || stats_to_stdout);
         if ((r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err))) {
             rc = cli_exit_code(r);
             cli_input_error(o.input, o.scene.tf, r, err.msg);

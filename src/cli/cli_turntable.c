@@ -84,6 +84,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
         rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
         goto done;
     }
+    leap_renderer_count_naive(renderer, 0); /* no statistics per frame */
     const double setup_ms = leap__now_ms() - t0;
     cli_camera_options frame = *o;
     frame.has_orbit = 1;

@@ -27,6 +27,18 @@ void renderer_destroy_frame_buffers(leap_renderer *r)
     r->lists_valid = 0;
 }
 
+/* Tiles of the event mask per axis (LEAP_PIXEL_TILE in shared.h). */
+static uint32_t mask_tiles(int pixels)
+{
+    return ((uint32_t)pixels + LEAP_PIXEL_TILE - 1) / LEAP_PIXEL_TILE;
+}
+
+/* The event counts, then the event mask: two words per tile. */
+static size_t event_count_bytes(const leap_rays *view)
+{
+    return ((size_t)view->width * view->height + 2 * (size_t)mask_tiles(view->width) * mask_tiles(view->height)) * 4;
+}
+
 static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view, leap_error *err)
 {
     size_t pixels = (size_t)view->width * view->height;
@@ -47,12 +59,12 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
     VkBufferUsageFlags usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_aux, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 4, usage, &r->event_counts, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, event_count_bytes(view), usage, &r->event_counts, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_t, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_key, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, (LEAP_RAYS_HEADER + 2 * pixels) * 4,
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, (LEAP_RAYS_HEADER + LEAP_RAYS_LISTS * pixels) * 4,
                                          usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, &r->ray_lists, err);
     if (lr) return lr;
     VkFramebufferCreateInfo fci = {
@@ -149,10 +161,10 @@ static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipe
 static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count)
 {
     VkCommandBuffer cmd = r->gpu->cmd;
-    size_t pixels = (size_t)view->width * view->height;
-    vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, pixels * 4, 0);
+    vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, event_count_bytes(view), 0);
     /* Every ray list empty: dispatches of (0, 1, 1) work groups. */
-    const uint32_t no_rays[LEAP_RAYS_HEADER] = {0, 1, 1, 0, 0, 1, 1, 0};
+    uint32_t no_rays[LEAP_RAYS_HEADER] = {0};
+    for (uint32_t list = 0; list < LEAP_RAYS_LISTS; ++list) no_rays[4 * list + 1] = no_rays[4 * list + 2] = 1;
     vkCmdUpdateBuffer(cmd, r->ray_lists.buffer, 0, sizeof no_rays, no_rays);
     shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
@@ -175,11 +187,17 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
     shader_barrier(cmd, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve);
+    /* Resolve: the first stage lists the pixels with events (a tile of the event mask per
+     * invocation), the second sorts only those. */
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve_image);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    const uint32_t rows = LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP; /* each invocation resolves a column of 8 */
-    vkCmdDispatch(cmd, ((uint32_t)view->width + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                  ((uint32_t)view->height + rows - 1) / rows, 1);
+    vkCmdDispatch(cmd, (mask_tiles(view->width) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                  (mask_tiles(view->height) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve_events);
+    vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_EVENTS);
     if (r->gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
@@ -302,9 +320,9 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
         if (overflow) { /* sparseleap: the rays the resolve pass listed, with segments or overflowed */
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
-            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, LEAP_RAYS_MARCH * 4);
+            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_MARCH);
             vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, overflow);
-            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, LEAP_RAYS_OVERFLOW * 4);
+            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_OVERFLOW);
         } else
             vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
                           (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
@@ -327,14 +345,18 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     const float *out = r->out_rgba.mapped, *aux = r->out_aux.mapped;
     if (rgba) memcpy(rgba, out, pixels * 4 * sizeof(float));
     uint64_t events = 0, segs = 0;
-    const uint32_t *pl = r->pixel_lists.mapped;
+    uint32_t *pl = r->pixel_lists.mapped;
+    const uint32_t *event_counts = r->event_counts.mapped;
     for (size_t i = 0; i < pixels; ++i) {
+        /* The resolve pass writes the list facts of a pixel without events only for the
+         * statistics (its naive count); else they are set here, for the lists' readers. */
+        if (lists && !chord && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
         /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
          * sample, its naive count in the list facts. */
         const int skipped = lists && !chord && pl[4 * i] == 0;
         float naive = 0;
         if (skipped) {
-            memcpy(&naive, &pl[4 * i + 3], sizeof naive);
+            if (r->count_naive) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
             if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
         }
         uint32_t n = skipped ? 0 : (uint32_t)aux[4 * i + 1];
@@ -352,6 +374,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
             st.overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
         }
     }
+    if (!r->count_naive) st.naive_samples = 0;
     r->lists_valid = lists && !chord;
     r->last_frame_pixels = pixels;
     st.readback_ms = leap__now_ms() - t2;

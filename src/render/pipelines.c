@@ -114,7 +114,7 @@ typedef struct spec_values {
     VkBool32 mip;             /* constant_id 3 */
     VkBool32 shade;           /* constant_id 4 */
     VkBool32 page_middle;     /* constant_id 5 */
-    uint32_t ray_pass;        /* constant_id 6: LEAP_RAY_PASS_* (composite.comp) */
+    uint32_t ray_pass;        /* constant_id 6: LEAP_RAY_PASS_IMAGE or a list, LEAP_RAYS_* (shared.h) */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -175,14 +175,14 @@ leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int ki
                                       leap_error *err)
 {
     /* sparseleap marches the rays the resolve pass lists */
-    const uint32_t pass = mode == LEAP_RENDER_SPARSELEAP ? LEAP_RAY_PASS_MARCH : LEAP_RAY_PASS_IMAGE;
+    const uint32_t pass = mode == LEAP_RENDER_SPARSELEAP ? LEAP_RAYS_MARCH : LEAP_RAY_PASS_IMAGE;
     return cached_composite(r, &r->composite[mode][kind][r->mid_levels > 0], mode, kind, pass, out, err);
 }
 
 leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *out, leap_error *err)
 {
     return cached_composite(r, &r->overflow[kind][r->mid_levels > 0], LEAP_RENDER_OCTREE, kind,
-                            LEAP_RAY_PASS_OVERFLOW, out, err);
+                            LEAP_RAYS_OVERFLOW, out, err);
 }
 
 leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
@@ -217,7 +217,8 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     leap_result lr = LEAP_OK;
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){0}, &r->resolve, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){.ray_pass = LEAP_RAY_PASS_IMAGE}, &r->resolve_image, err);
+    if (!lr) lr = create_compute(r, resolve_module, (spec_values){.ray_pass = LEAP_RAYS_EVENTS}, &r->resolve_events, err);
     if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;

@@ -34,6 +34,7 @@ leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer *
     if (!r) return leap_fail(err, LEAP_ERR_OOM, "out of host memory");
     r->pixel_events = desc && desc->pixel_events ? desc->pixel_events : LEAP_PIXEL_EVENTS;
     r->keep_lists = desc && desc->keep_lists;
+    r->count_naive = 1;
     if (r->pixel_events > LEAP_PIXEL_EVENTS) r->pixel_events = LEAP_PIXEL_EVENTS;
     if (r->pixel_events < 2) r->pixel_events = 2;
     r->max_segments = desc && desc->max_segments ? desc->max_segments : LEAP_MAX_SEGMENTS;
@@ -78,7 +79,8 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
         if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
         if (r->events) vkDestroyPipeline(dev, r->events, NULL);
-        if (r->resolve) vkDestroyPipeline(dev, r->resolve, NULL);
+        if (r->resolve_image) vkDestroyPipeline(dev, r->resolve_image, NULL);
+        if (r->resolve_events) vkDestroyPipeline(dev, r->resolve_events, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
             for (int i = 0; i < COMPOSITE_KINDS; ++i)
@@ -302,6 +304,11 @@ void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, co
 {
     r->occupancy = occ;
     r->box_set = boxes;
+}
+
+void leap_renderer_count_naive(leap_renderer *r, int on)
+{
+    r->count_naive = on != 0;
 }
 
 uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)

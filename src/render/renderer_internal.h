@@ -8,8 +8,7 @@
 #include "gpu.h"
 #include "shared.h"
 
-
-_Static_assert(sizeof(leap_frame_gpu) == 576, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 592, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 17
 
@@ -29,13 +28,15 @@ struct leap_renderer {
     uint32_t pixel_events, max_segments;
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
-    VkPipeline resolve, events;
+    int count_naive; /* leap_renderer_count_naive */
+    VkPipeline events;
+    VkPipeline resolve_image, resolve_events; /* the resolve pass's two stages (resolve.comp) */
     /* The composite pass per mode and kind (renderer_composite_kind): specialisation
      * constants, so each pipeline holds only the code it runs. Created on first use from
      * composite_module. */
     VkShaderModule composite_module;
     VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][2]; /* [..][..][page table has middle levels] */
-    VkPipeline overflow[COMPOSITE_KINDS][2]; /* sparseleap's overflowed rays (LEAP_RAY_PASS_OVERFLOW) */
+    VkPipeline overflow[COMPOSITE_KINDS][2]; /* sparseleap's overflowed rays (list LEAP_RAYS_OVERFLOW) */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;

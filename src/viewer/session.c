@@ -254,7 +254,9 @@ leap_result leap_viewer_session_start_gpu(leap_viewer_session *s, leap_error *er
         .instance_extension_count = ext_count,
         .swapchain = 1,
     };
-    return leap_renderer_create(&rd, &s->renderer, err);
+    leap_result lr = leap_renderer_create(&rd, &s->renderer, err);
+    if (!lr) leap_renderer_count_naive(s->renderer, 0); /* the viewer shows no naive count */
+    return lr;
 }
 
 leap_result leap_viewer_session_bind(leap_viewer_session *s, leap_scene *scene, leap_error *err)
