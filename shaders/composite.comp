@@ -91,7 +91,8 @@ void main()
         leap_lattice lat = leap_lattice_make(t_enter);
         // This chunk takes lattice indices [j_lo, j_hi): every mode marches only [ca, cb],
         // bounded half a step away from the neighbouring chunks' samples.
-        float j_lo = float(push.chunk) * frame.limits.z, j_hi = j_lo + frame.limits.z;
+        const float per_chunk = leap_ray_pass == LEAP_RAYS_OVERFLOW ? frame.overflow.x : frame.limits.z;
+        float j_lo = float(push.chunk) * per_chunk, j_hi = j_lo + per_chunk;
         float ca = t_enter, cb = min(t_exit, lat.t0 + (j_hi - 0.5) * lat.dt);
         if (push.chunk > 0u) {
             ca = max(t_enter, lat.t0 + (j_lo - 0.5) * lat.dt);

@@ -133,7 +133,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * loop iterations in all loops together (a driver safety limit), counted per group of
  * LEAP_SIMD_LANES invocations that run in lock step. A ray with more lattice samples than a
  * dispatch can safely take is composited over several dispatches, each taking at most
- * frame.limits.z lattice indices; the partial result waits in out_rgba (rgb, transmittance)
+ * frame.limits.z lattice indices (sparseleap's overflowed rays: frame.overflow.x, so they may
+ * need more dispatches); the partial result waits in out_rgba (rgb, transmittance)
  * and out_aux (depth t, samples, first object, 1) between them. A finished ray's out_aux is
  * (depth, samples, naive samples, -(first object + 1)), first object -1 when none or not a
  * label volume. */
@@ -220,7 +221,10 @@ LEAP_STRUCT(leap_frame_gpu) {
                                  w = 1 / full-shading gradient in stored values per voxel */
     LEAP_UVEC4 statistics;    /* 576: x = 1: count what naive marching takes for every ray, also
                                  for the rays that take no sample (leap_renderer_count_naive) */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 592 bytes */
+    LEAP_VEC4 overflow;       /* 592: x = lattice indices per composite chunk of sparseleap's
+                                 overflowed rays (their tree walk costs more per cell than the
+                                 segments' march, whose figure is limits.z) */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 608 bytes */
 
 
 #endif

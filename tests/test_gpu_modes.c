@@ -653,6 +653,17 @@ int main(void)
         printf("overflow: %u of %d pixels overflowed, max abs %.2e\n", st.overflow_pixels, W * H, d.max_abs);
         CHECK(st.overflow_pixels > 0);
         CHECK(d.max_abs <= TOL);
+        /* At step 0.5 the segments' figure per dispatch holds every ray of this box, the
+         * overflowed rays' tree walk needs a second dispatch. */
+        CHECK_OK(leap_scene_set_step(s, 0.5, &err), &err);
+        CHECK_OK(leap_renderer_bind_scene(r2, s, &err), &err);
+        CHECK_OK(leap_renderer_render(r2, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
+        CHECK_OK(leap_renderer_render(r2, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err), &err);
+        d = compare_rgba(img, naive, W * H);
+        printf("overflow, step 0.5: %u pixels overflowed, %u composite dispatches, max abs %.2e\n", st.overflow_pixels,
+               st.composite_chunks, d.max_abs);
+        CHECK(st.overflow_pixels > 0 && st.composite_chunks > 1);
+        CHECK(d.max_abs <= TOL);
         leap_renderer_set_occupancy(r2, NULL, NULL);
         leap_scene_destroy(s);
     }

@@ -60,15 +60,16 @@ static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
  * and so tree leaves. It runs n sample iterations plus:
  * - naive, bbox: the march loop's outer iteration and two inner-loop entries per cell;
  * - octree: per leaf, the visit, a descent of up to depth iterations, and the march loop's three;
- * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry;
- *   an overflowed pixel walks the tree as octree does. */
+ * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry,
+ *   and per cell the march loop's three; an overflowed pixel walks the tree as octree does, in
+ *   a pipeline of its own with octree's figure (frame.overflow.x). */
 static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
 {
     double per_cell = 0, fixed = 8;
-    if (mode == LEAP_RENDER_NAIVE || mode == LEAP_RENDER_BBOX)
-        per_cell = 3;
+    if (mode == LEAP_RENDER_OCTREE)
+        per_cell = r->tree_depth + 6.0;
     else
-        per_cell = r->tree_depth + 6.0; /* octree: also overflowed sparseleap pixels */
+        per_cell = 3;
     if (mode == LEAP_RENDER_SPARSELEAP) fixed += 2 * LEAP_MAX_SEGMENTS;
     const double per_lane = (double)LEAP_LOOP_ITERATIONS_SAFE / LEAP_SIMD_LANES;
     double n = floor((per_lane - fixed - 4 * per_cell) / (1 + sqrt(3.0) / LEAP_CELL * step * per_cell));
@@ -136,10 +137,18 @@ static double skip_far(const leap_rays *view, const leap_frame_gpu *f)
     return far + 2 * sqrt(3.0) * (1.0 + 1e-5 * mag);
 }
 
+/* Dispatches of n lattice indices, per_chunk at a time. */
+static uint32_t chunks_for(double n, double per_chunk)
+{
+    double k = ceil(n / per_chunk);
+    return k > 1 ? (uint32_t)k : 1;
+}
+
 leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, leap_mode mode, leap_frame_gpu *f,
-                               uint32_t *count, chunk_rect **rects_out, leap_error *err)
+                               uint32_t *count, uint32_t *overflow_count, chunk_rect **rects_out, leap_error *err)
 {
     *count = 1;
+    *overflow_count = 1;
     *rects_out = NULL;
     /* The skipping modes take nothing beyond the box of the non-empty cells (bbox: the box
      * they march; past it every cell is EMPTY), so a ray is done at t_far however far the
@@ -171,7 +180,12 @@ leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, lea
     }
     double chord_bound = diag + 2 * sqrt(3.0) * (1.0 + 1e-5 * far_bound);
     double n_bound = ((chord_bound + m->step) / m->step + 2) * (1 + 1e-5) + 2;
-    if (n_bound <= f->limits.z || (t_far < 0 || lattice_bound(0, t_far, m->step) <= f->limits.z)) return LEAP_OK;
+    const double n_all = t_far < 0 ? 0 : fmin(n_bound, lattice_bound(0, t_far, m->step)); /* every ray's bound */
+    /* sparseleap's overflowed rays take fewer indices per dispatch (frame.overflow.x). Their
+     * list is short, so a dispatch more than they need costs little: the bound over all rays
+     * serves, and the per-pixel pass below only when the segments need it. */
+    if (mode == LEAP_RENDER_SPARSELEAP) *overflow_count = chunks_for(n_all, f->overflow.x);
+    if (n_all <= f->limits.z) return LEAP_OK;
     const size_t pixels = (size_t)view->width * view->height;
     uint32_t *need = malloc(pixels * sizeof *need); /* dispatches each pixel's ray needs */
     if (!need) return leap_fail(err, LEAP_ERR_OOM, "out of host memory for %zu pixels", pixels);
@@ -204,6 +218,7 @@ leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, lea
                          "larger --step or a view that crosses less of the box)",
                          most, m->step);
     }
+    if (mode == LEAP_RENDER_SPARSELEAP) *overflow_count = chunks_for(most, f->overflow.x);
     /* rects[c]: the pixels whose rays need more than c dispatches (chunk c marches them). */
     chunk_rect *rects = malloc(chunks * sizeof *rects);
     if (!rects) {
@@ -320,6 +335,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     double depth_opacity = r->tf_precorrected || r->labels ? leap_tf_alpha_for_step(LEAP_DEPTH_OPACITY, m->step) : LEAP_DEPTH_OPACITY;
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
                             (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
+    f->overflow = (leap_vec4){(float)chunk_indices(r, LEAP_RENDER_OCTREE, m->step), 0, 0, 0};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->block_base};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, m->mip < 0, (uint32_t)view->ortho};

@@ -286,7 +286,12 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         st.single_box = 1;
     }
     chunk_rect *rects = NULL;
-    if ((lr = renderer_chunk_count(view, march, pass_mode, r->frame.mapped, &st.composite_chunks, &rects, err))) return lr;
+    uint32_t overflow_chunks = 1; /* sparseleap's overflowed rays: dispatches of their own figure */
+    if ((lr = renderer_chunk_count(view, march, pass_mode, r->frame.mapped, &st.composite_chunks, &overflow_chunks,
+                                   &rects, err)))
+        return lr;
+    const uint32_t march_chunks = st.composite_chunks;
+    if (overflow && overflow_chunks > st.composite_chunks) st.composite_chunks = overflow_chunks;
     write_descriptors(r);
     double t1 = leap__now_ms();
     st.upload_ms = t1 - t0;
@@ -311,18 +316,24 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     st.tf_precorrected = r->labels || r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
-        chunk_rect q = rects ? rects[chunk] : (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height};
-        if (q.x0 >= q.x1 || q.y0 >= q.y1) continue;
+        chunk_rect q = {0, 0, 0, 0}; /* the pixels this chunk marches (sparseleap: the segments') */
+        if (chunk < march_chunks) q = rects ? rects[chunk] : (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height};
+        const int segments = q.x0 < q.x1 && q.y0 < q.y1, overflowed = overflow && chunk < overflow_chunks;
+        if (!segments && !overflowed) continue;
         if (chunk > 0)
             shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                            VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
         leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0};
         vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
         if (overflow) { /* sparseleap: the rays the resolve pass listed, with segments or overflowed */
-            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
-            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_MARCH);
-            vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, overflow);
-            vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_OVERFLOW);
+            if (segments) {
+                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
+                vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_MARCH);
+            }
+            if (overflowed) {
+                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, overflow);
+                vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_OVERFLOW);
+            }
         } else
             vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
                           (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);

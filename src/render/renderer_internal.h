@@ -8,7 +8,7 @@
 #include "gpu.h"
 #include "shared.h"
 
-_Static_assert(sizeof(leap_frame_gpu) == 592, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 608, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 17
 
@@ -104,6 +104,6 @@ leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_erro
 leap_result renderer_upload_objects(leap_renderer *r, double step, leap_error *err);
 /* frame.c: the frame's uniform block and the composite dispatches it needs. */
 void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const leap_march *m, leap_mode mode, uint32_t box_count, leap_frame_gpu *f);
-leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, leap_mode mode, leap_frame_gpu *f, uint32_t *count, chunk_rect **rects_out, leap_error *err);
+leap_result renderer_chunk_count(const leap_rays *view, const leap_march *m, leap_mode mode, leap_frame_gpu *f, uint32_t *count, uint32_t *overflow_count, chunk_rect **rects_out, leap_error *err);
 
 #endif
