@@ -25,7 +25,7 @@ void main()
     uint pixel = pix.y * frame.image.x + pix.x;
     uint n = atomicAdd(event_counts[pixel], 2u);
     if (n == 0u) { // the pixel's first event: mark it for the resolve pass
-        uint bit = (pix.y % LEAP_PIXEL_TILE) * LEAP_PIXEL_TILE + pix.x % LEAP_PIXEL_TILE;
+        uint bit = leap_tile_bit(pix);
         atomicOr(event_counts[leap_tile_word(pix / LEAP_PIXEL_TILE) + bit / 32u], 1u << (bit % 32u));
     }
     if (n + 2u > frame.lists.x) return;

@@ -200,11 +200,21 @@ float leap_lattice_end(leap_lattice l, float tb)
     return j;
 }
 
-// The first of the event mask's two words for a tile of pixels (LEAP_PIXEL_TILE in shared.h).
+// The event mask (LEAP_PIXEL_TILE in shared.h): the first of a tile's two words, a pixel's
+// bit in its tile, and the pixel of a tile's bit.
 uint leap_tile_word(uvec2 tile)
 {
-    uint tiles_x = (frame.image.x + LEAP_PIXEL_TILE - 1u) / LEAP_PIXEL_TILE;
-    return frame.image.x * frame.image.y + 2u * (tile.y * tiles_x + tile.x);
+    return frame.image.x * frame.image.y + 2u * (tile.y * LEAP_MASK_TILES(frame.image.x) + tile.x);
+}
+
+uint leap_tile_bit(uvec2 pix)
+{
+    return (pix.y % LEAP_PIXEL_TILE) * LEAP_PIXEL_TILE + pix.x % LEAP_PIXEL_TILE;
+}
+
+uvec2 leap_tile_pixel(uvec2 tile, uint bit)
+{
+    return tile * LEAP_PIXEL_TILE + uvec2(bit % LEAP_PIXEL_TILE, bit / LEAP_PIXEL_TILE);
 }
 
 // Ray `index` of the resolve pass's list `list` (LEAP_RAYS_* in shared.h): false past the

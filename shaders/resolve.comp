@@ -109,15 +109,13 @@ void main()
         // Each invocation takes a tile of the event mask and lists its pixels with events:
         // with one atomic per subgroup, without reading every pixel's count.
         uvec2 tile = gl_GlobalInvocationID.xy;
-        const uint side = LEAP_PIXEL_TILE;
-        if (tile.x * side >= frame.image.x || tile.y * side >= frame.image.y) return;
+        if (any(greaterThanEqual(tile, uvec2(LEAP_MASK_TILES(frame.image.x), LEAP_MASK_TILES(frame.image.y))))) return;
         uint word = leap_tile_word(tile);
         uvec2 mask = uvec2(event_counts[word], event_counts[word + 1u]);
         uint at = reserve_rays(LEAP_RAYS_EVENTS, bitCount(mask.x) + bitCount(mask.y));
         for (uint w = 0u; w < 2u; ++w) {
             for (uint bits = mask[w]; bits != 0u; bits &= bits - 1u) {
-                uint bit = uint(findLSB(bits)) + 32u * w;
-                uvec2 pix = tile * side + uvec2(bit % side, bit / side);
+                uvec2 pix = leap_tile_pixel(tile, uint(findLSB(bits)) + 32u * w);
                 ray_lists[at++] = pix.x | pix.y << 16;
             }
         }
@@ -125,8 +123,8 @@ void main()
         // the naive count (LEAP_PIXEL_* in shared.h), which only the frame's statistics want.
         // A branch on a uniform, which lavapipe does skip.
         if (frame.statistics.x != 0u) {
-            for (uint bit = 0u; bit < side * side; ++bit) {
-                uvec2 pix = tile * side + uvec2(bit % side, bit / side);
+            for (uint bit = 0u; bit < LEAP_PIXEL_TILE * LEAP_PIXEL_TILE; ++bit) {
+                uvec2 pix = leap_tile_pixel(tile, bit);
                 bool events = (mask[bit / 32u] & (1u << (bit % 32u))) != 0u;
                 if (!events && pix.x < frame.image.x && pix.y < frame.image.y)
                     pixel_lists[pix.y * frame.image.x + pix.x] = uvec4(0u, 0u, 0u, floatBitsToUint(leap_naive_samples(pix)));

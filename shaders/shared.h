@@ -155,6 +155,7 @@ LEAP_STRUCT(leap_push_gpu) {
  * 2 (ty * tiles_x + tx) and + 1 after the width * height counts (tiles_x = ceil(width / 8)),
  * bit (y % 8) * 8 + x % 8 for pixel (x, y) (bits 32..63 in the second word). */
 #define LEAP_PIXEL_TILE 8u
+#define LEAP_MASK_TILES(side_pixels) (((side_pixels) + LEAP_PIXEL_TILE - 1u) / LEAP_PIXEL_TILE) /* tiles per side */
 
 /* Capacities of the per-pixel lists. Each pixel owns LEAP_PIXEL_EVENTS event slots (the raster
  * pass appends with one atomic on the pixel's own counter, no shared pool), and the resolve

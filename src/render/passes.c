@@ -27,16 +27,11 @@ void renderer_destroy_frame_buffers(leap_renderer *r)
     r->lists_valid = 0;
 }
 
-/* Tiles of the event mask per axis (LEAP_PIXEL_TILE in shared.h). */
-static uint32_t mask_tiles(int pixels)
-{
-    return ((uint32_t)pixels + LEAP_PIXEL_TILE - 1) / LEAP_PIXEL_TILE;
-}
-
 /* The event counts, then the event mask: two words per tile. */
 static size_t event_count_bytes(const leap_rays *view)
 {
-    return ((size_t)view->width * view->height + 2 * (size_t)mask_tiles(view->width) * mask_tiles(view->height)) * 4;
+    return ((size_t)view->width * view->height + 2 * (size_t)LEAP_MASK_TILES((uint32_t)view->width) *
+                                                          LEAP_MASK_TILES((uint32_t)view->height)) * 4;
 }
 
 static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view, leap_error *err)
@@ -191,8 +186,8 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
      * invocation), the second sorts only those. */
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve_image);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    vkCmdDispatch(cmd, (mask_tiles(view->width) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                  (mask_tiles(view->height) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    vkCmdDispatch(cmd, (LEAP_MASK_TILES((uint32_t)view->width) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                  (LEAP_MASK_TILES((uint32_t)view->height) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
@@ -358,16 +353,17 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     uint64_t events = 0, segs = 0;
     uint32_t *pl = r->pixel_lists.mapped;
     const uint32_t *event_counts = r->event_counts.mapped;
+    const int listed = lists && !chord; /* the frame built per-pixel lists */
     for (size_t i = 0; i < pixels; ++i) {
         /* The resolve pass writes the list facts of a pixel without events only for the
          * statistics (its naive count); else they are set here, for the lists' readers. */
-        if (lists && !chord && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
+        if (listed && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
         /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
-         * sample, its naive count in the list facts. */
-        const int skipped = lists && !chord && pl[4 * i] == 0;
+         * sample, its naive count in the list facts (0 when not counted). */
+        const int skipped = listed && pl[4 * i] == 0;
         float naive = 0;
         if (skipped) {
-            if (r->count_naive) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
+            memcpy(&naive, &pl[4 * i + 3], sizeof naive);
             if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
         }
         uint32_t n = skipped ? 0 : (uint32_t)aux[4 * i + 1];
@@ -376,7 +372,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         if (n > st.samples_max) st.samples_max = n;
         if (depth) depth[i] = skipped ? INFINITY : aux[4 * i];
         if (samples) samples[i] = skipped ? 0.0f : aux[4 * i + 1];
-        if (lists && !chord) {
+        if (listed) {
             uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
             events += e;
             segs += s;
@@ -386,7 +382,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         }
     }
     if (!r->count_naive) st.naive_samples = 0;
-    r->lists_valid = lists && !chord;
+    r->lists_valid = listed;
     r->last_frame_pixels = pixels;
     st.readback_ms = leap__now_ms() - t2;
     st.samples_mean = (double)st.total_samples / (double)pixels;
