@@ -4,7 +4,8 @@
 #include "shared.h"
 #include "bindings.glsl"
 
-// One instance per box, 6 vertices: a screen rectangle (two triangles) bounding the box's
+// Six vertices per box (box = vertex index / 6; one draw that is not instanced, which
+// llvmpipe would run instance by instance): a screen rectangle (two triangles) bounding the box's
 // projection, so every pixel whose ray can touch the box gets exactly one fragment; the
 // fragment shader tests the exact box. A rectangle costs the rasteriser far less per box than
 // the box's faces would (2 triangles instead of 12), for some more fragments at its corners.
@@ -15,7 +16,7 @@ layout(location = 0) flat out uint box_index;
 
 void main()
 {
-    leap_box_gpu b = boxes[gl_InstanceIndex];
+    leap_box_gpu b = boxes[gl_VertexIndex / 6];
     vec3 centre = 0.5 * (b.lo.xyz + b.hi.xyz);
     float grow_px = frame.raster.y;
     float grow = frame.image.w != 0u ? frame.raster.x * grow_px
@@ -41,10 +42,10 @@ void main()
         rmin = clamp(rmin - margin, -edge, edge);
         rmax = clamp(rmax + margin, -edge, edge);
     }
-    int corner = gl_VertexIndex;
+    int corner = gl_VertexIndex % 6;
     const int quad[6] = int[6](0, 1, 2, 2, 1, 3);
     int q = quad[corner];
     gl_Position = vec4((q & 1) != 0 ? rmax.x : rmin.x, (q & 2) != 0 ? rmax.y : rmin.y, 0.0, 1.0);
     if (!(wmax > 0.0)) gl_Position = vec4(4.0, 4.0, 0.0, 1.0); // wholly behind the eye
-    box_index = uint(gl_InstanceIndex);
+    box_index = uint(gl_VertexIndex / 6);
 }

@@ -220,12 +220,10 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 shade;          /* 544: ambient, diffuse, specular, shininess (leap_shading) */
     LEAP_VEC4 light;          /* 560: xyz world direction towards the light (0 = headlight),
                                  w = 1 / full-shading gradient in stored values per voxel */
-    LEAP_UVEC4 statistics;    /* 576: x = 1: count what naive marching takes for every ray, also
-                                 for the rays that take no sample (leap_renderer_count_naive) */
-    LEAP_VEC4 overflow;       /* 592: x = lattice indices per composite chunk of sparseleap's
+    LEAP_VEC4 overflow;       /* 576: x = lattice indices per composite chunk of sparseleap's
                                  overflowed rays (their tree walk costs more per cell than the
                                  segments' march, whose figure is limits.z) */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 608 bytes */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 592 bytes */
 
 
 #endif

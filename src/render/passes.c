@@ -153,7 +153,7 @@ static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipe
     vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
 }
 
-static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count)
+static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count, const VkPipeline resolve[2])
 {
     VkCommandBuffer cmd = r->gpu->cmd;
     vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, event_count_bytes(view), 0);
@@ -176,7 +176,7 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
     vkCmdSetScissor(cmd, 0, 1, &sc);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    if (box_count) vkCmdDraw(cmd, 6, box_count, 0, 0);
+    if (box_count) vkCmdDraw(cmd, 6 * box_count, 1, 0, 0); /* not instanced: see events.vert */
     vkCmdEndRenderPass(cmd);
     if (r->gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
@@ -184,14 +184,14 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
                    VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     /* Resolve: the first stage lists the pixels with events (a tile of the event mask per
      * invocation), the second sorts only those. */
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve_image);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve[0]);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     vkCmdDispatch(cmd, (LEAP_MASK_TILES((uint32_t)view->width) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
                   (LEAP_MASK_TILES((uint32_t)view->height) + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->resolve_events);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve[1]);
     vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_EVENTS);
     if (r->gpu->timestamps)
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
@@ -270,7 +270,9 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     VkPipeline composite = VK_NULL_HANDLE;
     if ((lr = renderer_composite_pipeline(r, pass_mode, renderer_composite_kind(r, march), &composite, err))) return lr;
     VkPipeline overflow = VK_NULL_HANDLE; /* sparseleap: the overflowed rays' tree walk */
-    if (lists && !chord && (lr = renderer_overflow_pipeline(r, renderer_composite_kind(r, march), &overflow, err)))
+    VkPipeline resolve[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+    if (lists && !chord && ((lr = renderer_overflow_pipeline(r, renderer_composite_kind(r, march), &overflow, err)) ||
+                            (lr = renderer_resolve_pipelines(r, resolve, err))))
         return lr;
     renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
     if (chord) {
@@ -302,7 +304,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_START);
     }
     if (lists && !chord) {
-        record_lists(r, view, box_count);
+        record_lists(r, view, box_count, resolve);
     } else if (gpu->timestamps) {
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);

@@ -115,6 +115,7 @@ typedef struct spec_values {
     VkBool32 shade;           /* constant_id 4 */
     VkBool32 page_middle;     /* constant_id 5 */
     uint32_t ray_pass;        /* constant_id 6: LEAP_RAY_PASS_IMAGE or a list, LEAP_RAYS_* (shared.h) */
+    VkBool32 count_naive;     /* constant_id 7 (resolve) */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -128,8 +129,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
         {4, offsetof(spec_values, shade), sizeof values.shade},
         {5, offsetof(spec_values, page_middle), sizeof values.page_middle},
         {6, offsetof(spec_values, ray_pass), sizeof values.ray_pass},
+        {7, offsetof(spec_values, count_naive), sizeof values.count_naive},
     };
-    VkSpecializationInfo spec = {7, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {8, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -161,7 +163,7 @@ static leap_result cached_composite(leap_renderer *r, VkPipeline *slot, leap_mod
                                   kind == COMPOSITE_SHADED_PRECORRECTED,
                               (uint32_t)mode, kind == COMPOSITE_LABELS, kind == COMPOSITE_MIP,
                               kind == COMPOSITE_SHADED_PER_SAMPLE || kind == COMPOSITE_SHADED_PRECORRECTED,
-                              r->mid_levels > 0, ray_pass};
+                              r->mid_levels > 0, ray_pass, VK_FALSE};
         leap_result lr = create_compute(r, r->composite_module, values, slot, err);
         if (lr) return lr;
     }
@@ -183,6 +185,21 @@ leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *o
 {
     return cached_composite(r, &r->overflow[kind][r->mid_levels > 0], LEAP_RENDER_OCTREE, kind,
                             LEAP_RAYS_OVERFLOW, out, err);
+}
+
+leap_result renderer_resolve_pipelines(leap_renderer *r, VkPipeline stages[2], leap_error *err)
+{
+    const uint32_t pass[2] = {LEAP_RAY_PASS_IMAGE, LEAP_RAYS_EVENTS};
+    for (int s = 0; s < 2; ++s) {
+        VkPipeline *slot = &r->resolve[s][r->count_naive != 0];
+        leap_result lr = LEAP_OK;
+        if (!*slot)
+            lr = create_compute(r, r->resolve_module, (spec_values){.ray_pass = pass[s], .count_naive = r->count_naive != 0},
+                                slot, err);
+        if (lr) return lr;
+        stages[s] = *slot;
+    }
+    return LEAP_OK;
 }
 
 leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
@@ -211,15 +228,11 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
         .pPushConstantRanges = &push,
     };
     LEAP_VK_CHECK(vkCreatePipelineLayout(dev, &plci, NULL, &r->pipeline_layout));
-    VkShaderModule resolve_module = VK_NULL_HANDLE;
     VkResult mr = make_module(dev, composite_spv, sizeof composite_spv, &r->composite_module);
-    if (mr == VK_SUCCESS) mr = make_module(dev, resolve_spv, sizeof resolve_spv, &resolve_module);
+    if (mr == VK_SUCCESS) mr = make_module(dev, resolve_spv, sizeof resolve_spv, &r->resolve_module);
     leap_result lr = LEAP_OK;
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){.ray_pass = LEAP_RAY_PASS_IMAGE}, &r->resolve_image, err);
-    if (!lr) lr = create_compute(r, resolve_module, (spec_values){.ray_pass = LEAP_RAYS_EVENTS}, &r->resolve_events, err);
-    if (resolve_module) vkDestroyShaderModule(dev, resolve_module, NULL);
     if (!lr) lr = create_events_pipeline(r, err);
     if (lr) return lr;
     VkSamplerCreateInfo sci = {

@@ -79,8 +79,10 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
         if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
         if (r->events) vkDestroyPipeline(dev, r->events, NULL);
-        if (r->resolve_image) vkDestroyPipeline(dev, r->resolve_image, NULL);
-        if (r->resolve_events) vkDestroyPipeline(dev, r->resolve_events, NULL);
+        for (int s = 0; s < 2; ++s)
+            for (int c = 0; c < 2; ++c)
+                if (r->resolve[s][c]) vkDestroyPipeline(dev, r->resolve[s][c], NULL);
+        if (r->resolve_module) vkDestroyShaderModule(dev, r->resolve_module, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
             for (int i = 0; i < COMPOSITE_KINDS; ++i)

@@ -8,7 +8,7 @@
 #include "gpu.h"
 #include "shared.h"
 
-_Static_assert(sizeof(leap_frame_gpu) == 608, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 592, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 17
 
@@ -30,7 +30,10 @@ struct leap_renderer {
     VkPipelineLayout pipeline_layout;
     int count_naive; /* leap_renderer_count_naive */
     VkPipeline events;
-    VkPipeline resolve_image, resolve_events; /* the resolve pass's two stages (resolve.comp) */
+    /* The resolve pass's two stages (resolve.comp), with and without the naive count; created
+     * on first use from resolve_module. */
+    VkShaderModule resolve_module;
+    VkPipeline resolve[2][2]; /* [0: lists the pixels with events, 1: sorts them][count naive] */
     /* The composite pass per mode and kind (renderer_composite_kind): specialisation
      * constants, so each pipeline holds only the code it runs. Created on first use from
      * composite_module. */
@@ -96,6 +99,8 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err);
 int renderer_composite_kind(const leap_renderer *r, const leap_march *m);
 leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out, leap_error *err);
 leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *out, leap_error *err);
+/* The resolve pass's two stages for the renderer's leap_renderer_count_naive setting. */
+leap_result renderer_resolve_pipelines(leap_renderer *r, VkPipeline stages[2], leap_error *err);
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);
 /* renderer.c: the TF table for a step (uploaded again when the step changes). */
