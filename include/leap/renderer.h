@@ -60,7 +60,7 @@ typedef struct leap_frame_stats {
     double render_ms;         /* wall time of the submitted GPU work */
     double gpu_raster_ms;     /* from timestamp queries: ray events */
     double gpu_resolve_ms;    /* segment lists */
-    double gpu_composite_ms;  /* marching */
+    double gpu_composite_ms;  /* marching (a frame without lists: render_ms, its only pass) */
     double readback_ms;
     uint64_t total_samples;
     uint64_t naive_samples;   /* what naive marching takes for the same pixels */

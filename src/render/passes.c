@@ -153,7 +153,8 @@ static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipe
     vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
 }
 
-static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count, const VkPipeline resolve[2])
+static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count, const VkPipeline resolve[2],
+                         int timed)
 {
     VkCommandBuffer cmd = r->gpu->cmd;
     vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, event_count_bytes(view), 0);
@@ -178,8 +179,7 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     if (box_count) vkCmdDraw(cmd, 6 * box_count, 1, 0, 0); /* not instanced: see events.vert */
     vkCmdEndRenderPass(cmd);
-    if (r->gpu->timestamps)
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
+    if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
     shader_barrier(cmd, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
     /* Resolve: the first stage lists the pixels with events (a tile of the event mask per
@@ -193,8 +193,7 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve[1]);
     vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_EVENTS);
-    if (r->gpu->timestamps)
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
+    if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RESOLVE);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
@@ -299,16 +298,16 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         return lr;
     }
     VkCommandBuffer cmd = gpu->cmd;
-    if (gpu->timestamps) {
+    const int listed = lists && !chord; /* the frame builds per-pixel lists */
+    /* lavapipe's timestamps hold only around a raster pass: in a frame of compute passes alone
+     * they can repeat an earlier frame's (measured: 0.04-0.2 ms read for composites of 100-700
+     * ms). Such a frame is its composite pass, so the submit's time is the pass's. */
+    const int timed = gpu->timestamps && listed;
+    if (timed) {
         vkCmdResetQueryPool(cmd, gpu->timestamps, 0, TS_COUNT);
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_START);
     }
-    if (lists && !chord) {
-        record_lists(r, view, box_count, resolve);
-    } else if (gpu->timestamps) {
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RASTER);
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_RESOLVE);
-    }
+    if (listed) record_lists(r, view, box_count, resolve, timed);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     st.tf_precorrected = r->labels || r->tf_precorrected;
@@ -336,15 +335,16 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
                           (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
     }
     free(rects);
-    if (gpu->timestamps)
-        vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
+    if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
     shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,
                    VK_ACCESS_HOST_READ_BIT);
     if ((lr = leap_gpu_submit_wait(gpu, err))) return lr;
     double t2 = leap__now_ms();
     st.render_ms = t2 - t1;
     double ts[TS_COUNT];
-    if (gpu->timestamps && leap_gpu_read_timestamps(gpu, TS_COUNT, ts, err) == LEAP_OK) {
+    if (!listed) {
+        st.gpu_composite_ms = st.render_ms;
+    } else if (timed && leap_gpu_read_timestamps(gpu, TS_COUNT, ts, err) == LEAP_OK) {
         st.gpu_raster_ms = ts[TS_RASTER];
         st.gpu_resolve_ms = ts[TS_RESOLVE] - ts[TS_RASTER];
         st.gpu_composite_ms = ts[TS_COMPOSITE] - ts[TS_RESOLVE];
@@ -355,7 +355,6 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     uint64_t events = 0, segs = 0;
     uint32_t *pl = r->pixel_lists.mapped;
     const uint32_t *event_counts = r->event_counts.mapped;
-    const int listed = lists && !chord; /* the frame built per-pixel lists */
     for (size_t i = 0; i < pixels; ++i) {
         /* The resolve pass writes the list facts of a pixel without events only for the
          * statistics (its naive count); else they are set here, for the lists' readers. */
