@@ -311,15 +311,14 @@ void leap_composite_object(inout leap_accum acc, uint object, float t)
     if (acc.first_object < 0.0 && c.a > 0.0) acc.first_object = float(object);
 }
 
-// MIP: whether no sample of the cursor's slot cell can raise the ray's (signed) extreme: its
-// stored values' range, mapped as samples are, reaches no higher than what the ray holds.
-bool leap_mip_cell_futile(leap_cell_cursor cur, leap_tf_map tf, float held)
+// MIP: the highest (signed) table coordinate any sample of the cursor's slot cell can reach: its
+// stored values' range, mapped as samples are.
+float leap_mip_cell_bound(leap_cell_cursor cur, leap_tf_map tf)
 {
     uint range = slot_ranges[cur.slot];
     float a = clamp(float(range & 0xffffu) * (1.0 / 65535.0) * tf.scale + tf.offset, tf.lo, tf.hi);
     float b = clamp(float(range >> 16) * (1.0 / 65535.0) * tf.scale + tf.offset, tf.lo, tf.hi);
-    float best = frame.image.z != 0u ? -min(a, b) : max(a, b);
-    return best <= held;
+    return frame.image.z != 0u ? -min(a, b) : max(a, b);
 }
 
 // One MIP sample at table coordinate x, in [lo, hi]; minIP keeps -x, so both keep the largest.
@@ -386,6 +385,12 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     leap_cell_cursor cur = leap_cursor_init();
     float t = lat.t0 + j * lat.dt;
     bool more = t <= tb;
+    // MIP's cell exits: the walls a ray leaves cells by (an axis it does not move along never
+    // bounds the exit).
+    ivec3 exit_side = ivec3(greaterThanEqual(r.dir, vec3(0.0)));
+    vec3 inv_dir = vec3(1.0e30);
+    for (int a = 0; a < 3; ++a)
+        if (r.dir[a] != 0.0) inv_dir[a] = 1.0 / r.dir[a];
     while (more) {
         // No clamp: q stays within float rounding of the domain box, and the page grid has
         // at least one spare cell on every side of it (see leap_atlas). Voxel centres sit at
@@ -394,12 +399,32 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
         leap_cursor_seek(cur, cell);
         bool constant = cur.constant;
-        vec4 c = leap_labels ? objects[cur.object] : leap_tf_lookup(tf, cur.value);
+        vec4 c = vec4(0.0);
+        if (!leap_mip) c = leap_labels ? objects[cur.object] : leap_tf_lookup(tf, cur.value);
         float alpha = leap_sample_alpha(c);
         bool opaque = c.a > frame.limits.y;
+        float x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
+        // MIP: a cell none of whose samples can raise the extreme above what the ray holds (a
+        // tie keeps the first t), constant or not.
+        float bound = 0.0;
+        if (leap_mip) bound = constant ? (frame.image.z != 0u ? -x : x) : leap_mip_cell_bound(cur, tf);
+        bool futile = leap_mip && bound <= acc.color.r;
         // Two inner loops rather than one with a branch per sample: see above.
-        if (constant) {
-            float x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
+        if (futile) {
+            // Skip to the first sample past the cell's exit: the last one before the computed
+            // exit is passed only once its own position shows it in this cell, so a rounding of
+            // the exit can never skip a sample of the next cell.
+            vec3 wall = vec3((cell + exit_side) * LEAP_CELL);
+            vec3 tw = (wall - r.origin) * inv_dir;
+            float b1 = min(min(tw.x, tw.y), tw.z);
+            j = max(j + 1.0, leap_lattice_first(lat, b1) - 1.0);
+            t = lat.t0 + j * lat.dt;
+            if (all(equal(ivec3(floor(r.origin + t * r.dir)) >> LEAP_CELL_SHIFT, cell))) {
+                j += 1.0;
+                t = lat.t0 + j * lat.dt;
+            }
+            more = t <= tb;
+        } else if (constant) {
             for (;;) {
                 if (leap_mip) leap_mip_sample(acc, x, t, tf);
                 else leap_composite(acc, c.rgb, alpha, opaque, t);
@@ -410,15 +435,6 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                 q = r.origin + t * r.dir;
                 if (any(notEqual(ivec3(floor(q)) >> LEAP_CELL_SHIFT, cell))) break;
             }
-        } else if (leap_mip && leap_mip_cell_futile(cur, tf, acc.color.r)) {
-            // Its samples cannot change the pixel (a tie keeps the first t): skip to the last
-            // sample before the cell's exit, which the loop then takes as usual (so a rounding
-            // of the exit can never skip a sample of the next cell).
-            float b0, b1;
-            if (!leap_clip_box(r, vec3(cell * LEAP_CELL), vec3((cell + 1) * LEAP_CELL), b0, b1)) b1 = t;
-            j = max(j + 1.0, leap_lattice_first(lat, b1) - 1.0);
-            t = lat.t0 + j * lat.dt;
-            more = t <= tb;
         } else {
             for (;;) {
                 if (leap_labels) {

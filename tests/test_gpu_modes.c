@@ -22,7 +22,7 @@ typedef struct vol_case {
 
 static const vol_case volumes[] = {
     {"sphere.vdb", NULL}, {"blobs.vdb", NULL}, {"shell.vdb", NULL},
-    {"labels.vdb", NULL}, {"rotated.vdb", "density"},
+    {"labels.vdb", NULL}, {"rotated.vdb", "density"}, {"cloud.vdb", NULL},
 };
 
 /* A world point at the centre of a leaf brick with the largest value (inside non-empty data). */
@@ -557,6 +557,65 @@ static void check_shading_sphere(leap_renderer *renderer)
     leap_scene_destroy(s);
 }
 
+/* Local maxima of brightness (r + g + b, premultiplied) among the pixels with opacity above
+ * 0.3: pixels brighter than every other pixel within 2 pixels. */
+static int bright_peaks(const float *rgba, int w, int h)
+{
+    int peaks = 0;
+    for (int y = 2; y < h - 2; ++y)
+        for (int x = 2; x < w - 2; ++x) {
+            const float *p = rgba + 4 * ((size_t)y * w + x);
+            if (p[3] <= 0.3f) continue;
+            const float l = p[0] + p[1] + p[2];
+            int peak = 1;
+            for (int dy = -2; dy <= 2 && peak; ++dy)
+                for (int dx = -2; dx <= 2 && peak; ++dx) {
+                    const float *q = rgba + 4 * ((size_t)(y + dy) * w + x + dx);
+                    if ((dx || dy) && q[0] + q[1] + q[2] >= l) peak = 0;
+                }
+            peaks += peak;
+        }
+    return peaks;
+}
+
+/* The cloud preset shows density structure: on the shipped cloud, billows (many separate
+ * bright peaks) across a covered area; on the fog sphere, whose density only falls off with
+ * the radius, one smooth highlight. */
+static void check_cloud_structure(leap_renderer *renderer)
+{
+    enum { S = 256 };
+    float *img = malloc((size_t)S * S * 4 * sizeof(float));
+    int peaks[2] = {0, 0};
+    double cover[2] = {0, 0};
+    static const char *const files[2] = {"cloud.vdb", "sphere.vdb"};
+    for (int f = 0; f < 2 && img; ++f) {
+        leap_error err = {{0}};
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, files[f]);
+        leap_scene_desc d = {.path = path, .tf = "cloud", .step = 0.5};
+        leap_scene *s = NULL;
+        CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+        if (!s) continue;
+        leap_camera cam;
+        CHECK(camera(s, 0, &cam));
+        leap_rays view;
+        leap_frame_stats st;
+        CHECK_OK(leap_scene_rays(s, &cam, S, S, &view, &err), &err);
+        CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+        CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err),
+                 &err);
+        peaks[f] = bright_peaks(img, S, S);
+        for (int i = 0; i < S * S; ++i) cover[f] += img[4 * i + 3] > 0.3f;
+        cover[f] /= S * S;
+        leap_scene_destroy(s);
+    }
+    printf("cloud preset: %d bright peaks over %.0f %% of the image on cloud.vdb, %d over %.0f %% on sphere.vdb\n",
+           peaks[0], 100 * cover[0], peaks[1], 100 * cover[1]);
+    CHECK_MSG(peaks[0] >= 8 && cover[0] > 0.1, "the cloud shows no inner structure: %d peaks", peaks[0]);
+    CHECK_MSG(peaks[1] <= 2, "the smooth fog sphere shows %d peaks: the peak count does not tell structure", peaks[1]);
+    free(img);
+}
+
 static leap_scene *load_scene(const char *file, const char *grid, const char *tf, int exact_boxes)
 {
     char path[1024];
@@ -631,6 +690,7 @@ int main(void)
     check_mip_hot_voxel(renderer, LEAP_MIP_MIN);
     check_shading(renderer, naive, img);
     check_shading_sphere(renderer);
+    check_cloud_structure(renderer);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");

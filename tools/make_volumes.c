@@ -25,7 +25,8 @@ static const char usage[] =
     "  labels.vdb   int32 label grid 'labels' with 8 solid regions (boxes, spheres, ellipsoids)\n"
     "  rotated.vdb  torus 'density' with a rotated, anisotropic, translated transform, plus a\n"
     "               double grid 'temperature' and a vec3 grid 'velocity'\n"
-    "  tubes.vdb    int64 segmentation 'labels': 400 tubes in a 96^3 box, 40-bit IDs\n";
+    "  tubes.vdb    int64 segmentation 'labels': 400 tubes in a 96^3 box, 40-bit IDs\n"
+    "  cloud.vdb    cumulus cloud 'density' (half float), 192 x 112 x 128: puffs eroded by noise\n";
 
 /* xorshift64* : small, fast and good enough for placing blobs. */
 typedef struct rng { uint64_t s; } rng;
@@ -181,6 +182,76 @@ static int make_shell(void)
     return save(w, "shell.vdb");
 }
 
+/* Value noise: a hashed value in [-1, 1] at every integer lattice point, interpolated with
+ * smoothstep weights; `octaves` octaves summed with halving amplitude (fBm). */
+static double lattice_value(int32_t x, int32_t y, int32_t z)
+{
+    uint64_t h = (uint64_t)(uint32_t)x * 0x9E3779B185EBCA87ull ^ (uint64_t)(uint32_t)y * 0xC2B2AE3D27D4EB4Full ^
+                 (uint64_t)(uint32_t)z * 0x165667B19E3779F9ull;
+    h ^= h >> 29;
+    h *= 0xBF58476D1CE4E5B9ull;
+    h ^= h >> 32;
+    return (double)(h >> 11) * (2.0 / 9007199254740992.0) - 1.0;
+}
+
+static double value_noise(double x, double y, double z)
+{
+    const double fx = floor(x), fy = floor(y), fz = floor(z);
+    const double u = smoothstep01(x - fx), v = smoothstep01(y - fy), w = smoothstep01(z - fz);
+    const int32_t ix = (int32_t)fx, iy = (int32_t)fy, iz = (int32_t)fz;
+    double c[2][2];
+    for (int k = 0; k < 2; ++k)
+        for (int j = 0; j < 2; ++j)
+            c[k][j] = lattice_value(ix, iy + j, iz + k) * (1 - u) + lattice_value(ix + 1, iy + j, iz + k) * u;
+    return ((c[0][0] * (1 - v) + c[0][1] * v) * (1 - w) + (c[1][0] * (1 - v) + c[1][1] * v) * w);
+}
+
+static double fbm(double x, double y, double z, int octaves)
+{
+    double sum = 0.0, amp = 0.5;
+    for (int o = 0; o < octaves; ++o, amp *= 0.5, x *= 2.0, y *= 2.0, z *= 2.0) sum += amp * value_noise(x, y, z);
+    return sum;
+}
+
+/* A cumulus cloud, 192 x 112 x 128 voxels (y up), stored as half floats: puffs (spheres)
+ * heaped on a flat base, their cover eroded by fractal noise, so the density varies inside
+ * and the edges are wispy: a fog volume with structure, for the cloud preset. */
+static int make_cloud(void)
+{
+    int g;
+    leap_vdb_writer *w = new_grid_writer("density", LEAP_VDB_HALF, 1, &g);
+    if (!w) return 0;
+    rng r = {0x2545F4914F6CDD1Dull};
+    enum { PUFFS = 24 };
+    double c[PUFFS][4];
+    for (int n = 0; n < PUFFS; ++n) {
+        const double along = rng_uniform(&r), across = rng_uniform(&r) - 0.5;
+        const double middle = 1.0 - fabs(2.0 * along - 1.0); /* 1 in the middle, 0 at the ends */
+        const double radius = 14.0 + 8.0 * rng_uniform(&r) + 14.0 * middle;
+        c[n][0] = 44.0 + 104.0 * along;
+        c[n][2] = 64.0 + 40.0 * across * (0.5 + 0.5 * middle);
+        c[n][1] = 28.0 + 0.9 * radius * (0.3 + 0.7 * rng_uniform(&r)); /* heaped: big puffs sit higher */
+        c[n][3] = radius;
+    }
+    for (int z = 0; z < 128; ++z)
+        for (int y = 0; y < 112; ++y)
+            for (int x = 0; x < 192; ++x) {
+                double cover = -1.0;
+                for (int n = 0; n < PUFFS; ++n) {
+                    const double dx = x - c[n][0], dy = y - c[n][1], dz = z - c[n][2];
+                    cover = fmax(cover, 1.0 - sqrt(dx * dx + dy * dy + dz * dz) / c[n][3]);
+                }
+                cover -= 0.6 * (1.0 - smoothstep01((y - 18.0) / 10.0)); /* a flat base */
+                if (cover <= -0.12) continue;
+                const double edge = cover + 0.25 * fbm(x / 12.0, y / 12.0, z / 12.0, 4) - 0.04;
+                if (edge <= 0.0) continue;
+                const double inside = 0.75 + 0.6 * fbm(x / 10.0 + 7.1, y / 10.0, z / 10.0, 2); /* billows within */
+                const double d = fmin(edge * 3.0, 1.0) * inside;
+                if (d > 0.0) leap_vdb_writer_set(w, g, x, y, z, fmin(d, 1.0));
+            }
+    return save(w, "cloud.vdb");
+}
+
 /* Segmentation-like int32 labels in a ~100^3 box, background 0. Boxes go through fill, so
  * their aligned 8^3 blocks become tiles; spheres and ellipsoids are voxelised. */
 static int make_labels(void)
@@ -323,5 +394,6 @@ int main(int argc, char **argv)
     snprintf(tubes, sizeof tubes, "%s/tubes.vdb", out_dir);
     const leap_tubes_desc small = {.size = 96, .objects = 400, .seed = 7};
     ok = make_tubes(tubes, &small) && ok;
+    ok = make_cloud() && ok;
     return ok ? 0 : 1;
 }

@@ -358,29 +358,65 @@ leap_result leap_gpu_submit_wait(leap_gpu *gpu, leap_error *err)
     return LEAP_OK;
 }
 
-leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
-                                  const void *data, size_t bytes, leap_image *out, leap_error *err)
+/* On a CPU device every memory type is host memory and a staging copy only copies: the image
+ * is made with linear tiling when the format filters linearly that way, and written in place
+ * (for a 29 MB atlas that saves a 29 MB staging buffer, its copy and their page faults). */
+static int host_written(leap_gpu *gpu, VkFormat format, VkImageType type, VkExtent3D ext)
+{
+    if (gpu->props.deviceType != VK_PHYSICAL_DEVICE_TYPE_CPU) return 0;
+    VkFormatProperties fp;
+    vkGetPhysicalDeviceFormatProperties(gpu->physical, format, &fp);
+    if (!(fp.linearTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT)) return 0;
+    VkImageFormatProperties ifp;
+    return vkGetPhysicalDeviceImageFormatProperties(gpu->physical, format, type, VK_IMAGE_TILING_LINEAR,
+                                                    VK_IMAGE_USAGE_SAMPLED_BIT, 0, &ifp) == VK_SUCCESS &&
+           ext.width <= ifp.maxExtent.width && ext.height <= ifp.maxExtent.height &&
+           ext.depth <= ifp.maxExtent.depth;
+}
+
+/* Writes the texels of a linear image through its mapping, row by row at the driver's pitches. */
+static leap_result fill_linear(leap_gpu *gpu, leap_image *img, leap_texel_fill fill, const void *ctx,
+                               leap_error *err)
+{
+    void *mapped = NULL;
+    LEAP_VK_CHECK(vkMapMemory(gpu->device, img->memory, 0, VK_WHOLE_SIZE, 0, &mapped));
+    const VkImageSubresource sub = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0};
+    VkSubresourceLayout layout;
+    vkGetImageSubresourceLayout(gpu->device, img->image, &sub, &layout);
+    const size_t w = img->extent[0], h = img->extent[1];
+    for (size_t z = 0; z < img->extent[2]; ++z)
+        for (size_t y = 0; y < h; ++y)
+            fill((char *)mapped + layout.offset + z * layout.depthPitch + y * layout.rowPitch, (z * h + y) * w, w,
+                 ctx);
+    vkUnmapMemory(gpu->device, img->memory);
+    return LEAP_OK;
+}
+
+leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t extent[3], size_t texel_bytes,
+                                leap_texel_fill fill, const void *ctx, leap_image *out, leap_error *err)
 {
     memset(out, 0, sizeof *out);
     int is_1d = extent[1] == 0;
     VkExtent3D ext = {extent[0], is_1d ? 1 : extent[1], is_1d ? 1 : extent[2]};
+    const VkImageType type = is_1d ? VK_IMAGE_TYPE_1D : VK_IMAGE_TYPE_3D;
     VkFormatProperties fp;
     vkGetPhysicalDeviceFormatProperties(gpu->physical, format, &fp);
     if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                          "Vulkan: %s cannot filter format %d linearly", gpu->props.deviceName, format);
+    const int linear = host_written(gpu, format, type, ext);
     VkImageCreateInfo ici = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO,
-        .imageType = is_1d ? VK_IMAGE_TYPE_1D : VK_IMAGE_TYPE_3D,
+        .imageType = type,
         .format = format,
         .extent = ext,
         .mipLevels = 1,
         .arrayLayers = 1,
         .samples = VK_SAMPLE_COUNT_1_BIT,
-        .tiling = VK_IMAGE_TILING_OPTIMAL,
-        .usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT,
+        .tiling = linear ? VK_IMAGE_TILING_LINEAR : VK_IMAGE_TILING_OPTIMAL,
+        .usage = VK_IMAGE_USAGE_SAMPLED_BIT | (linear ? 0 : VK_IMAGE_USAGE_TRANSFER_DST_BIT),
         .sharingMode = VK_SHARING_MODE_EXCLUSIVE,
-        .initialLayout = VK_IMAGE_LAYOUT_UNDEFINED,
+        .initialLayout = linear ? VK_IMAGE_LAYOUT_PREINITIALIZED : VK_IMAGE_LAYOUT_UNDEFINED,
     };
     VkImageFormatProperties ifp;
     VkResult fr = vkGetPhysicalDeviceImageFormatProperties(gpu->physical, format, ici.imageType,
@@ -399,7 +435,10 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
      * binds) an image without memory or view. */
     VkMemoryRequirements req;
     vkGetImageMemoryRequirements(gpu->device, out->image, &req);
-    leap_result r = allocate(gpu, req, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT, &out->memory, err);
+    leap_result r = allocate(gpu, req,
+                             linear ? VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT
+                                    : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT,
+                             &out->memory, err);
     if (r) goto fail;
     out->memory_bytes = req.size;
     vr = vkBindImageMemory(gpu->device, out->image, out->memory, 0);
@@ -425,11 +464,12 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
         goto fail;
     }
 
-    leap_buffer staging;
-    r = leap_gpu_buffer_create(gpu, bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err);
-    if (r) goto fail;
-    memcpy(staging.mapped, data, bytes);
-    r = leap_gpu_begin(gpu, err);
+    const size_t texels = (size_t)ext.width * ext.height * ext.depth;
+    leap_buffer staging = {0};
+    if (linear) r = fill_linear(gpu, out, fill, ctx, err);
+    else if (!(r = leap_gpu_buffer_create(gpu, texels * texel_bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err)))
+        fill(staging.mapped, 0, texels, ctx);
+    if (!r) r = leap_gpu_begin(gpu, err);
     if (!r) {
         VkImageMemoryBarrier to_dst = {
             .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
@@ -442,22 +482,27 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
             .image = out->image,
             .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
         };
-        vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             0, 0, NULL, 0, NULL, 1, &to_dst);
-        VkBufferImageCopy copy = {
-            .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
-            .imageExtent = ext,
-        };
-        vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, out->image,
-                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
         VkImageMemoryBarrier to_read = to_dst;
-        to_read.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
         to_read.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-        to_read.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
         to_read.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-        vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                             VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT,
-                             0, 0, NULL, 0, NULL, 1, &to_read);
+        const VkPipelineStageFlags readers = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT;
+        if (linear) {
+            to_read.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
+            to_read.oldLayout = VK_IMAGE_LAYOUT_PREINITIALIZED;
+            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_HOST_BIT, readers, 0, 0, NULL, 0, NULL, 1, &to_read);
+        } else {
+            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
+                                 0, 0, NULL, 0, NULL, 1, &to_dst);
+            VkBufferImageCopy copy = {
+                .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                .imageExtent = ext,
+            };
+            vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, out->image,
+                                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
+            to_read.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+            to_read.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, readers, 0, 0, NULL, 0, NULL, 1, &to_read);
+        }
         r = leap_gpu_submit_wait(gpu, err);
     }
     leap_gpu_buffer_destroy(gpu, &staging);
@@ -465,6 +510,25 @@ leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t
 fail:
     leap_gpu_image_destroy(gpu, out);
     return r;
+}
+
+typedef struct texel_source {
+    const void *data;
+    size_t texel_bytes;
+} texel_source;
+
+static void copy_texels(void *dst, size_t first, size_t count, const void *ctx)
+{
+    const texel_source *src = ctx;
+    memcpy(dst, (const char *)src->data + first * src->texel_bytes, count * src->texel_bytes);
+}
+
+leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
+                                  const void *data, size_t bytes, leap_image *out, leap_error *err)
+{
+    const size_t texels = (size_t)extent[0] * (extent[1] ? (size_t)extent[1] * extent[2] : 1);
+    const texel_source src = {data, texels ? bytes / texels : 0};
+    return leap_gpu_image_fill(gpu, format, extent, src.texel_bytes, copy_texels, &src, out, err);
 }
 
 void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img)

@@ -94,9 +94,15 @@ leap_result leap_gpu_buffer_create(leap_gpu *gpu, VkDeviceSize size, VkBufferUsa
                                    leap_buffer *out, leap_error *err);
 void leap_gpu_buffer_destroy(leap_gpu *gpu, leap_buffer *buf); /* accepts zeroed */
 
-/* Sampled image (1D or 3D by extent; 1D when extent[1] == 0) filled from `data`
- * (tightly packed, `bytes` long) through a staging buffer. On failure *out is left zeroed
- * with nothing allocated. */
+/* Writes `count` texels, from texel `first` on (x fastest, then y, then z), to `dst`. */
+typedef void (*leap_texel_fill)(void *dst, size_t first, size_t count, const void *ctx);
+
+/* Sampled image (1D or 3D by extent; 1D when extent[1] == 0) whose texels (`texel_bytes`
+ * each) `fill` writes: in place on a CPU device, else into a staging buffer. On failure *out
+ * is left zeroed with nothing allocated. */
+leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t extent[3], size_t texel_bytes,
+                                leap_texel_fill fill, const void *ctx, leap_image *out, leap_error *err);
+/* The same, copied from `data` (tightly packed, `bytes` long). */
 leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
                                   const void *data, size_t bytes, leap_image *out, leap_error *err);
 void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img); /* accepts zeroed */

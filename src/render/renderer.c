@@ -109,6 +109,14 @@ const char *leap_renderer_driver_name(const leap_renderer *r) { return r->driver
  * the origin, 96x96: RMSE 5.7e-5 at 2^16, 2.0e-4 at 2^18, 2.6e-3 at 2^22, 4.2e-2 at 2^24). */
 #define LEAP_FLOAT_POSITION_LIMIT 131072.0
 
+/* The atlas's 16-bit values as floats, decoded as the shader decodes a constant cell's. */
+static void decode_texels(void *dst, size_t first, size_t count, const void *ctx)
+{
+    const uint16_t *texels = (const uint16_t *)ctx + first;
+    float *values = dst;
+    for (size_t i = 0; i < count; ++i) values[i] = (float)texels[i] * (float)(1.0 / 65535.0);
+}
+
 /* Each slot's smallest and largest stored value, for MIP's test of a cell that cannot raise a
  * ray's maximum (or lower its minimum). */
 static leap_result upload_slot_ranges(leap_renderer *r, const leap_atlas *a, leap_error *err)
@@ -151,19 +159,14 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R32_SFLOAT, &fp);
     int float_ok = !atlas->labels && (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
                    texels <= r->float_atlas_max_bytes / sizeof(float);
-    float *values = float_ok ? malloc(texels * sizeof(float)) : NULL;
-    if (values) {
-        /* The same 16-bit values, decoded as the shader decodes a constant cell's. */
-        for (size_t i = 0; i < texels; ++i) values[i] = (float)atlas->texels[i] * (float)(1.0 / 65535.0);
+    if (float_ok) {
         r->texel_bytes = sizeof(float);
-        lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, values, texels * sizeof(float),
-                                   &r->atlas, err);
-        free(values);
-        if (lr) leap_gpu_image_destroy(r->gpu, &r->atlas);
+        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, sizeof(float), decode_texels,
+                                 atlas->texels, &r->atlas, err);
     }
     if (lr) {
-        /* Too large for float, not filterable, no host memory to convert, or the float image
-         * did not fit on the device: 16 bits give the same values, slower. */
+        /* Too large for float, not filterable, or the float image did not fit: 16 bits give
+         * the same values, slower. */
         r->texel_bytes = sizeof(uint16_t);
         lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
                                    texels * sizeof(uint16_t), &r->atlas, err);
