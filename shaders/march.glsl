@@ -370,6 +370,19 @@ vec3 leap_shade_rgb(vec3 rgb, vec3 q, leap_light k, vec3 texel_base)
     return rgb + w * (lit - rgb);
 }
 
+// One past the last lattice index of the run from j (whose sample lies in `cell`) through the
+// cell: the sample at the computed exit wall's lattice index less one must lie in the cell too,
+// else the run is j alone, so the run j .. k-1 is the cell's (a cell is convex) however the exit
+// rounds. Sample k may still lie in the cell when the exit rounds down; the march then goes on
+// from it.
+float leap_cell_run_end(leap_ray r, leap_lattice lat, float j, ivec3 cell, ivec3 exit_side, vec3 inv_dir)
+{
+    vec3 tw = (vec3((cell + exit_side) * LEAP_CELL) - r.origin) * inv_dir;
+    float k = max(leap_lattice_first(lat, min(min(tw.x, tw.y), tw.z)), j + 1.0);
+    vec3 last = r.origin + (lat.t0 + (k - 1.0) * lat.dt) * r.dir;
+    return any(notEqual(ivec3(floor(last)) >> LEAP_CELL_SHIFT, cell)) ? j + 1.0 : k;
+}
+
 // Takes the lattice samples in [ta, tb], skipping indices below j_next (so adjacent intervals
 // never take a sample twice); j_next ends one past the last index visited.
 // One outer iteration per cell: the page table is read once per cell, and a constant cell's
@@ -385,8 +398,8 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     leap_cell_cursor cur = leap_cursor_init();
     float t = lat.t0 + j * lat.dt;
     bool more = t <= tb;
-    // MIP's cell exits: the walls a ray leaves cells by (an axis it does not move along never
-    // bounds the exit).
+    // Cell exits (leap_cell_run_end): the walls a ray leaves cells by (an axis it does not
+    // move along never bounds the exit).
     ivec3 exit_side = ivec3(greaterThanEqual(r.dir, vec3(0.0)));
     vec3 inv_dir = vec3(1.0e30);
     for (int a = 0; a < 3; ++a)
@@ -404,25 +417,19 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         float alpha = leap_sample_alpha(c);
         bool opaque = c.a > frame.limits.y;
         float x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
-        // MIP: a cell none of whose samples can raise the extreme above what the ray holds (a
-        // tie keeps the first t), constant or not.
+        // A cell whose samples cannot change the pixel is passed whole. MIP: one none of whose
+        // samples can raise the extreme above what the ray holds (a tie keeps the first t),
+        // constant or not. Compositing: a constant cell of zero opacity, whose samples add
+        // nothing; they are lattice samples the ray takes, so they are counted.
         float bound = 0.0;
         if (leap_mip) bound = constant ? (frame.image.z != 0u ? -x : x) : leap_mip_cell_bound(cur, tf);
-        bool futile = leap_mip && bound <= acc.color.r;
+        bool pass = leap_mip ? bound <= acc.color.r : constant && c.a == 0.0;
         // Two inner loops rather than one with a branch per sample: see above.
-        if (futile) {
-            // Skip to the first sample past the cell's exit: the last one before the computed
-            // exit is passed only once its own position shows it in this cell, so a rounding of
-            // the exit can never skip a sample of the next cell.
-            vec3 wall = vec3((cell + exit_side) * LEAP_CELL);
-            vec3 tw = (wall - r.origin) * inv_dir;
-            float b1 = min(min(tw.x, tw.y), tw.z);
-            j = max(j + 1.0, leap_lattice_first(lat, b1) - 1.0);
+        if (pass) {
+            float k = leap_cell_run_end(r, lat, j, cell, exit_side, inv_dir);
+            if (!leap_mip) acc.samples += uint(min(k, leap_lattice_end(lat, tb)) - j);
+            j = k;
             t = lat.t0 + j * lat.dt;
-            if (all(equal(ivec3(floor(r.origin + t * r.dir)) >> LEAP_CELL_SHIFT, cell))) {
-                j += 1.0;
-                t = lat.t0 + j * lat.dt;
-            }
             more = t <= tb;
         } else if (constant) {
             for (;;) {
