@@ -557,6 +557,17 @@ static void check_shading_sphere(leap_renderer *renderer)
     leap_scene_destroy(s);
 }
 
+static leap_scene *load_scene(const char *file, const char *grid, const char *tf, int exact_boxes)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, file);
+    leap_error err = {{0}};
+    leap_scene_desc d = {.path = path, .grid = grid, .tf = tf, .step = 0.5, .exact_boxes = exact_boxes};
+    leap_scene *s = NULL;
+    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    return s;
+}
+
 /* Local maxima of brightness (r + g + b, premultiplied) among the pixels with opacity above
  * 0.3: pixels brighter than every other pixel within 2 pixels. */
 static int bright_peaks(const float *rgba, int w, int h)
@@ -590,11 +601,7 @@ static void check_cloud_structure(leap_renderer *renderer)
     static const char *const files[2] = {"cloud.vdb", "sphere.vdb"};
     for (int f = 0; f < 2 && img; ++f) {
         leap_error err = {{0}};
-        char path[1024];
-        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, files[f]);
-        leap_scene_desc d = {.path = path, .tf = "cloud", .step = 0.5};
-        leap_scene *s = NULL;
-        CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+        leap_scene *s = load_scene(files[f], NULL, "cloud", 0);
         if (!s) continue;
         leap_camera cam;
         CHECK(camera(s, 0, &cam));
@@ -614,17 +621,6 @@ static void check_cloud_structure(leap_renderer *renderer)
     CHECK_MSG(peaks[0] >= 8 && cover[0] > 0.1, "the cloud shows no inner structure: %d peaks", peaks[0]);
     CHECK_MSG(peaks[1] <= 2, "the smooth fog sphere shows %d peaks: the peak count does not tell structure", peaks[1]);
     free(img);
-}
-
-static leap_scene *load_scene(const char *file, const char *grid, const char *tf, int exact_boxes)
-{
-    char path[1024];
-    snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, file);
-    leap_error err = {{0}};
-    leap_scene_desc d = {.path = path, .grid = grid, .tf = tf, .step = 0.5, .exact_boxes = exact_boxes};
-    leap_scene *s = NULL;
-    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
-    return s;
 }
 
 int main(void)

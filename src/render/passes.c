@@ -263,15 +263,17 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         if (chord && box_count == 1 && ((const leap_box_gpu *)r->boxes.mapped)[0].info.z != LEAP_CLASS_NONEMPTY)
             chord = 0; /* one UNKNOWN box: its segment must be listed as UNKNOWN */
     }
+    const int listed = lists && !chord; /* the frame builds per-pixel lists */
     /* The tree is walked by octree and by sparseleap pixels whose lists overflow (not in a chord frame). */
-    if ((mode == LEAP_RENDER_OCTREE || (lists && !chord)) && (lr = upload_tree(r, err))) return lr;
+    if ((mode == LEAP_RENDER_OCTREE || listed) && (lr = upload_tree(r, err))) return lr;
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
+    const int kind = renderer_composite_kind(r, march);
     VkPipeline composite = VK_NULL_HANDLE;
-    if ((lr = renderer_composite_pipeline(r, pass_mode, renderer_composite_kind(r, march), &composite, err))) return lr;
+    if ((lr = renderer_composite_pipeline(r, pass_mode, kind, &composite, err))) return lr;
     VkPipeline overflow = VK_NULL_HANDLE; /* sparseleap: the overflowed rays' tree walk */
     VkPipeline resolve[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
-    if (lists && !chord && ((lr = renderer_overflow_pipeline(r, renderer_composite_kind(r, march), &overflow, err)) ||
-                            (lr = renderer_resolve_pipelines(r, resolve, err))))
+    if (listed && ((lr = renderer_overflow_pipeline(r, kind, &overflow, err)) ||
+                   (lr = renderer_resolve_pipelines(r, resolve, err))))
         return lr;
     renderer_fill_frame(r, view, march, pass_mode, box_count, r->frame.mapped);
     if (chord) {
@@ -298,7 +300,6 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         return lr;
     }
     VkCommandBuffer cmd = gpu->cmd;
-    const int listed = lists && !chord; /* the frame builds per-pixel lists */
     /* lavapipe's timestamps hold only around a raster pass: in a frame of compute passes alone
      * they can repeat an earlier frame's (measured: 0.04-0.2 ms read for composites of 100-700
      * ms). Such a frame is its composite pass, so the submit's time is the pass's. */
