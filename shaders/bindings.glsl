@@ -5,7 +5,7 @@
 layout(std140, set = 0, binding = LEAP_BINDING_FRAME) uniform Frame { leap_frame_gpu frame; };
 layout(set = 0, binding = LEAP_BINDING_ATLAS) uniform sampler3D atlas;
 layout(set = 0, binding = LEAP_BINDING_TF) uniform sampler1D tf_table;
-layout(set = 0, binding = LEAP_BINDING_GRADIENTS) uniform sampler3D gradients;
+layout(set = 0, binding = LEAP_BINDING_VALUE_GRADIENTS) uniform sampler3D value_gradients;
 layout(std430, set = 0, binding = LEAP_BINDING_PAGES) readonly buffer Pages { uint pages[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_OUT_RGBA) buffer OutRgba { vec4 out_rgba[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_OUT_AUX) buffer OutAux { vec4 out_aux[]; };

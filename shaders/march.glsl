@@ -353,14 +353,17 @@ leap_light leap_light_make(leap_ray r)
     return k;
 }
 
-// A slot cell's sample colour rgb at q, shaded by the rule of leap/march.h (leap_shading). The
-// gradient (stored values per voxel) is one filtered read of the voxels' central differences
-// (LEAP_BINDING_GRADIENTS), which equals the central difference of the trilinear field. A
-// shaded scene's constant cells have a zero gradient (leap_atlas_desc.wide): they keep their
+// A slot cell's sample colour rgb, shaded by the rule of leap/march.h (leap_shading). `stored` is
+// the gradient part of the sample's one filtered read (LEAP_BINDING_VALUE_GRADIENTS): the
+// voxels' half central differences, whose interpolation equals the central difference of the
+// trilinear field. Read back through the UNORM conversion, a zero difference can come out a
+// few thousandths of a unit off; parts below 1/16 of a unit (1e-6 of the range) are taken as 0.
+// A shaded scene's constant cells have a zero gradient (leap_atlas_desc.wide): they keep their
 // colour, as the rule gives for g = 0.
-vec3 leap_shade_rgb(vec3 rgb, vec3 q, leap_light k, vec3 texel_base)
+vec3 leap_shade_rgb(vec3 rgb, vec3 stored, leap_light k)
 {
-    vec3 g = 0.5 * textureLod(gradients, (texel_base + q) * frame.atlas_inv_size.xyz, 0.0).xyz;
+    vec3 g = stored * 65535.0 - float(LEAP_GRADIENT_ZERO);
+    g = mix(g, vec3(0.0), lessThan(abs(g), vec3(1.0 / 16.0))) * (1.0 / 65535.0);
     float w = min(length(g) * frame.light.w, 1.0);
     vec3 n = vec3(dot(frame.normal_row0.xyz, g), dot(frame.normal_row1.xyz, g), dot(frame.normal_row2.xyz, g));
     if (!(w > 0.0) || dot(n, n) == 0.0) return rgb;
@@ -447,12 +450,15 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                 if (leap_labels) {
                     leap_composite_object(acc, leap_label_at(cur, q), t);
                 } else {
-                    float s = textureLod(atlas, (cur.texel_base + q) * frame.atlas_inv_size.xyz, 0.0).r;
+                    // Shaded: the value and its gradient in one fetch.
+                    vec3 at = (cur.texel_base + q) * frame.atlas_inv_size.xyz;
+                    vec4 vg = leap_shade ? textureLod(value_gradients, at, 0.0) : vec4(0.0);
+                    float s = leap_shade ? vg.x : textureLod(atlas, at, 0.0).r;
                     if (leap_mip) leap_mip_sample(acc, clamp(s * tf.scale + tf.offset, tf.lo, tf.hi), t, tf);
                     else {
                         vec4 cs = leap_tf_lookup(tf, s);
                         if (leap_shade && cs.a > 0.0)
-                            cs.rgb = leap_shade_rgb(cs.rgb, q, light, cur.texel_base);
+                            cs.rgb = leap_shade_rgb(cs.rgb, vg.yzw, light);
                         leap_composite_tf(acc, cs, t);
                     }
                 }

@@ -42,9 +42,11 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_TREE 12      /* storage uint[]: occupancy tree, 8 words per node */
 #define LEAP_BINDING_OBJECTS 13   /* storage vec4[] per object of a label volume: display RGB and
                                      opacity corrected for the step */
-#define LEAP_BINDING_GRADIENTS 14 /* sampler3D, RGBA16 SNORM, the atlas's slots: per voxel
-                                     (v[+1] - v[-1]) of the stored values (leap_atlas_gradients);
-                                     shading only (else the atlas is bound here, never read) */
+#define LEAP_BINDING_VALUE_GRADIENTS 14 /* sampler3D, RGBA16 UNORM, the atlas's slots: per voxel
+                                     its stored value and LEAP_GRADIENT_ZERO + (v[+1] - v[-1]) / 2
+                                     per axis (leap_atlas_value_gradients); shading only (else the
+                                     atlas is bound here, never read) */
+#define LEAP_GRADIENT_ZERO 32768 /* the stored half difference 0 */
 #define LEAP_BINDING_SLOT_RANGES 15 /* storage uint[] per atlas slot (x + slots_x * (y + slots_y * z)):
                                      its smallest stored value | its largest << 16 (MIP skips a
                                      cell that cannot raise a ray's maximum); scalar atlases */

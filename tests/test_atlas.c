@@ -368,8 +368,8 @@ static void check_atlas(const leap_atlas *a, const leap_grid_info *info, int den
 }
 
 /* A wide atlas (shading): every voxel decodes right, every constant cell's gradient footprint
- * (voxels 8c-1 .. 8c+9) is one value, and leap_atlas_gradients gives each slot texel the
- * difference of its neighbours' values, decoded independently here. */
+ * (voxels 8c-1 .. 8c+9) is one value, and leap_atlas_value_gradients gives each slot texel its
+ * value and the half difference of its neighbours' values, decoded independently here. */
 static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const leap_grid_info *info)
 {
     scan_result r = {0};
@@ -377,9 +377,9 @@ static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const l
     CHECK_MSG(wide->wide && wide->slot_count > sparse->slot_count, "wide: %u slots, sparse %u", wide->slot_count,
               sparse->slot_count);
     long constant_cells = 0, uneven = 0, texels = 0, wrong = 0;
-    int16_t *g = NULL;
+    uint16_t *g = NULL;
     leap_error err = {{0}};
-    CHECK_OK(leap_atlas_gradients(wide, &g, &err), &err);
+    CHECK_OK(leap_atlas_value_gradients(wide, &g, &err), &err);
     const int64_t limit[3] = {(int64_t)wide->cells[0] * LEAP_CELL - 1, (int64_t)wide->cells[1] * LEAP_CELL - 1,
                               (int64_t)wide->cells[2] * LEAP_CELL - 1};
     for (uint32_t cz = 0; cz < wide->cells[2]; ++cz)
@@ -408,26 +408,27 @@ static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const l
                                 size_t tz = (size_t)(e >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK) * LEAP_SLOT + l[2];
                                 at = tx + wide->texel_dims[0] * (ty + wide->texel_dims[1] * tz);
                             }
+                            wrong += g && g[4 * at] != lookup(wide, p);
                             for (int axis = 0; axis < 3; ++axis) {
                                 int64_t lo[3] = {p[0], p[1], p[2]}, hi[3] = {p[0], p[1], p[2]};
                                 lo[axis] -= 1;
                                 hi[axis] += 1;
                                 if (lo[axis] < 0 || hi[axis] > limit[axis]) continue;
-                                const long expect = lrint((double)(lookup(wide, hi) - lookup(wide, lo)) * (32767.0 / 65535.0));
-                                wrong += g && g[4 * at + axis] != expect;
+                                const long half = LEAP_GRADIENT_ZERO + lrint((double)(lookup(wide, hi) - lookup(wide, lo)) * 0.5);
+                                wrong += g && g[4 * at + 1 + axis] != (half > 65535 ? 65535 : half);
                                 ++texels;
                             }
                         }
                 constant_cells += (e & LEAP_PAGE_CONST) != 0;
             }
-    printf("wide: %u slots (sparse %u); %ld constant cells, %ld wide-footprint voxels off; %ld gradients, %ld wrong\n",
+    printf("wide: %u slots (sparse %u); %ld constant cells, %ld wide-footprint voxels off; %ld gradients, %ld texels wrong\n",
            wide->slot_count, sparse->slot_count, constant_cells, uneven, texels, wrong);
     CHECK_MSG(uneven == 0, "wide: %ld voxels of constant cells' gradient footprints differ from the constant", uneven);
     CHECK_MSG(wrong == 0 && texels > 0, "wide: %ld of %ld gradients wrong", wrong, texels);
     free(g);
     /* an atlas not built for shading has no gradients */
     g = NULL;
-    CHECK(leap_atlas_gradients(sparse, &g, &err) == LEAP_ERR_USAGE && g == NULL);
+    CHECK(leap_atlas_value_gradients(sparse, &g, &err) == LEAP_ERR_USAGE && g == NULL);
 }
 
 /* Value of the spread grid at index (x, y, z): 8^3 leaves at the corners of a box `half`

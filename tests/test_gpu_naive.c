@@ -338,7 +338,7 @@ int main(void)
                       "%s: image depends on the brick layout (rmse %g, max abs %g)", volumes[v].file, d.rmse, d.max_abs);
             leap_atlas_destroy(dense);
         }
-        /* The same for shading: the gradients follow the slots (scalar volumes). */
+        /* The same for shading: the values and gradients follow the slots (scalar volumes). */
         leap_shading shade = leap_shading_default();
         if (!s->labels) {
             CHECK_OK(leap_scene_set_shading(s, &shade, &err), &err);
@@ -356,7 +356,7 @@ int main(void)
             leap_result no_gradients = leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL,
                                                             NULL, NULL, &err);
             CHECK_MSG(no_gradients == LEAP_ERR_USAGE, "a shaded frame rendered without the volume's gradients");
-            CHECK_OK(leap_renderer_set_gradients(renderer, dense, &err), &err);
+            CHECK_OK(leap_renderer_set_value_gradients(renderer, dense, &err), &err);
             CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
             image_diff d = compare_rgba(gpu, ref, W * H);
             printf("%-12s %-12s shaded bricking: %u vs %u slots, rmse %.2e max abs %.2e\n", volumes[v].file,

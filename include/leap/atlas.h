@@ -34,7 +34,7 @@ typedef struct leap_atlas_desc {
 /* Read-only for other modules. */
 typedef struct leap_atlas {
     int empty;                 /* 1 when the grid has no active voxels */
-    int wide;                  /* built with leap_atlas_desc.wide (needed for leap_atlas_gradients) */
+    int wide;                  /* built with leap_atlas_desc.wide (needed for leap_atlas_value_gradients) */
     int32_t origin[3];         /* absolute index coordinate of relative (0,0,0), multiple of 8 */
     uint32_t cells[3];         /* cells per axis */
     uint32_t block_shift;      /* page blocks are (1 << block_shift)^3 cells */
@@ -96,11 +96,12 @@ const uint32_t *leap_atlas_record_objects(const leap_atlas *atlas, uint32_t reco
  * objects' current looks: NONEMPTY when any object of the set is drawn, else EMPTY. */
 void leap_atlas_label_classes(const leap_atlas *atlas, const leap_labels *labels, uint8_t *out);
 
-/* Gradient shading: per texel of the atlas, the central differences of the stored values
- * (v[+1] - v[-1]) / 65535 along x, y, z, as SNORM16 (4 per texel, the 4th 0), so a slot cell's
- * gradient at q is half the filtered read at its texel (see src/volume/gradients.c). *out is
- * malloc'ed. Errors: LEAP_ERR_USAGE (a label atlas), LEAP_ERR_OOM. */
-leap_result leap_atlas_gradients(const leap_atlas *atlas, int16_t **out, leap_error *err);
+/* Gradient shading: per texel of the atlas, 4 UNORM16 values: the stored value, then per axis
+ * x, y, z LEAP_GRADIENT_ZERO + the half difference of the neighbours' stored values
+ * (v[+1] - v[-1]) / 2, rounded and clamped to 16 bits; so one filtered read gives a shaded
+ * sample its value and its gradient (see src/volume/gradients.c). *out is malloc'ed.
+ * Errors: LEAP_ERR_USAGE (a label atlas, or one not built wide), LEAP_ERR_OOM. */
+leap_result leap_atlas_value_gradients(const leap_atlas *atlas, uint16_t **out, leap_error *err);
 
 /* Bytes of the atlas as built: 16-bit texels + page table (+ label words). (The renderer may upload the
  * texels as 32-bit float: leap_renderer_volume_bytes.) */

@@ -119,11 +119,11 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
         [LEAP_BINDING_SLOT_RANGES] = r->slot_ranges.buffer ? &r->slot_ranges : &r->pages, /* labels: never read */
     };
-    const int gradients = r->gradients_serial == r->atlas_serial && r->gradients.view;
+    const int shading = r->value_gradients_serial == r->atlas_serial && r->value_gradients.view;
     VkDescriptorImageInfo img[3] = {
         {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
         {r->linear_sampler, r->tf.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
-        {r->linear_sampler, gradients ? r->gradients.view : r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        {r->linear_sampler, shading ? r->value_gradients.view : r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
     };
     VkWriteDescriptorSet w[BINDING_COUNT];
     for (uint32_t i = 0; i < BINDING_COUNT; ++i) {
@@ -134,7 +134,7 @@ static void write_descriptors(leap_renderer *r)
             .descriptorCount = 1,
             .descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
         };
-        if (i == LEAP_BINDING_ATLAS || i == LEAP_BINDING_TF || i == LEAP_BINDING_GRADIENTS) {
+        if (i == LEAP_BINDING_ATLAS || i == LEAP_BINDING_TF || i == LEAP_BINDING_VALUE_GRADIENTS) {
             w[i].descriptorType = VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
             w[i].pImageInfo = &img[i == LEAP_BINDING_ATLAS ? 0 : i == LEAP_BINDING_TF ? 1 : 2];
             continue;
@@ -229,8 +229,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     if (domain_march.shade.on && (r->labels || domain_march.mip))
         return leap_fail(err, LEAP_ERR_USAGE, "shading lights the gradient of a scalar volume; it does not apply to %s",
                          r->labels ? "a segmentation" : "MIP");
-    if (domain_march.shade.on && r->gradients_serial != r->atlas_serial)
-        return leap_fail(err, LEAP_ERR_USAGE, "renderer: shading needs the volume's gradients (leap_renderer_set_gradients)");
+    if (domain_march.shade.on && r->value_gradients_serial != r->atlas_serial)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: shading needs the volume's values and gradients (leap_renderer_set_value_gradients)");
     domain_march.clip_count = march_in->clip_count;
     memcpy(domain_march.clip, march_in->clip, sizeof domain_march.clip);
     const leap_march *march = &domain_march;

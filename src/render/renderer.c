@@ -74,7 +74,7 @@ void leap_renderer_destroy(leap_renderer *r)
         leap_gpu_buffer_destroy(gpu, &r->pages);
         leap_gpu_buffer_destroy(gpu, &r->slot_ranges);
         leap_gpu_image_destroy(gpu, &r->atlas);
-        leap_gpu_image_destroy(gpu, &r->gradients);
+        leap_gpu_image_destroy(gpu, &r->value_gradients);
         leap_gpu_buffer_destroy(gpu, &r->frame);
         if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
         if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
@@ -140,8 +140,8 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
                          reach, LEAP_FLOAT_POSITION_LIMIT);
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_image_destroy(r->gpu, &r->atlas);
-    leap_gpu_image_destroy(r->gpu, &r->gradients);
-    r->gradients_serial = 0;
+    leap_gpu_image_destroy(r->gpu, &r->value_gradients);
+    r->value_gradients_serial = 0;
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     leap_gpu_buffer_destroy(r->gpu, &r->slot_ranges);
     r->has_volume = 0;
@@ -195,30 +195,30 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     return LEAP_OK;
 }
 
-leap_result leap_renderer_set_gradients(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
 {
     if (!r->has_volume || r->atlas_serial != atlas->serial)
-        return leap_fail(err, LEAP_ERR_USAGE, "renderer: the gradients' atlas is not the volume uploaded");
-    if (r->gradients_serial == atlas->serial) return LEAP_OK;
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: the shading texels' atlas is not the volume uploaded");
+    if (r->value_gradients_serial == atlas->serial) return LEAP_OK;
     VkFormatProperties fp;
-    vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R16G16B16A16_SNORM, &fp);
+    vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R16G16B16A16_UNORM, &fp);
     if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "shading needs linear filtering of RGBA16 SNORM images, which %s "
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "shading needs linear filtering of RGBA16 UNORM images, which %s "
                          "does not offer", r->gpu->props.deviceName);
-    int16_t *g = NULL;
-    leap_result lr = leap_atlas_gradients(atlas, &g, err);
+    uint16_t *g = NULL;
+    leap_result lr = leap_atlas_value_gradients(atlas, &g, err);
     if (lr) return lr;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
-    leap_gpu_image_destroy(r->gpu, &r->gradients);
+    leap_gpu_image_destroy(r->gpu, &r->value_gradients);
     const size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
-    lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16G16B16A16_SNORM, atlas->texel_dims, g, texels * 4 * sizeof *g,
-                               &r->gradients, err);
+    lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16G16B16A16_UNORM, atlas->texel_dims, g, texels * 4 * sizeof *g,
+                               &r->value_gradients, err);
     free(g);
     if (lr) {
-        leap_gpu_image_destroy(r->gpu, &r->gradients);
+        leap_gpu_image_destroy(r->gpu, &r->value_gradients);
         return lr;
     }
-    r->gradients_serial = atlas->serial;
+    r->value_gradients_serial = atlas->serial;
     return LEAP_OK;
 }
 
@@ -226,7 +226,7 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 {
     leap_result lr = LEAP_OK;
     if (!r->has_volume || r->atlas_serial != scene->atlas->serial) lr = leap_renderer_set_volume(r, scene->atlas, err);
-    if (!lr && scene->march.shade.on) lr = leap_renderer_set_gradients(r, scene->atlas, err);
+    if (!lr && scene->march.shade.on) lr = leap_renderer_set_value_gradients(r, scene->atlas, err);
     if (!lr) lr = leap_renderer_set_tf(r, &scene->tf, err);
     if (!lr && scene->labels) lr = leap_renderer_set_objects(r, scene->labels, err);
     if (lr) return lr;
@@ -331,7 +331,7 @@ uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
 {
     if (!r->has_volume) return 0;
     const uint64_t texels = (uint64_t)r->atlas.extent[0] * r->atlas.extent[1] * r->atlas.extent[2];
-    return texels * r->texel_bytes + r->pages.size + (r->gradients_serial == r->atlas_serial ? texels * 8 : 0);
+    return texels * r->texel_bytes + r->pages.size + (r->value_gradients_serial == r->atlas_serial ? texels * 8 : 0);
 }
 
 const char *leap_renderer_atlas_format(const leap_renderer *r)

@@ -48,8 +48,8 @@ struct leap_renderer {
     VkDescriptorSet set;
     leap_buffer frame;
     leap_image atlas;
-    leap_image gradients;      /* shading: leap_atlas_gradients of the atlas with gradients_serial */
-    uint64_t gradients_serial; /* 0: none */
+    leap_image value_gradients;      /* shading: leap_atlas_value_gradients of the atlas with the serial */
+    uint64_t value_gradients_serial; /* 0: none */
     leap_buffer pages;
     leap_buffer slot_ranges;   /* scalar atlases: per slot, its smallest | largest stored value << 16 */
     leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */

@@ -1,8 +1,9 @@
-/* Per-voxel central differences for gradient shading, laid out like the atlas's slots.
+/* Per-voxel values and central differences for gradient shading, laid out like the atlas's slots.
  * The central difference of the trilinear field one voxel either side equals the trilinear
  * interpolation of the voxels' own central differences (per axis: (1-t)(v[b+1] - v[b-1]) +
  * t (v[b+2] - v[b]) is the lerp of 2 g[b] and 2 g[b+1]), so a slot cell's gradient is one
- * filtered read of this texture instead of six reads of the values. */
+ * filtered read of this texture instead of six reads of the values; the value rides along, so a
+ * shaded sample takes one fetch in all. */
 #include "leap/atlas.h"
 
 #include <math.h>
@@ -34,7 +35,7 @@ static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
 
 /* One slot: its footprint's voxels 8c .. 8c + 8 and their differences v[+1] - v[-1] per axis,
  * read from the slot itself where both neighbours lie in it, else through the page table. */
-static void slot_gradients(const leap_atlas *a, const int32_t cell[3], uint32_t entry, int16_t *out)
+static void slot_gradients(const leap_atlas *a, const int32_t cell[3], uint32_t entry, uint16_t *out)
 {
     size_t base[3];
     for (int i = 0; i < 3; ++i) base[i] = (size_t)((entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK) * LEAP_SLOT;
@@ -57,16 +58,16 @@ static void slot_gradients(const leap_atlas *a, const int32_t cell[3], uint32_t 
                         v[axis] += 2;
                         hi_v = stored_value(a, v);
                     }
-                    /* (hi - lo) / 65535 in [-1, 1] as SNORM16: the shader halves it. */
-                    out[4 * at + axis] = (int16_t)lrint((double)(hi_v - lo_v) * (32767.0 / 65535.0));
+                    const long half = LEAP_GRADIENT_ZERO + lrint((double)(hi_v - lo_v) * 0.5);
+                    out[4 * at + 1 + axis] = (uint16_t)(half > 65535 ? 65535 : half);
                 }
-                out[4 * at + 3] = 0;
+                out[4 * at] = a->texels[at];
             }
 }
 
 typedef struct block_gradients_job {
     const leap_atlas *atlas;
-    int16_t *out;
+    uint16_t *out;
 } block_gradients_job;
 
 /* The slots of one page block (leap_atlas_visit). */
@@ -85,14 +86,14 @@ static int block_gradients(void *ctx, const uint32_t lo[3], uint32_t edge, uint3
     return 0;
 }
 
-leap_result leap_atlas_gradients(const leap_atlas *a, int16_t **out, leap_error *err)
+leap_result leap_atlas_value_gradients(const leap_atlas *a, uint16_t **out, leap_error *err)
 {
     *out = NULL;
     if (a->labels) return leap_fail(err, LEAP_ERR_USAGE, "a label atlas has no gradients");
     if (!a->wide) /* its constant cells could hold non-zero gradients the shader never reads */
         return leap_fail(err, LEAP_ERR_USAGE, "gradients need an atlas built for shading (leap_atlas_desc.wide)");
     const size_t texels = (size_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2];
-    int16_t *g = calloc(texels ? texels * 4 : 4, sizeof *g);
+    uint16_t *g = calloc(texels ? texels * 4 : 4, sizeof *g);
     if (!g)
         return leap_fail(err, LEAP_ERR_OOM, "out of host memory for the gradients (%.1f MiB)",
                          (double)texels * 8 / (1 << 20));
