@@ -83,7 +83,7 @@ void main()
     if (push.chunk > 0u && out_aux[pixel].w != 1.0) return;
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
-    if (leap_mip) acc.color.r = -2.0; // below every signed table coordinate (leap_mip_sample)
+    if (leap_mip) acc.color.r = frame.mip_floor.x; // -2: below every signed table coordinate (leap_mip_sample)
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
     bool finished = true;
     if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit) &&
@@ -139,7 +139,7 @@ void main()
 
     if (leap_mip) { // the colour of the largest (smallest) value, premultiplied; a depth only where it shows
         float x = frame.image.z != 0u ? -acc.color.r : acc.color.r;
-        vec4 c = acc.color.r > -2.0 ? textureLod(tf_table, x, 0.0) : vec4(0.0);
+        vec4 c = acc.color.r > frame.mip_floor.x ? textureLod(tf_table, x, 0.0) : vec4(0.0);
         acc.color.rgb = c.rgb * c.a;
         acc.transmittance = 1.0 - c.a;
         if (!(c.a > 0.0)) acc.depth_t = -1.0;

@@ -225,7 +225,10 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 overflow;       /* 576: x = lattice indices per composite chunk of sparseleap's
                                  overflowed rays (their tree walk costs more per cell than the
                                  segments' march, whose figure is limits.z) */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 592 bytes */
+    LEAP_VEC4 mip_floor;      /* 592: x = where MIP's running extreme starts (signed table
+                                 coordinate, see leap_mip_sample): the largest one up to which
+                                 the table is transparent, -2 if it is not at its end */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 608 bytes */
 
 
 #endif

@@ -335,6 +335,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     f->limits = (leap_vec4){(float)LEAP_ERT_TRANSMITTANCE, (float)depth_opacity,
                             (float)chunk_indices(r, mode, m->step), (float)ldexp(1.0, kw)};
     f->overflow = (leap_vec4){(float)chunk_indices(r, LEAP_RENDER_OCTREE, m->step), 0, 0, 0};
+    f->mip_floor = (leap_vec4){m->mip ? r->mip_floor[m->mip < 0] : -2.0f, 0, 0, 0};
     f->top_dims = (leap_uvec4){r->top_dims[0], r->top_dims[1], r->top_dims[2], r->block_base};
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, m->mip < 0, (uint32_t)view->ortho};

@@ -8,7 +8,7 @@
 #include "gpu.h"
 #include "shared.h"
 
-_Static_assert(sizeof(leap_frame_gpu) == 592, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 608, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 17
 
@@ -58,6 +58,7 @@ struct leap_renderer {
     double tf_step;
     int tf_precorrected; /* the table's opacities are corrected for tf_step */
     int tf_mip;          /* the table was made for MIP: opacities as they are */
+    float mip_floor[2];  /* MIP, minIP: frame.mip_floor.x for the table */
     leap_buffer out_rgba, out_aux;
     /* Label volumes: the objects' looks (display RGB, opacity per voxel) and their table on
      * the device, corrected for objects_step. */
