@@ -402,6 +402,9 @@ static void check_shading(leap_renderer *renderer, float *naive, float *img)
                      * atlas differs only in which constant cells got slots). */
                     leap_march unshaded = s->march;
                     unshaded.shade.on = 0;
+                    s->march.shade.on = 0; /* bound unshaded: adds the values its frames read */
+                    CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+                    s->march.shade.on = 1;
                     CHECK_OK(leap_renderer_render(renderer, &view, &unshaded, LEAP_RENDER_NAIVE, plain, NULL, NULL, NULL,
                                                   &err), &err);
                     double alpha_off = 0, rgb_off = 0;

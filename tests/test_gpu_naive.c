@@ -352,6 +352,26 @@ int main(void)
             CHECK_OK(leap_rays_make(&cam, W, H, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
             CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
             CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, ref, NULL, NULL, NULL, &err), &err);
+            /* A shaded scene's volume is bound without the values unshaded frames read; binding
+             * the scene unshaded adds them, and its unshaded frame equals a fresh volume's. */
+            CHECK(strcmp(leap_renderer_atlas_format(renderer), "RGBA16_UNORM") == 0);
+            leap_march plain = s->march;
+            plain.shade.on = 0;
+            leap_result no_values = leap_renderer_render(renderer, &view, &plain, LEAP_RENDER_NAIVE, gpu, NULL, NULL,
+                                                         NULL, &err);
+            CHECK_MSG(no_values == LEAP_ERR_USAGE, "an unshaded frame rendered without the volume's values");
+            s->march.shade.on = 0;
+            CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+            s->march.shade.on = 1;
+            CHECK(strcmp(leap_renderer_atlas_format(renderer), "R32_SFLOAT") == 0);
+            CHECK_OK(leap_renderer_render(renderer, &view, &plain, LEAP_RENDER_NAIVE, gpu, NULL, NULL, NULL, &err), &err);
+            float *fresh = malloc((size_t)W * H * 4 * sizeof *fresh);
+            CHECK(fresh != NULL);
+            CHECK_OK(leap_renderer_set_volume(renderer, s->atlas, &err), &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &plain, LEAP_RENDER_NAIVE, fresh, NULL, NULL, NULL, &err), &err);
+            CHECK_MSG(fresh && memcmp(fresh, gpu, (size_t)W * H * 4 * sizeof *fresh) == 0,
+                      "%s: values added to a shaded volume differ from a fresh upload", volumes[v].file);
+            free(fresh);
             CHECK_OK(leap_renderer_set_volume(renderer, dense, &err), &err);
             leap_result no_gradients = leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, gpu, NULL,
                                                             NULL, NULL, &err);

@@ -103,6 +103,14 @@ void leap_atlas_label_classes(const leap_atlas *atlas, const leap_labels *labels
  * Errors: LEAP_ERR_USAGE (a label atlas, or one not built wide), LEAP_ERR_OOM. */
 leap_result leap_atlas_value_gradients(const leap_atlas *atlas, uint16_t **out, leap_error *err);
 
+/* The same texels written in any order, straight into an image's memory: create (the slots'
+ * cells; same errors), fill texels first .. first + count - 1 (x fastest; 4 values each) as
+ * often as needed, destroy (accepts NULL). The atlas must outlive it. */
+typedef struct leap_value_gradients leap_value_gradients;
+leap_result leap_value_gradients_create(const leap_atlas *atlas, leap_value_gradients **out, leap_error *err);
+void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, size_t count, uint16_t *out);
+void leap_value_gradients_destroy(leap_value_gradients *vg);
+
 /* Bytes of the atlas as built: 16-bit texels + page table (+ label words). (The renderer may upload the
  * texels as 32-bit float: leap_renderer_volume_bytes.) */
 uint64_t leap_atlas_gpu_bytes(const leap_atlas *atlas);

@@ -86,7 +86,10 @@ const char *leap_renderer_driver_name(const leap_renderer *r);
 
 /* Binds a loaded scene: uploads its atlas unless that atlas is bound already, its transfer
  * function and its occupancy (not owned: the scene must outlive its use). Call it again after
- * leap_scene_set_tf or leap_scene_set_step; only the classes and boxes are taken again. */
+ * leap_scene_set_tf or leap_scene_set_step; only the classes and boxes are taken again. A
+ * shaded scene's atlas is uploaded only as its values and gradients (the one image shaded
+ * frames read); binding the scene unshaded later adds the values image unshaded frames read,
+ * and rendering an unshaded frame before that fails with LEAP_ERR_USAGE. */
 leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, leap_error *err);
 
 /* The parts of a binding, for tests and tools that vary one of them. */
@@ -100,7 +103,8 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
 leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
 
 /* "R32_SFLOAT" or "R16_UNORM": how the uploaded volume's texels are stored (the same 16-bit
- * values either way). NULL before set_volume. */
+ * values either way); "RGBA16_UNORM" when only a shaded scene's values and gradients are.
+ * NULL before set_volume. */
 const char *leap_renderer_atlas_format(const leap_renderer *r);
 
 /* Keeps the transfer function; render() uploads its table corrected for the frame's step

@@ -121,7 +121,8 @@ static void write_descriptors(leap_renderer *r)
     };
     const int shading = r->value_gradients_serial == r->atlas_serial && r->value_gradients.view;
     VkDescriptorImageInfo img[3] = {
-        {r->linear_sampler, r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        /* A shaded scene may have no values image: shaded pipelines never read that binding. */
+        {r->linear_sampler, r->atlas.view ? r->atlas.view : r->value_gradients.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
         {r->linear_sampler, r->tf.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
         {r->linear_sampler, shading ? r->value_gradients.view : r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
     };
@@ -231,6 +232,9 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
                          r->labels ? "a segmentation" : "MIP");
     if (domain_march.shade.on && r->value_gradients_serial != r->atlas_serial)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: shading needs the volume's values and gradients (leap_renderer_set_value_gradients)");
+    if (!domain_march.shade.on && !r->atlas.view)
+        return leap_fail(err, LEAP_ERR_USAGE, "renderer: the volume was bound for shaded frames only; an unshaded frame "
+                         "needs its values (leap_renderer_bind_scene with the scene unshaded, or leap_renderer_set_volume)");
     domain_march.clip_count = march_in->clip_count;
     memcpy(domain_march.clip, march_in->clip, sizeof domain_march.clip);
     const leap_march *march = &domain_march;

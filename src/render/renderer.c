@@ -128,7 +128,34 @@ static leap_result upload_slot_ranges(leap_renderer *r, const leap_atlas *a, lea
     return lr;
 }
 
-leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+/* The volume's values as unshaded and MIP frames sample them: float, or 16 bits when float
+ * is not possible. */
+static leap_result upload_values(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+{
+    const size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
+    leap_result lr = LEAP_ERR_OOM;
+    VkFormatProperties fp;
+    vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R32_SFLOAT, &fp);
+    int float_ok = !atlas->labels && (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
+                   texels <= r->float_atlas_max_bytes / sizeof(float);
+    if (float_ok) {
+        r->texel_bytes = sizeof(float);
+        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, sizeof(float), decode_texels,
+                                 atlas->texels, &r->atlas, err);
+    }
+    if (lr) {
+        /* Too large for float, not filterable, or the float image did not fit: 16 bits give
+         * the same values, slower. */
+        r->texel_bytes = sizeof(uint16_t);
+        lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
+                                   texels * sizeof(uint16_t), &r->atlas, err);
+    }
+    return lr;
+}
+
+/* values = 0: a shaded scene's atlas, whose frames read its values with the gradients
+ * (leap_renderer_set_value_gradients); unshaded frames need them uploaded (bind_scene). */
+static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int values, leap_error *err)
 {
     double reach = 0;
     for (int i = 0; i < 3; ++i) reach = fmax(reach, fmax(fabs(atlas->domain_min[i]), fabs(atlas->domain_max[i])));
@@ -147,30 +174,13 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     r->has_volume = 0;
     r->atlas_serial = 0;
     r->last_frame_pixels = 0;
-    size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
     const uint64_t page_bytes = ((uint64_t)atlas->page_words + atlas->label_word_count) * 4;
     if (page_bytes > r->gpu->storage_buffer_range)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
                          "the volume's page table and label cells take %.1f MiB, more than the %llu MiB one storage "
                          "buffer of this device can hold",
                          (double)page_bytes / (1 << 20), (unsigned long long)(r->gpu->storage_buffer_range >> 20));
-    leap_result lr = LEAP_ERR_OOM;
-    VkFormatProperties fp;
-    vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R32_SFLOAT, &fp);
-    int float_ok = !atlas->labels && (fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) &&
-                   texels <= r->float_atlas_max_bytes / sizeof(float);
-    if (float_ok) {
-        r->texel_bytes = sizeof(float);
-        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, sizeof(float), decode_texels,
-                                 atlas->texels, &r->atlas, err);
-    }
-    if (lr) {
-        /* Too large for float, not filterable, or the float image did not fit: 16 bits give
-         * the same values, slower. */
-        r->texel_bytes = sizeof(uint16_t);
-        lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
-                                   texels * sizeof(uint16_t), &r->atlas, err);
-    }
+    leap_result lr = values || atlas->labels ? upload_values(r, atlas, err) : LEAP_OK; /* labels: never shaded */
     if (!lr)
         lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
     if (!lr && !atlas->labels) lr = upload_slot_ranges(r, atlas, err);
@@ -185,6 +195,7 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     for (int i = 0; i < 3; ++i) {
         r->top_dims[i] = atlas->top_dims[i];
         r->slot_dims[i] = atlas->slot_dims[i];
+        r->texel_dims[i] = atlas->texel_dims[i];
     }
     r->block_shift = atlas->block_shift;
     r->block_base = atlas->block_base;
@@ -193,6 +204,16 @@ leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, 
     r->atlas_serial = atlas->serial;
     r->has_volume = 1;
     return LEAP_OK;
+}
+
+leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+{
+    return set_volume(r, atlas, 1, err);
+}
+
+static void fill_value_gradients(void *dst, size_t first, size_t count, const void *ctx)
+{
+    leap_value_gradients_fill(ctx, first, count, dst);
 }
 
 leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
@@ -205,15 +226,15 @@ leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas
     if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "shading needs linear filtering of RGBA16 UNORM images, which %s "
                          "does not offer", r->gpu->props.deviceName);
-    uint16_t *g = NULL;
-    leap_result lr = leap_atlas_value_gradients(atlas, &g, err);
-    if (lr) return lr;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_image_destroy(r->gpu, &r->value_gradients);
-    const size_t texels = (size_t)atlas->texel_dims[0] * atlas->texel_dims[1] * atlas->texel_dims[2];
-    lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16G16B16A16_UNORM, atlas->texel_dims, g, texels * 4 * sizeof *g,
-                               &r->value_gradients, err);
-    free(g);
+    /* Written straight into the image's memory on a CPU device: no host copy of 8 bytes a texel. */
+    leap_value_gradients *vg = NULL;
+    leap_result lr = leap_value_gradients_create(atlas, &vg, err);
+    if (!lr)
+        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R16G16B16A16_UNORM, atlas->texel_dims, 4 * sizeof(uint16_t),
+                                 fill_value_gradients, vg, &r->value_gradients, err);
+    leap_value_gradients_destroy(vg);
     if (lr) {
         leap_gpu_image_destroy(r->gpu, &r->value_gradients);
         return lr;
@@ -225,8 +246,10 @@ leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas
 leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, leap_error *err)
 {
     leap_result lr = LEAP_OK;
-    if (!r->has_volume || r->atlas_serial != scene->atlas->serial) lr = leap_renderer_set_volume(r, scene->atlas, err);
-    if (!lr && scene->march.shade.on) lr = leap_renderer_set_value_gradients(r, scene->atlas, err);
+    const int shaded = scene->march.shade.on;
+    if (!r->has_volume || r->atlas_serial != scene->atlas->serial) lr = set_volume(r, scene->atlas, !shaded, err);
+    else if (!shaded && !r->atlas.view) lr = upload_values(r, scene->atlas, err);
+    if (!lr && shaded) lr = leap_renderer_set_value_gradients(r, scene->atlas, err);
     if (!lr) lr = leap_renderer_set_tf(r, &scene->tf, err);
     if (!lr && scene->labels) lr = leap_renderer_set_objects(r, scene->labels, err);
     if (lr) return lr;
@@ -340,13 +363,15 @@ uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
 {
     if (!r->has_volume) return 0;
-    const uint64_t texels = (uint64_t)r->atlas.extent[0] * r->atlas.extent[1] * r->atlas.extent[2];
-    return texels * r->texel_bytes + r->pages.size + (r->value_gradients_serial == r->atlas_serial ? texels * 8 : 0);
+    const uint64_t texels = (uint64_t)r->texel_dims[0] * r->texel_dims[1] * r->texel_dims[2];
+    return (r->atlas.view ? texels * r->texel_bytes : 0) + r->pages.size +
+           (r->value_gradients_serial == r->atlas_serial ? texels * 8 : 0);
 }
 
 const char *leap_renderer_atlas_format(const leap_renderer *r)
 {
     if (!r->has_volume) return NULL;
+    if (!r->atlas.view) return "RGBA16_UNORM";
     return r->texel_bytes == sizeof(float) ? "R32_SFLOAT" : "R16_UNORM";
 }
 

@@ -50,6 +50,7 @@ struct leap_renderer {
     leap_image atlas;
     leap_image value_gradients;      /* shading: leap_atlas_value_gradients of the atlas with the serial */
     uint64_t value_gradients_serial; /* 0: none */
+    uint32_t texel_dims[3];          /* the volume's atlas texels per axis (the images' extent) */
     leap_buffer pages;
     leap_buffer slot_ranges;   /* scalar atlases: per slot, its smallest | largest stored value << 16 */
     leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */

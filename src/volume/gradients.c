@@ -7,6 +7,7 @@
 #include "leap/atlas.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 
 #include "shared.h"
@@ -33,72 +34,113 @@ static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
     return a->texels[texel[0] + a->texel_dims[0] * (texel[1] + a->texel_dims[1] * texel[2])];
 }
 
-/* One slot: its footprint's voxels 8c .. 8c + 8 and their differences v[+1] - v[-1] per axis,
- * read from the slot itself where both neighbours lie in it, else through the page table. */
-static void slot_gradients(const leap_atlas *a, const int32_t cell[3], uint32_t entry, uint16_t *out)
-{
-    size_t base[3];
-    for (int i = 0; i < 3; ++i) base[i] = (size_t)((entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK) * LEAP_SLOT;
-    const size_t sx = 1, sy = a->texel_dims[0], sz = (size_t)a->texel_dims[0] * a->texel_dims[1];
-    const size_t stride[3] = {sx, sy, sz};
-    for (int z = 0; z < LEAP_SLOT; ++z)
-        for (int y = 0; y < LEAP_SLOT; ++y)
-            for (int x = 0; x < LEAP_SLOT; ++x) {
-                const int local[3] = {x, y, z};
-                const size_t at = (base[0] + x) + sy * (base[1] + y) + sz * (base[2] + z);
-                for (int axis = 0; axis < 3; ++axis) {
-                    int32_t lo_v, hi_v;
-                    if (local[axis] > 0 && local[axis] < LEAP_SLOT - 1) {
-                        lo_v = a->texels[at - stride[axis]];
-                        hi_v = a->texels[at + stride[axis]];
-                    } else {
-                        int32_t v[3] = {cell[0] * LEAP_CELL + x, cell[1] * LEAP_CELL + y, cell[2] * LEAP_CELL + z};
-                        v[axis] -= 1;
-                        lo_v = stored_value(a, v);
-                        v[axis] += 2;
-                        hi_v = stored_value(a, v);
-                    }
-                    const long half = LEAP_GRADIENT_ZERO + lrint((double)(hi_v - lo_v) * 0.5);
-                    out[4 * at + 1 + axis] = (uint16_t)(half > 65535 ? 65535 : half);
-                }
-                out[4 * at] = a->texels[at];
-            }
-}
-
-typedef struct block_gradients_job {
+/* Which cell each slot holds (the page table's inverse), for filling texels in any order. */
+struct leap_value_gradients {
     const leap_atlas *atlas;
-    uint16_t *out;
-} block_gradients_job;
+    int32_t (*slot_cell)[3]; /* per slot index; x = INT32_MIN: unused */
+};
 
-/* The slots of one page block (leap_atlas_visit). */
-static int block_gradients(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
+static int note_slot_cells(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
 {
     (void)entry;
-    const block_gradients_job *job = ctx;
+    leap_value_gradients *vg = ctx;
     if (!cells) return 0;
-    const uint32_t shift = job->atlas->block_shift, mask = edge - 1;
+    const leap_atlas *a = vg->atlas;
+    const uint32_t shift = a->block_shift, mask = edge - 1;
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
-        if (cells[k] & LEAP_PAGE_CONST) continue;
-        const int32_t cell[3] = {(int32_t)(lo[0] | (k & mask)), (int32_t)(lo[1] | ((k >> shift) & mask)),
-                                 (int32_t)(lo[2] | (k >> (2 * shift)))};
-        slot_gradients(job->atlas, cell, cells[k], job->out);
+        const uint32_t e = cells[k];
+        if (e & LEAP_PAGE_CONST) continue;
+        const size_t slot = (e & LEAP_SLOT_MASK) +
+                            a->slot_dims[0] * (((e >> LEAP_SLOT_BITS) & LEAP_SLOT_MASK) +
+                                               a->slot_dims[1] * (size_t)((e >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK));
+        vg->slot_cell[slot][0] = (int32_t)(lo[0] | (k & mask));
+        vg->slot_cell[slot][1] = (int32_t)(lo[1] | ((k >> shift) & mask));
+        vg->slot_cell[slot][2] = (int32_t)(lo[2] | (k >> (2 * shift)));
     }
     return 0;
 }
 
-leap_result leap_atlas_value_gradients(const leap_atlas *a, uint16_t **out, leap_error *err)
+leap_result leap_value_gradients_create(const leap_atlas *a, leap_value_gradients **out, leap_error *err)
 {
     *out = NULL;
     if (a->labels) return leap_fail(err, LEAP_ERR_USAGE, "a label atlas has no gradients");
     if (!a->wide) /* its constant cells could hold non-zero gradients the shader never reads */
         return leap_fail(err, LEAP_ERR_USAGE, "gradients need an atlas built for shading (leap_atlas_desc.wide)");
+    const size_t slots = (size_t)a->slot_dims[0] * a->slot_dims[1] * a->slot_dims[2];
+    leap_value_gradients *vg = calloc(1, sizeof *vg);
+    if (vg) vg->slot_cell = malloc((slots ? slots : 1) * sizeof *vg->slot_cell);
+    if (!vg || !vg->slot_cell) {
+        leap_value_gradients_destroy(vg);
+        return leap_fail(err, LEAP_ERR_OOM, "out of host memory for the gradients' slot map (%.1f MiB)",
+                         (double)slots * sizeof *vg->slot_cell / (1 << 20));
+    }
+    vg->atlas = a;
+    for (size_t i = 0; i < slots; ++i) vg->slot_cell[i][0] = INT32_MIN;
+    leap_atlas_visit(a, note_slot_cells, vg);
+    *out = vg;
+    return LEAP_OK;
+}
+
+void leap_value_gradients_destroy(leap_value_gradients *vg)
+{
+    if (!vg) return;
+    free(vg->slot_cell);
+    free(vg);
+}
+
+/* Texels first .. first + count - 1 (x fastest): per slot texel, the voxel's stored value and
+ * the half differences v[+1] - v[-1] of its neighbours, read from the slot where both lie in
+ * it, else through the page table; 0 in unused slots. */
+void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, size_t count, uint16_t *out)
+{
+    const leap_atlas *a = vg->atlas;
+    const size_t sy = a->texel_dims[0], sz = (size_t)a->texel_dims[0] * a->texel_dims[1];
+    const size_t stride[3] = {1, sy, sz};
+    for (size_t i = 0; i < count; ++i) {
+        const size_t at = first + i;
+        const size_t t[3] = {at % sy, at / sy % a->texel_dims[1], at / sz};
+        const size_t slot = t[0] / LEAP_SLOT + a->slot_dims[0] * (t[1] / LEAP_SLOT + a->slot_dims[1] * (t[2] / LEAP_SLOT));
+        const int32_t *cell = vg->slot_cell[slot];
+        uint16_t *o = out + 4 * i;
+        if (cell[0] == INT32_MIN) {
+            o[0] = o[1] = o[2] = o[3] = 0;
+            continue;
+        }
+        const int local[3] = {(int)(t[0] % LEAP_SLOT), (int)(t[1] % LEAP_SLOT), (int)(t[2] % LEAP_SLOT)};
+        for (int axis = 0; axis < 3; ++axis) {
+            int32_t lo_v, hi_v;
+            if (local[axis] > 0 && local[axis] < LEAP_SLOT - 1) {
+                lo_v = a->texels[at - stride[axis]];
+                hi_v = a->texels[at + stride[axis]];
+            } else {
+                int32_t v[3] = {cell[0] * LEAP_CELL + local[0], cell[1] * LEAP_CELL + local[1], cell[2] * LEAP_CELL + local[2]};
+                v[axis] -= 1;
+                lo_v = stored_value(a, v);
+                v[axis] += 2;
+                hi_v = stored_value(a, v);
+            }
+            const long half = LEAP_GRADIENT_ZERO + lrint((double)(hi_v - lo_v) * 0.5);
+            o[1 + axis] = (uint16_t)(half > 65535 ? 65535 : half);
+        }
+        o[0] = a->texels[at];
+    }
+}
+
+leap_result leap_atlas_value_gradients(const leap_atlas *a, uint16_t **out, leap_error *err)
+{
+    *out = NULL;
+    leap_value_gradients *vg;
+    leap_result lr = leap_value_gradients_create(a, &vg, err);
+    if (lr) return lr;
     const size_t texels = (size_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2];
-    uint16_t *g = calloc(texels ? texels * 4 : 4, sizeof *g);
-    if (!g)
+    uint16_t *g = malloc((texels ? texels : 1) * 4 * sizeof *g);
+    if (!g) {
+        leap_value_gradients_destroy(vg);
         return leap_fail(err, LEAP_ERR_OOM, "out of host memory for the gradients (%.1f MiB)",
                          (double)texels * 8 / (1 << 20));
-    block_gradients_job job = {a, g};
-    leap_atlas_visit(a, block_gradients, &job);
+    }
+    leap_value_gradients_fill(vg, 0, texels, g);
+    leap_value_gradients_destroy(vg);
     *out = g;
     return LEAP_OK;
 }
