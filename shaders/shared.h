@@ -44,7 +44,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
                                      opacity corrected for the step */
 #define LEAP_BINDING_VALUE_GRADIENTS 14 /* sampler3D, RGBA16 UNORM, the atlas's slots: per voxel
                                      its stored value and LEAP_GRADIENT_ZERO + (v[+1] - v[-1]) / 2
-                                     per axis (leap_atlas_value_gradients); shading only (else the
+                                     per axis (leap_value_gradients_fill); shading only (else the
                                      atlas is bound here, never read) */
 #define LEAP_GRADIENT_ZERO 32768 /* the stored half difference 0 */
 #define LEAP_BINDING_SLOT_RANGES 15 /* storage uint[] per atlas slot (x + slots_x * (y + slots_y * z)):

@@ -368,7 +368,7 @@ static void check_atlas(const leap_atlas *a, const leap_grid_info *info, int den
 }
 
 /* A wide atlas (shading): every voxel decodes right, every constant cell's gradient footprint
- * (voxels 8c-1 .. 8c+9) is one value, and leap_atlas_value_gradients gives each slot texel its
+ * (voxels 8c-1 .. 8c+9) is one value, and leap_value_gradients_fill gives each slot texel its
  * value and the half difference of its neighbours' values, decoded independently here. */
 static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const leap_grid_info *info)
 {
@@ -379,7 +379,15 @@ static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const l
     long constant_cells = 0, uneven = 0, texels = 0, wrong = 0;
     uint16_t *g = NULL;
     leap_error err = {{0}};
-    CHECK_OK(leap_atlas_value_gradients(wide, &g, &err), &err);
+    leap_value_gradients *vg = NULL;
+    CHECK_OK(leap_value_gradients_create(wide, &vg, &err), &err);
+    const size_t all = (size_t)wide->texel_dims[0] * wide->texel_dims[1] * wide->texel_dims[2];
+    g = malloc(all * 4 * sizeof *g);
+    CHECK(g != NULL);
+    /* in uneven runs that cross rows and planes, as an image's pitches may cut them */
+    for (size_t first = 0, run = 1; g && vg && first < all; first += run, run = run * 3 % 1000 + 1)
+        leap_value_gradients_fill(vg, first, first + run <= all ? run : all - first, g + 4 * first);
+    leap_value_gradients_destroy(vg);
     const int64_t limit[3] = {(int64_t)wide->cells[0] * LEAP_CELL - 1, (int64_t)wide->cells[1] * LEAP_CELL - 1,
                               (int64_t)wide->cells[2] * LEAP_CELL - 1};
     for (uint32_t cz = 0; cz < wide->cells[2]; ++cz)
@@ -427,8 +435,8 @@ static void check_wide(const leap_atlas *wide, const leap_atlas *sparse, const l
     CHECK_MSG(wrong == 0 && texels > 0, "wide: %ld of %ld gradients wrong", wrong, texels);
     free(g);
     /* an atlas not built for shading has no gradients */
-    g = NULL;
-    CHECK(leap_atlas_value_gradients(sparse, &g, &err) == LEAP_ERR_USAGE && g == NULL);
+    vg = NULL;
+    CHECK(leap_value_gradients_create(sparse, &vg, &err) == LEAP_ERR_USAGE && vg == NULL);
 }
 
 /* Value of the spread grid at index (x, y, z): 8^3 leaves at the corners of a box `half`

@@ -34,7 +34,7 @@ typedef struct leap_atlas_desc {
 /* Read-only for other modules. */
 typedef struct leap_atlas {
     int empty;                 /* 1 when the grid has no active voxels */
-    int wide;                  /* built with leap_atlas_desc.wide (needed for leap_atlas_value_gradients) */
+    int wide;                  /* built with leap_atlas_desc.wide (needed for leap_value_gradients_create) */
     int32_t origin[3];         /* absolute index coordinate of relative (0,0,0), multiple of 8 */
     uint32_t cells[3];         /* cells per axis */
     uint32_t block_shift;      /* page blocks are (1 << block_shift)^3 cells */
@@ -99,13 +99,11 @@ void leap_atlas_label_classes(const leap_atlas *atlas, const leap_labels *labels
 /* Gradient shading: per texel of the atlas, 4 UNORM16 values: the stored value, then per axis
  * x, y, z LEAP_GRADIENT_ZERO + the half difference of the neighbours' stored values
  * (v[+1] - v[-1]) / 2, rounded and clamped to 16 bits; so one filtered read gives a shaded
- * sample its value and its gradient (see src/volume/gradients.c). *out is malloc'ed.
- * Errors: LEAP_ERR_USAGE (a label atlas, or one not built wide), LEAP_ERR_OOM. */
-leap_result leap_atlas_value_gradients(const leap_atlas *atlas, uint16_t **out, leap_error *err);
-
-/* The same texels written in any order, straight into an image's memory: create (the slots'
- * cells; same errors), fill texels first .. first + count - 1 (x fastest; 4 values each) as
- * often as needed, destroy (accepts NULL). The atlas must outlive it. */
+ * sample its value and its gradient (see src/volume/gradients.c). Written in any order,
+ * straight into an image's memory: create (the slots' cells; errors: LEAP_ERR_USAGE for a
+ * label atlas or one not built wide, LEAP_ERR_OOM), fill texels first .. first + count - 1
+ * (x fastest; 4 values each, 0 in unused slots) as often as needed, destroy (accepts NULL).
+ * The atlas must outlive it. */
 typedef struct leap_value_gradients leap_value_gradients;
 leap_result leap_value_gradients_create(const leap_atlas *atlas, leap_value_gradients **out, leap_error *err);
 void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, size_t count, uint16_t *out);

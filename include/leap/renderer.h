@@ -97,7 +97,7 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 /* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after). */
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
 
-/* Shading: uploads the values and gradients of the volume's atlas (leap_atlas_value_gradients;
+/* Shading: uploads the values and gradients of the volume's atlas (leap_value_gradients_fill;
  * 8 bytes per atlas texel), once per atlas; shaded frames read both with one filtered fetch.
  * leap_renderer_bind_scene does it when the scene is shaded. */
 leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas *atlas, leap_error *err);

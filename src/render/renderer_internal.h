@@ -48,7 +48,7 @@ struct leap_renderer {
     VkDescriptorSet set;
     leap_buffer frame;
     leap_image atlas;
-    leap_image value_gradients;      /* shading: leap_atlas_value_gradients of the atlas with the serial */
+    leap_image value_gradients;      /* shading: leap_value_gradients_fill of the atlas with the serial */
     uint64_t value_gradients_serial; /* 0: none */
     uint32_t texel_dims[3];          /* the volume's atlas texels per axis (the images' extent) */
     leap_buffer pages;

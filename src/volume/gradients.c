@@ -96,9 +96,13 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
     const leap_atlas *a = vg->atlas;
     const size_t sy = a->texel_dims[0], sz = (size_t)a->texel_dims[0] * a->texel_dims[1];
     const size_t stride[3] = {1, sy, sz};
-    for (size_t i = 0; i < count; ++i) {
+    size_t t[3] = {first % sy, first / sy % a->texel_dims[1], first / sz}; /* texel first + i */
+    for (size_t i = 0; i < count; ++i, t[0] = t[0] + 1 < sy ? t[0] + 1 : 0) {
+        if (i > 0 && t[0] == 0 && ++t[1] == a->texel_dims[1]) {
+            t[1] = 0;
+            ++t[2];
+        }
         const size_t at = first + i;
-        const size_t t[3] = {at % sy, at / sy % a->texel_dims[1], at / sz};
         const size_t slot = t[0] / LEAP_SLOT + a->slot_dims[0] * (t[1] / LEAP_SLOT + a->slot_dims[1] * (t[2] / LEAP_SLOT));
         const int32_t *cell = vg->slot_cell[slot];
         uint16_t *o = out + 4 * i;
@@ -124,23 +128,4 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
         }
         o[0] = a->texels[at];
     }
-}
-
-leap_result leap_atlas_value_gradients(const leap_atlas *a, uint16_t **out, leap_error *err)
-{
-    *out = NULL;
-    leap_value_gradients *vg;
-    leap_result lr = leap_value_gradients_create(a, &vg, err);
-    if (lr) return lr;
-    const size_t texels = (size_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2];
-    uint16_t *g = malloc((texels ? texels : 1) * 4 * sizeof *g);
-    if (!g) {
-        leap_value_gradients_destroy(vg);
-        return leap_fail(err, LEAP_ERR_OOM, "out of host memory for the gradients (%.1f MiB)",
-                         (double)texels * 8 / (1 << 20));
-    }
-    leap_value_gradients_fill(vg, 0, texels, g);
-    leap_value_gradients_destroy(vg);
-    *out = g;
-    return LEAP_OK;
 }
