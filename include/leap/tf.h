@@ -79,6 +79,10 @@ double leap_tf_alpha_for_step(double alpha_tf, double dt);
 #define LEAP_TF_GPU_TABLE_SIZE ((LEAP_TF_TABLE_SIZE - 1) * LEAP_TF_GPU_REFINE + 1)
 void leap_tf_gpu_table(const leap_tf *tf, double dt, int precorrect, float out[LEAP_TF_GPU_TABLE_SIZE][4]);
 
+/* The first and the last of `count` RGBA entries whose opacity is above 0 (*first = count and
+ * *last = -1 when none is): what MIP and minIP may skip lies outside them. */
+void leap_tf_visible_span(const float (*rgba)[4], int count, int *first, int *last);
+
 /* The largest opacity error of one sample that a precorrected table at step dt makes (exact
  * maximum of the chord error over every table interval). Small for smooth opacity; large
  * where opacity jumps within one entry (label presets) or rises to 1 at steps below 2. */

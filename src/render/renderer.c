@@ -282,11 +282,10 @@ leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_erro
      * centre of that end's last entry (the filtered table is 0 up to there, and above it once
      * the next entry is not). Signed coordinates: minIP keeps -x (leap_mip_sample). */
     const int n = LEAP_TF_GPU_TABLE_SIZE;
-    int low = 0, high = n - 1;
-    while (low < n && table[low][3] == 0.0f) ++low;
-    while (high >= 0 && table[high][3] == 0.0f) --high;
-    r->mip_floor[0] = low > 0 ? (float)((low - 0.5) / n) : -2.0f;
-    r->mip_floor[1] = high < n - 1 ? (float)(-(high + 1.5) / n) : -2.0f;
+    int first, last;
+    leap_tf_visible_span(table, n, &first, &last);
+    r->mip_floor[0] = first > 0 ? (float)((first - 0.5) / n) : -2.0f;
+    r->mip_floor[1] = last < n - 1 ? (float)(-(last + 1.5) / n) : -2.0f;
     leap_gpu_image_destroy(r->gpu, &r->tf);
     uint32_t extent[3] = {LEAP_TF_GPU_TABLE_SIZE, 0, 0};
     leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, table, bytes, &r->tf, err);

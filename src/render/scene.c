@@ -220,9 +220,8 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
      * minIP: likewise above every non-zero opacity, up to the last non-zero entry. */
     leap_tf mip_classes;
     if (s->march.mip) {
-        int first = 0, last = LEAP_TF_TABLE_SIZE - 1;
-        while (first < LEAP_TF_TABLE_SIZE && !(s->tf.rgba[first][3] > 0.0f)) ++first;
-        while (last >= 0 && !(s->tf.rgba[last][3] > 0.0f)) --last;
+        int first, last;
+        leap_tf_visible_span(s->tf.rgba, LEAP_TF_TABLE_SIZE, &first, &last);
         for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
             mip_classes.rgba[i][0] = mip_classes.rgba[i][1] = mip_classes.rgba[i][2] = 1.0f;
             mip_classes.rgba[i][3] = (s->march.mip > 0 ? i >= first : i <= last) ? 1.0f : 0.0f;

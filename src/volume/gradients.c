@@ -12,6 +12,12 @@
 
 #include "shared.h"
 
+/* Slot coordinate along axis i of a slot cell's page entry. */
+static uint32_t entry_slot(uint32_t entry, int i)
+{
+    return (entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
+}
+
 /* The stored value of voxel v (relative index space) through the page table, as the shader
  * reads it; v is clamped into the page grid (whose border cells are spare background). */
 static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
@@ -29,7 +35,7 @@ static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
     if (entry & LEAP_PAGE_CONST) return (uint16_t)(entry & 0xffffu);
     size_t texel[3];
     for (int i = 0; i < 3; ++i)
-        texel[i] = (size_t)((entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK) * LEAP_SLOT +
+        texel[i] = (size_t)entry_slot(entry, i) * LEAP_SLOT +
                    (size_t)(v[i] - (int32_t)cell[i] * LEAP_CELL);
     return a->texels[texel[0] + a->texel_dims[0] * (texel[1] + a->texel_dims[1] * texel[2])];
 }
@@ -50,9 +56,7 @@ static int note_slot_cells(void *ctx, const uint32_t lo[3], uint32_t edge, uint3
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
         const uint32_t e = cells[k];
         if (e & LEAP_PAGE_CONST) continue;
-        const size_t slot = (e & LEAP_SLOT_MASK) +
-                            a->slot_dims[0] * (((e >> LEAP_SLOT_BITS) & LEAP_SLOT_MASK) +
-                                               a->slot_dims[1] * (size_t)((e >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK));
+        const size_t slot = entry_slot(e, 0) + a->slot_dims[0] * (entry_slot(e, 1) + a->slot_dims[1] * (size_t)entry_slot(e, 2));
         vg->slot_cell[slot][0] = (int32_t)(lo[0] | (k & mask));
         vg->slot_cell[slot][1] = (int32_t)(lo[1] | ((k >> shift) & mask));
         vg->slot_cell[slot][2] = (int32_t)(lo[2] | (k >> (2 * shift)));

@@ -651,6 +651,14 @@ static double refined(const leap_tf *tf, int i, int c)
     return a + (b - a) * ((double)k / LEAP_TF_GPU_REFINE);
 }
 
+void leap_tf_visible_span(const float (*rgba)[4], int count, int *first, int *last)
+{
+    *first = 0;
+    *last = count - 1;
+    while (*first < count && !(rgba[*first][3] > 0.0f)) ++*first;
+    while (*last >= 0 && !(rgba[*last][3] > 0.0f)) --*last;
+}
+
 void leap_tf_gpu_table(const leap_tf *tf, double dt, int precorrect, float out[LEAP_TF_GPU_TABLE_SIZE][4])
 {
     for (int i = 0; i < LEAP_TF_GPU_TABLE_SIZE; ++i) {
