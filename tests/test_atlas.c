@@ -136,13 +136,16 @@ static uint32_t cell_entry(const leap_atlas *a, const uint32_t c[3])
     return a->pages[at];
 }
 
-/* Texel at local position l (0..8 per axis) of the slot at packed position e. */
+/* Texel at local position l (0..8 per axis) of the slot at packed position e, read as the GPU
+ * image lays it out (leap_atlas_texels). */
 static uint16_t slot_texel(const leap_atlas *a, uint32_t e, const int l[3])
 {
     size_t x = (size_t)(e & LEAP_SLOT_MASK) * LEAP_SLOT + l[0];
     size_t y = (size_t)(e >> LEAP_SLOT_BITS & LEAP_SLOT_MASK) * LEAP_SLOT + l[1];
     size_t z = (size_t)(e >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK) * LEAP_SLOT + l[2];
-    return a->texels[x + a->texel_dims[0] * (y + a->texel_dims[1] * z)];
+    uint16_t t;
+    leap_atlas_texels(a, x + a->texel_dims[0] * (y + a->texel_dims[1] * z), 1, &t);
+    return t;
 }
 
 /* 16-bit code of the voxel at relative position p (inside the cell grid). */
@@ -336,7 +339,7 @@ static void check_atlas(const leap_atlas *a, const leap_grid_info *info, int den
     CHECK_NEAR(a->value_min, 0.0, 0);
     CHECK_NEAR(a->value_max, 1.0, 0);
     CHECK(expected_code(a, 0.0) == 0 && expected_code(a, 1.0) == 65535);
-    CHECK(sizeof a->texels[0] == 2);
+    CHECK(sizeof a->slot_texels[0] == 2);
     /* one spare cell below the active box, the marching box its voxels' extent */
     leap_march m;
     memset(&m, 0, sizeof m);
@@ -559,6 +562,20 @@ int main(void)
             CHECK_MSG(rs.const_tile_cells == rs.tile_interior_cells, "sparse: %ld of %ld tile-interior cells constant",
                       rs.const_tile_cells, rs.tile_interior_cells);
             CHECK(sparse->block_count < sparse->top_count);
+        }
+        /* Threads read the cells in chunks and commit them in order: every build is the same. */
+        for (int again = 0; again < 4 && sparse; ++again) {
+            leap_atlas *twin = NULL;
+            CHECK_OK(leap_atlas_create(&d0, &twin, &err), &err);
+            if (!twin) break;
+            CHECK(twin->slot_count == sparse->slot_count && twin->page_words == sparse->page_words);
+            if (twin->slot_count == sparse->slot_count && twin->page_words == sparse->page_words) {
+                CHECK_MSG(!memcmp(twin->pages, sparse->pages, sparse->page_words * sizeof *sparse->pages) &&
+                              !memcmp(twin->slot_texels, sparse->slot_texels,
+                                      (size_t)sparse->slot_count * LEAP_SLOT * LEAP_SLOT * LEAP_SLOT * 2),
+                          "build %d of the same grid differs", again + 2);
+            }
+            leap_atlas_destroy(twin);
         }
         /* dense: every candidate cell gets a slot, even a constant one */
         leap_atlas_desc d1 = {.grid = grid, .dense = 1};

@@ -49,7 +49,10 @@ typedef struct leap_atlas {
     uint32_t slot_count;
     uint32_t slot_dims[3];     /* slots per atlas axis */
     uint32_t texel_dims[3];    /* atlas texels per axis = slot_dims * LEAP_SLOT */
-    uint16_t *texels;          /* texel_dims product, x fastest */
+    uint16_t *slot_texels;     /* LEAP_SLOT^3 texels per slot (x fastest), for slots
+                                * d = x + slot_dims[0] * (y + slot_dims[1] * z) < slot_count (the
+                                * others are unused). Only the GPU image holds the 3D layout of
+                                * texel_dims (leap_atlas_texels), so the host keeps one copy. */
     uint32_t *slot_ranges;     /* per slot (x + slot_dims[0] * (y + slot_dims[1] * z)): its smallest texel
                                 * | largest << 16 (MIP skipping) */
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
@@ -84,6 +87,10 @@ uint32_t leap_atlas_cell_entry(const leap_atlas *atlas, const uint32_t cell[3]);
 typedef int (*leap_atlas_visit_fn)(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry,
                                    const uint32_t *cells);
 int leap_atlas_visit(const leap_atlas *atlas, leap_atlas_visit_fn visit, void *ctx);
+
+/* The texels as the GPU image lays them out (texel_dims, x fastest): texels first .. first +
+ * count - 1 into out, 0 in unused slots. */
+void leap_atlas_texels(const leap_atlas *atlas, size_t first, size_t count, uint16_t *out);
 
 /* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);

@@ -109,12 +109,23 @@ const char *leap_renderer_driver_name(const leap_renderer *r) { return r->driver
  * the origin, 96x96: RMSE 5.7e-5 at 2^16, 2.0e-4 at 2^18, 2.6e-3 at 2^22, 4.2e-2 at 2^24). */
 #define LEAP_FLOAT_POSITION_LIMIT 131072.0
 
-/* The atlas's 16-bit values as floats, decoded as the shader decodes a constant cell's. */
-static void decode_texels(void *dst, size_t first, size_t count, const void *ctx)
+/* The atlas's texels in the image's layout (leap_atlas_texels): 16-bit, or as floats decoded
+ * as the shader decodes a constant cell's. */
+static void atlas_texels16(void *dst, size_t first, size_t count, const void *ctx)
 {
-    const uint16_t *texels = (const uint16_t *)ctx + first;
+    leap_atlas_texels(ctx, first, count, dst);
+}
+
+static void atlas_texels_float(void *dst, size_t first, size_t count, const void *ctx)
+{
     float *values = dst;
-    for (size_t i = 0; i < count; ++i) values[i] = (float)texels[i] * (float)(1.0 / 65535.0);
+    uint16_t chunk[4096];
+    for (size_t done = 0; done < count;) {
+        const size_t n = count - done < 4096 ? count - done : 4096;
+        leap_atlas_texels(ctx, first + done, n, chunk);
+        for (size_t i = 0; i < n; ++i) values[done + i] = (float)chunk[i] * (float)(1.0 / 65535.0);
+        done += n;
+    }
 }
 
 /* Each slot's smallest and largest stored value, for MIP's test of a cell that cannot raise a
@@ -140,15 +151,15 @@ static leap_result upload_values(leap_renderer *r, const leap_atlas *atlas, leap
                    texels <= r->float_atlas_max_bytes / sizeof(float);
     if (float_ok) {
         r->texel_bytes = sizeof(float);
-        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, sizeof(float), decode_texels,
-                                 atlas->texels, &r->atlas, err);
+        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R32_SFLOAT, atlas->texel_dims, sizeof(float), atlas_texels_float,
+                                 atlas, &r->atlas, err);
     }
     if (lr) {
-        /* Too large for float, not filterable, or the float image did not fit: 16 bits give
-         * the same values, slower. */
+        /* Asked for (a single render), too large for float, not filterable, or the float image
+         * did not fit: 16 bits give the same values, slower. */
         r->texel_bytes = sizeof(uint16_t);
-        lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, atlas->texels,
-                                   texels * sizeof(uint16_t), &r->atlas, err);
+        lr = leap_gpu_image_fill(r->gpu, VK_FORMAT_R16_UNORM, atlas->texel_dims, sizeof(uint16_t), atlas_texels16,
+                                 atlas, &r->atlas, err);
     }
     return lr;
 }

@@ -3,6 +3,8 @@
 #include "util.h"
 
 #include <math.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -39,6 +41,8 @@ typedef struct builder {
     uint32_t blocks_cap;
     uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
+    uint32_t *ranges;         /* per slot, in allocation order: smallest texel | largest << 16 */
+    size_t ranges_cap;
     int page_overflow;        /* the cell level of the page table did not fit */
     const leap_labels *labels; /* label atlas: its objects */
     leap_grid_reader *label_reader;
@@ -162,6 +166,14 @@ typedef struct key_list {
     size_t count, cap;
 } key_list;
 
+/* The cell of a key (x + cells[0] * (y + cells[1] * z)). */
+static void key_cell(const leap_atlas *a, uint64_t key, uint32_t c[3])
+{
+    c[0] = (uint32_t)(key % a->cells[0]);
+    c[1] = (uint32_t)(key / a->cells[0] % a->cells[1]);
+    c[2] = (uint32_t)(key / a->cells[0] / a->cells[1]);
+}
+
 /* Adds every cell in [lo, hi] (inclusive, clamped to the cell grid) to the list. */
 static int add_cells(key_list *l, const leap_atlas *a, const int64_t lo[3], const int64_t hi[3])
 {
@@ -243,8 +255,8 @@ static uint64_t atlas_texels_for(uint64_t n)
     return sx * sy * sz * SLOT_TEXELS;
 }
 
-/* The most slots whose 16-bit atlas fits one device allocation and, twice over (the slots
- * as built and the placed atlas), the host memory available now. */
+/* The most slots whose 16-bit atlas fits one device allocation, and whose texels fit the host
+ * memory available now (the host keeps them once: leap_atlas.slot_texels). */
 static uint64_t slot_budget(void)
 {
     uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
@@ -252,7 +264,7 @@ static uint64_t slot_budget(void)
     double host = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
     while (lo < hi) { /* largest n that fits (texels grow with n) */
         uint64_t mid = lo + (hi - lo + 1) / 2, t = atlas_texels_for(mid);
-        int fits = t != 0 && (double)t * 2 <= LEAP_ATLAS_MAX_BYTES && (double)mid * SLOT_TEXELS * 2 + (double)t * 2 <= host;
+        int fits = t != 0 && (double)t * 2 <= LEAP_ATLAS_MAX_BYTES && (double)mid * SLOT_TEXELS * 2 <= host;
         if (fits) lo = mid; else hi = mid - 1;
     }
     return lo;
@@ -267,6 +279,41 @@ static leap_result slots_too_many(uint64_t slots, const char *how, leap_error *e
                      "tile faces included, needs a brick)",
                      how, (unsigned long long)slots, (double)slots * SLOT_TEXELS * 2 / gib,
                      (unsigned long long)slot_budget(), LEAP_ATLAS_MAX_BYTES / gib);
+}
+
+/* Reads cell c's footprint: 1 and *entry for a constant cell, else 0 with its texels in q. */
+static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32_t c[3], int dense, uint16_t *q,
+                     uint32_t *entry, uint32_t *range)
+{
+    /* Wide: the footprint read is one voxel larger on every side, the slot its middle. */
+    enum { WIDE = LEAP_SLOT + 2 };
+    float vals[WIDE * WIDE * WIDE];
+    const int32_t edge = LEAP_SLOT + 2 * a->wide;
+    int32_t min[3], dim[3] = {edge, edge, edge};
+    for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL - a->wide);
+    leap_grid_reader_box(reader, min, dim, vals);
+    int uniform = 1;
+    const uint16_t first = quantize(a, vals[0]);
+    uint16_t lo = 0xffff, hi = 0;
+    const float *v = vals;
+    for (int z = 0; z < edge; ++z)
+        for (int y = 0; y < edge; ++y) {
+            const int sy = y - a->wide, sz = z - a->wide;
+            const int row = sy >= 0 && sy < LEAP_SLOT && sz >= 0 && sz < LEAP_SLOT ? LEAP_SLOT * (sy + LEAP_SLOT * sz) : -1;
+            for (int x = 0; x < edge; ++x) {
+                const uint16_t t = quantize(a, *v++);
+                uniform &= t == first;
+                const int sx = x - a->wide;
+                if (row >= 0 && sx >= 0 && sx < LEAP_SLOT) {
+                    q[row + sx] = t;
+                    lo = t < lo ? t : lo;
+                    hi = t > hi ? t : hi;
+                }
+            }
+        }
+    *entry = const_entry(first);
+    *range = (uint32_t)lo | (uint32_t)hi << 16;
+    return uniform && !dense;
 }
 
 /* Before the candidate cells are read (about 12 us each): when they are more than the slot
@@ -284,19 +331,13 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
     leap_grid_reader *reader;
     leap_result r = leap_grid_reader_create(grid, &reader, err);
     if (r) return r;
-    float vals[SLOT_TEXELS];
-    uint32_t seed = 0x9e3779b9u, hits = 0;
+    uint16_t q[SLOT_TEXELS];
+    uint32_t seed = 0x9e3779b9u, hits = 0, entry, range;
     for (int s = 0; s < BUDGET_SAMPLES; ++s) {
         seed ^= seed << 13, seed ^= seed >> 17, seed ^= seed << 5;
-        uint64_t k = unique[(uint64_t)seed * n >> 32];
-        int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
-        uint64_t c[3] = {k % a->cells[0], k / a->cells[0] % a->cells[1], k / a->cells[0] / a->cells[1]};
-        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
-        leap_grid_reader_box(reader, min, dim, vals);
-        uint16_t q0 = quantize(a, vals[0]);
-        int uniform = 1;
-        for (int j = 1; j < SLOT_TEXELS && uniform; ++j) uniform = quantize(a, vals[j]) == q0;
-        hits += !uniform;
+        uint32_t c[3];
+        key_cell(a, unique[(uint64_t)seed * n >> 32], c);
+        hits += !read_cell(a, reader, c, 0, q, &entry, &range);
     }
     leap_grid_reader_destroy(reader);
     double p = (double)hits / BUDGET_SAMPLES, sigma = sqrt(p * (1 - p) / BUDGET_SAMPLES);
@@ -315,8 +356,8 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
     leap_result r = LEAP_OK;
     for (size_t i = 0; i < l->count && !r; ++i) {
         uint64_t k = l->keys[i];
-        uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
-                         (uint32_t)(k / a->cells[0] / a->cells[1])};
+        uint32_t c[3];
+        key_cell(a, k, c);
         int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
         for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
         leap_grid_reader_labels(b->label_reader, min, dim, ids);
@@ -384,6 +425,100 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
     return r;
 }
 
+/* The candidate cells are read in chunks by a few threads: a chunk's footprints are read and
+ * quantised on any thread, then committed in key order (slot numbers, page entries, copies
+ * into the slots), so the atlas is the one a single thread builds. */
+#define FILL_CHUNK_KEYS 256
+#define FILL_MAX_THREADS 8
+
+typedef struct fill_shared {
+    builder *b;
+    const key_list *keys;
+    int dense;
+    uint64_t budget;
+    size_t chunk_count;
+    atomic_size_t next_chunk;
+    pthread_mutex_t lock;
+    pthread_cond_t turn;
+    size_t committed; /* chunks committed so far, in order */
+    atomic_int failed; /* set under the lock; stops every worker */
+    leap_result r;
+    leap_error *err;
+} fill_shared;
+
+typedef struct fill_worker {
+    fill_shared *sh;
+    leap_grid_reader *reader;
+    uint32_t entries[FILL_CHUNK_KEYS];          /* a constant entry, or LEAP_PAGE_CONST clear: a slot */
+    uint32_t ranges[FILL_CHUNK_KEYS];           /* the chunk's slots' smallest | largest << 16 */
+    uint16_t slots[FILL_CHUNK_KEYS * SLOT_TEXELS]; /* the chunk's slots' texels, in key order */
+} fill_worker;
+
+/* The keys of chunk k: *first and the count. */
+static size_t chunk_keys(const fill_shared *sh, size_t k, size_t *first)
+{
+    *first = k * FILL_CHUNK_KEYS;
+    return sh->keys->count - *first < FILL_CHUNK_KEYS ? sh->keys->count - *first : FILL_CHUNK_KEYS;
+}
+
+/* Chunk k's cells, in key order, into the builder: constants, or new slots. Under the lock. */
+static leap_result commit_chunk(fill_shared *sh, const fill_worker *w, size_t k)
+{
+    builder *b = sh->b;
+    leap_atlas *a = b->a;
+    size_t first, used = 0;
+    const size_t n = chunk_keys(sh, k, &first);
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t c[3];
+        key_cell(a, sh->keys->keys[first + i], c);
+        uint32_t entry = w->entries[i];
+        if (!(entry & LEAP_PAGE_CONST)) {
+            if (a->slot_count + 1 > sh->budget) return slots_too_many(a->slot_count + 1, "more than", sh->err);
+            if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t)) ||
+                !leap__grow((void **)&b->ranges, &b->ranges_cap, (size_t)a->slot_count + 1, sizeof(uint32_t)))
+                return leap_fail(sh->err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
+            memcpy(b->slots + (size_t)a->slot_count * SLOT_TEXELS, w->slots + used * SLOT_TEXELS, SLOT_TEXELS * sizeof(uint16_t));
+            b->ranges[a->slot_count] = w->ranges[used++];
+            entry = a->slot_count++;
+        }
+        leap_result r = set_cell(b, c, entry, sh->err);
+        if (r) return r;
+    }
+    return LEAP_OK;
+}
+
+static void *fill_run(void *arg)
+{
+    fill_worker *w = arg;
+    fill_shared *sh = w->sh;
+    const leap_atlas *a = sh->b->a;
+    for (;;) {
+        const size_t k = atomic_fetch_add(&sh->next_chunk, 1);
+        if (k >= sh->chunk_count) break;
+        size_t first, used = 0;
+        const size_t n = chunk_keys(sh, k, &first);
+        for (size_t i = 0; i < n && !atomic_load_explicit(&sh->failed, memory_order_relaxed); ++i) {
+            uint32_t c[3], range;
+            key_cell(a, sh->keys->keys[first + i], c);
+            if (!read_cell(a, w->reader, c, sh->dense, w->slots + used * SLOT_TEXELS, &w->entries[i], &range)) {
+                w->entries[i] = 0; /* a slot: numbered when committed */
+                w->ranges[used++] = range;
+            }
+        }
+        pthread_mutex_lock(&sh->lock);
+        while (sh->committed != k && !atomic_load(&sh->failed)) pthread_cond_wait(&sh->turn, &sh->lock);
+        if (!atomic_load(&sh->failed)) {
+            sh->r = commit_chunk(sh, w, k);
+            atomic_store(&sh->failed, sh->r != LEAP_OK);
+        }
+        sh->committed++;
+        pthread_cond_broadcast(&sh->turn);
+        pthread_mutex_unlock(&sh->lock);
+        if (atomic_load(&sh->failed)) break;
+    }
+    return NULL;
+}
+
 /* Reads the footprint of each candidate cell; uniform footprints become constants, the
  * rest atlas slots. */
 static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *grid, int dense,
@@ -396,56 +531,38 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (i == 0 || l->keys[i] != l->keys[i - 1]) l->keys[unique++] = l->keys[i];
     l->count = unique;
     if (a->labels) return fill_label_cells(b, l, dense, err);
-    const uint64_t budget = slot_budget();
-    leap_result r = check_slot_estimate(b, l->keys, unique, grid, budget, err);
+    fill_shared sh = {.b = b, .keys = l, .dense = dense, .budget = slot_budget(), .err = err,
+                      .chunk_count = (unique + FILL_CHUNK_KEYS - 1) / FILL_CHUNK_KEYS};
+    leap_result r = check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
     if (r) return r;
-    leap_grid_reader *reader;
-    r = leap_grid_reader_create(grid, &reader, err);
-    if (r) return r;
-    /* Wide: the footprint read is one voxel larger on every side, the slot its middle. */
-    enum { WIDE = LEAP_SLOT + 2 };
-    float vals[WIDE * WIDE * WIDE];
-    uint16_t q[SLOT_TEXELS];
-    const int32_t edge = LEAP_SLOT + 2 * a->wide;
-    for (size_t i = 0; i < l->count && !r; ++i) {
-        uint64_t k = l->keys[i];
-        uint32_t c[3] = {(uint32_t)(k % a->cells[0]), (uint32_t)(k / a->cells[0] % a->cells[1]),
-                         (uint32_t)(k / a->cells[0] / a->cells[1])};
-        int32_t min[3], dim[3] = {edge, edge, edge};
-        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL - a->wide);
-        leap_grid_reader_box(reader, min, dim, vals);
-        int uniform = 1;
-        const uint16_t first = quantize(a, vals[0]);
-        const float *v = vals;
-        for (int z = 0; z < edge; ++z)
-            for (int y = 0; y < edge; ++y) {
-                const int sy = y - a->wide, sz = z - a->wide;
-                const int row = sy >= 0 && sy < LEAP_SLOT && sz >= 0 && sz < LEAP_SLOT ? LEAP_SLOT * (sy + LEAP_SLOT * sz) : -1;
-                for (int x = 0; x < edge; ++x) {
-                    const uint16_t t = quantize(a, *v++);
-                    uniform &= t == first;
-                    const int sx = x - a->wide;
-                    if (row >= 0 && sx >= 0 && sx < LEAP_SLOT) q[row + sx] = t;
-                }
-            }
-        uint32_t entry;
-        if (uniform && !dense) {
-            entry = const_entry(first);
-        } else {
-            if (a->slot_count + 1 > budget) {
-                r = slots_too_many(a->slot_count + 1, "more than", err);
-                break;
-            }
-            if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t))) {
-                r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
-                break;
-            }
-            memcpy(b->slots + (size_t)a->slot_count * SLOT_TEXELS, q, sizeof q);
-            entry = a->slot_count++;
-        }
-        if (!r) r = set_cell(b, c, entry, err);
+    long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    size_t threads = cpus > 1 ? (size_t)cpus : 1;
+    if (threads > FILL_MAX_THREADS) threads = FILL_MAX_THREADS;
+    if (threads > sh.chunk_count) threads = sh.chunk_count ? sh.chunk_count : 1;
+    fill_worker *workers = calloc(threads, sizeof *workers);
+    pthread_t tids[FILL_MAX_THREADS];
+    int started[FILL_MAX_THREADS] = {0};
+    if (!workers) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+    for (size_t i = 0; i < threads && !r; ++i) {
+        workers[i].sh = &sh;
+        r = leap_grid_reader_create(grid, &workers[i].reader, err);
     }
-    leap_grid_reader_destroy(reader);
+    if (!r) {
+        atomic_init(&sh.next_chunk, 0);
+        atomic_init(&sh.failed, 0);
+        pthread_mutex_init(&sh.lock, NULL);
+        pthread_cond_init(&sh.turn, NULL);
+        /* Worker 0 is this thread; one that cannot start leaves its share to the others. */
+        for (size_t i = 1; i < threads; ++i) started[i] = pthread_create(&tids[i], NULL, fill_run, &workers[i]) == 0;
+        fill_run(&workers[0]);
+        for (size_t i = 1; i < threads; ++i)
+            if (started[i]) pthread_join(tids[i], NULL);
+        pthread_cond_destroy(&sh.turn);
+        pthread_mutex_destroy(&sh.lock);
+        r = sh.r;
+    }
+    for (size_t i = 0; i < threads; ++i) leap_grid_reader_destroy(workers[i].reader);
+    free(workers);
     return r;
 }
 
@@ -557,28 +674,23 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
     }
     a->slot_dims[0] = sx, a->slot_dims[1] = sy, a->slot_dims[2] = sz;
     for (int i = 0; i < 3; ++i) a->texel_dims[i] = a->slot_dims[i] * LEAP_SLOT;
-    size_t texel_count = (size_t)a->texel_dims[0] * a->texel_dims[1] * a->texel_dims[2];
-    a->texels = calloc(texel_count, sizeof(uint16_t));
+    /* The slots keep their build order: unshuffled, the build's buffer is the atlas's. */
     a->slot_ranges = calloc((size_t)sx * sy * sz, sizeof(uint32_t));
-    if (!a->texels || !a->slot_ranges) {
+    const size_t slot_bytes = (size_t)(a->slot_count ? a->slot_count : 1) * SLOT_TEXELS * sizeof(uint16_t);
+    if (a->slot_ranges && !seed) {
+        a->slot_texels = a->slot_count ? realloc(b->slots, slot_bytes) : malloc(slot_bytes);
+        if (a->slot_texels && a->slot_count) b->slots = NULL;
+    } else if (a->slot_ranges) {
+        a->slot_texels = malloc(slot_bytes);
+    }
+    if (!a->slot_texels || !a->slot_ranges) {
         free(perm);
-        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %zu texels", texel_count);
+        return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count);
     }
     for (uint32_t s = 0; s < a->slot_count; ++s) {
-        uint32_t d = perm[s];
-        size_t x0 = (size_t)(d % sx) * LEAP_SLOT, y0 = (size_t)(d / sx % sy) * LEAP_SLOT,
-               z0 = (size_t)(d / (sx * sy)) * LEAP_SLOT;
-        const uint16_t *src = b->slots + (size_t)s * SLOT_TEXELS;
-        uint16_t lo = 0xffff, hi = 0;
-        for (int t = 0; t < SLOT_TEXELS; ++t) {
-            lo = src[t] < lo ? src[t] : lo;
-            hi = src[t] > hi ? src[t] : hi;
-        }
-        a->slot_ranges[d] = (uint32_t)lo | (uint32_t)hi << 16;
-        for (int z = 0; z < LEAP_SLOT; ++z)
-            for (int y = 0; y < LEAP_SLOT; ++y)
-                memcpy(a->texels + x0 + a->texel_dims[0] * ((y0 + y) + a->texel_dims[1] * (z0 + z)),
-                       src + LEAP_SLOT * (y + LEAP_SLOT * z), LEAP_SLOT * sizeof(uint16_t));
+        const uint32_t d = perm[s];
+        a->slot_ranges[d] = b->ranges[s];
+        if (seed) memcpy(a->slot_texels + (size_t)d * SLOT_TEXELS, b->slots + (size_t)s * SLOT_TEXELS, SLOT_TEXELS * sizeof(uint16_t));
     }
 
     for (uint32_t k = 0; k < a->block_count; ++k) {
@@ -713,17 +825,20 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
         free(b->blocks);
         free(b->slots);
+        free(b->ranges);
         free(b->dir.keys);
         free(b->dir.entries);
         b->blocks = NULL;
         b->slots = NULL;
+        b->ranges = NULL;
         if (!r) break;
         if (b->page_overflow && shift > LEAP_BLOCK_SHIFT_MIN)
             shift--;
         else
             break;
         free(a->pages); /* start over */
-        free(a->texels);
+        free(a->slot_texels);
+        free(a->slot_ranges);
         free(a->label_words);
         free(a->record_offsets);
         uint64_t serial = a->serial;
@@ -750,7 +865,7 @@ void leap_atlas_destroy(leap_atlas *atlas)
 {
     if (!atlas) return;
     free(atlas->pages);
-    free(atlas->texels);
+    free(atlas->slot_texels);
     free(atlas->slot_ranges);
     free(atlas->label_words);
     free(atlas->record_offsets);
@@ -763,6 +878,28 @@ void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march)
         march->index_origin[i] = atlas->origin[i];
         march->domain_min[i] = atlas->domain_min[i];
         march->domain_max[i] = atlas->domain_max[i];
+    }
+}
+
+void leap_atlas_texels(const leap_atlas *a, size_t first, size_t count, uint16_t *out)
+{
+    const size_t row = a->texel_dims[0];
+    size_t x = first % row, y = first / row % a->texel_dims[1], z = first / row / a->texel_dims[1];
+    while (count > 0) {
+        /* The rest of this texel row: LEAP_SLOT texels per slot along it, contiguous in each. */
+        const size_t end = row - x < count ? row : x + count;
+        count -= end - x;
+        const size_t row_slot = a->slot_dims[0] * (y / LEAP_SLOT + (size_t)a->slot_dims[1] * (z / LEAP_SLOT));
+        const uint16_t *in_slot = a->slot_texels + LEAP_SLOT * (y % LEAP_SLOT + LEAP_SLOT * (z % LEAP_SLOT));
+        for (size_t d = row_slot + x / LEAP_SLOT, l = x % LEAP_SLOT; x < end; ++d, l = 0) {
+            const uint16_t *src = in_slot + d * SLOT_TEXELS;
+            const int used = d < a->slot_count;
+            for (; l < LEAP_SLOT && x < end; ++l, ++x) *out++ = used ? src[l] : 0;
+        }
+        if (x == row) {
+            x = 0;
+            if (++y == a->texel_dims[1]) y = 0, ++z;
+        }
     }
 }
 

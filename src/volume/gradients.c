@@ -7,15 +7,24 @@
 #include "leap/atlas.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdlib.h>
 
 #include "shared.h"
 
+#define SLOT_TEXELS ((size_t)LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
+
 /* Slot coordinate along axis i of a slot cell's page entry. */
 static uint32_t entry_slot(uint32_t entry, int i)
 {
     return (entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
+}
+
+/* Index of a slot cell's slot (x + slot_dims[0] * (y + slot_dims[1] * z)), as slot_texels counts. */
+static size_t entry_slot_index(const leap_atlas *a, uint32_t entry)
+{
+    return entry_slot(entry, 0) + a->slot_dims[0] * (entry_slot(entry, 1) + a->slot_dims[1] * (size_t)entry_slot(entry, 2));
 }
 
 /* The stored value of voxel v (relative index space) through the page table, as the shader
@@ -33,11 +42,9 @@ static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
     }
     const uint32_t entry = leap_atlas_cell_entry(a, cell);
     if (entry & LEAP_PAGE_CONST) return (uint16_t)(entry & 0xffffu);
-    size_t texel[3];
-    for (int i = 0; i < 3; ++i)
-        texel[i] = (size_t)entry_slot(entry, i) * LEAP_SLOT +
-                   (size_t)(v[i] - (int32_t)cell[i] * LEAP_CELL);
-    return a->texels[texel[0] + a->texel_dims[0] * (texel[1] + a->texel_dims[1] * texel[2])];
+    const size_t slot = entry_slot_index(a, entry);
+    const int32_t l[3] = {v[0] & (LEAP_CELL - 1), v[1] & (LEAP_CELL - 1), v[2] & (LEAP_CELL - 1)};
+    return a->slot_texels[slot * SLOT_TEXELS + (size_t)(l[0] + LEAP_SLOT * (l[1] + LEAP_SLOT * l[2]))];
 }
 
 /* Which cell each slot holds (the page table's inverse), for filling texels in any order. */
@@ -56,7 +63,7 @@ static int note_slot_cells(void *ctx, const uint32_t lo[3], uint32_t edge, uint3
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
         const uint32_t e = cells[k];
         if (e & LEAP_PAGE_CONST) continue;
-        const size_t slot = entry_slot(e, 0) + a->slot_dims[0] * (entry_slot(e, 1) + a->slot_dims[1] * (size_t)entry_slot(e, 2));
+        const size_t slot = entry_slot_index(a, e);
         vg->slot_cell[slot][0] = (int32_t)(lo[0] | (k & mask));
         vg->slot_cell[slot][1] = (int32_t)(lo[1] | ((k >> shift) & mask));
         vg->slot_cell[slot][2] = (int32_t)(lo[2] | (k >> (2 * shift)));
@@ -98,15 +105,14 @@ void leap_value_gradients_destroy(leap_value_gradients *vg)
 void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, size_t count, uint16_t *out)
 {
     const leap_atlas *a = vg->atlas;
-    const size_t sy = a->texel_dims[0], sz = (size_t)a->texel_dims[0] * a->texel_dims[1];
-    const size_t stride[3] = {1, sy, sz};
-    size_t t[3] = {first % sy, first / sy % a->texel_dims[1], first / sz}; /* texel first + i */
+    const size_t sy = a->texel_dims[0];
+    const size_t stride[3] = {1, LEAP_SLOT, LEAP_SLOT * LEAP_SLOT}; /* inside a slot's texels */
+    size_t t[3] = {first % sy, first / sy % a->texel_dims[1], first / sy / a->texel_dims[1]}; /* texel first + i */
     for (size_t i = 0; i < count; ++i, t[0] = t[0] + 1 < sy ? t[0] + 1 : 0) {
         if (i > 0 && t[0] == 0 && ++t[1] == a->texel_dims[1]) {
             t[1] = 0;
             ++t[2];
         }
-        const size_t at = first + i;
         const size_t slot = t[0] / LEAP_SLOT + a->slot_dims[0] * (t[1] / LEAP_SLOT + a->slot_dims[1] * (t[2] / LEAP_SLOT));
         const int32_t *cell = vg->slot_cell[slot];
         uint16_t *o = out + 4 * i;
@@ -115,11 +121,12 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
             continue;
         }
         const int local[3] = {(int)(t[0] % LEAP_SLOT), (int)(t[1] % LEAP_SLOT), (int)(t[2] % LEAP_SLOT)};
+        const uint16_t *at = a->slot_texels + slot * SLOT_TEXELS + local[0] + stride[1] * local[1] + stride[2] * local[2];
         for (int axis = 0; axis < 3; ++axis) {
             int32_t lo_v, hi_v;
             if (local[axis] > 0 && local[axis] < LEAP_SLOT - 1) {
-                lo_v = a->texels[at - stride[axis]];
-                hi_v = a->texels[at + stride[axis]];
+                lo_v = at[-(ptrdiff_t)stride[axis]];
+                hi_v = at[stride[axis]];
             } else {
                 int32_t v[3] = {cell[0] * LEAP_CELL + local[0], cell[1] * LEAP_CELL + local[1], cell[2] * LEAP_CELL + local[2]};
                 v[axis] -= 1;
@@ -130,6 +137,6 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
             const long half = LEAP_GRADIENT_ZERO + lrint((double)(hi_v - lo_v) * 0.5);
             o[1 + axis] = (uint16_t)(half > 65535 ? 65535 : half);
         }
-        o[0] = a->texels[at];
+        o[0] = *at;
     }
 }
