@@ -267,6 +267,43 @@ static void long_box(leap_renderer *renderer)
     leap_scene_destroy(s);
 }
 
+/* What a single `leap render` does: the voxels released once the scene is built, the volume
+ * uploaded as 16-bit texels (float_16). Both give the float upload's image, byte for byte; what
+ * would need the voxels afterwards refuses with a usage error. */
+static void single_render(leap_renderer *float_32, leap_renderer *float_16)
+{
+    leap_error err = {{0}};
+    char path[1024];
+    snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, "sphere.vdb");
+    leap_scene *s = load_scene(path, NULL, "viridis", 0.5);
+    CHECK(s != NULL);
+    if (!s) return;
+    leap_camera cam;
+    CHECK(make_camera(s, &cameras[0], &cam));
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, W, H, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
+    float *a = calloc(W * H * 4, sizeof(float)), *b = calloc(W * H * 4, sizeof(float));
+    const leap_grid_info before = *s->info;
+    CHECK_OK(leap_renderer_bind_scene(float_32, s, &err), &err);
+    CHECK_OK(leap_renderer_render(float_32, &view, &s->march, LEAP_RENDER_SPARSELEAP, a, NULL, NULL, NULL, &err), &err);
+    leap_scene_release_voxels(s);
+    CHECK(s->grid == NULL && !memcmp(s->info, &before, sizeof before));
+    CHECK_OK(leap_renderer_bind_scene(float_16, s, &err), &err);
+    CHECK(strcmp(leap_renderer_atlas_format(float_16), "R16_UNORM") == 0);
+    CHECK_OK(leap_renderer_render(float_16, &view, &s->march, LEAP_RENDER_SPARSELEAP, b, NULL, NULL, NULL, &err), &err);
+    CHECK_MSG(!memcmp(a, b, W * H * 4 * sizeof(float)), "16-bit texels after releasing the voxels: another image");
+    leap_reference_desc rd = {.grid = s->grid, .tf = &s->tf, .rays = &view, .march = &s->march};
+    CHECK(leap_reference_render(&rd, b, NULL, NULL, &err) == LEAP_ERR_USAGE);
+    leap_shading shade = leap_shading_default();
+    CHECK(leap_scene_set_shading(s, &shade, &err) == LEAP_ERR_USAGE && strstr(err.msg, "released"));
+    CHECK_OK(leap_scene_set_tf(s, &s->tf, s->march.range_lo, 0.5 * (s->march.range_lo + s->march.range_hi), &err), &err);
+    leap_renderer_set_occupancy(float_32, NULL, NULL);
+    leap_renderer_set_occupancy(float_16, NULL, NULL);
+    leap_scene_destroy(s);
+    free(a);
+    free(b);
+}
+
 int main(void)
 {
     leap_renderer *renderer = make_renderer();
@@ -400,6 +437,9 @@ int main(void)
     CHECK(renderer != NULL);
     if (renderer) scattered_box(renderer);
     if (renderer) long_box(renderer);
+    leap_renderer *float_32 = make_renderer();
+    if (renderer && float_32) single_render(float_32, renderer);
+    leap_renderer_destroy(float_32);
     leap_renderer_destroy(renderer);
     return check_exit_code();
 }

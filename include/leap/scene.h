@@ -43,8 +43,9 @@ typedef struct leap_scene_desc {
 } leap_scene_desc;
 
 typedef struct leap_scene {
-    leap_grid *grid;
+    leap_grid *grid;           /* NULL once the voxels are released (leap_scene_release_voxels) */
     const leap_grid_info *info;
+    leap_grid_info kept_info;  /* info's copy once the grid is released */
     leap_atlas *atlas;
     leap_tf tf;
     leap_march march;
@@ -69,6 +70,13 @@ typedef struct leap_scene {
  * LEAP_ERR_OOM, LEAP_ERR_UNSUPPORTED. */
 leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err);
 void leap_scene_destroy(leap_scene *scene); /* accepts NULL */
+
+/* Frees the grid's voxels, for callers that only render on the GPU once the scene is built (a
+ * single `leap render`): on a large grid they are the biggest allocation. What needs them
+ * afterwards fails with LEAP_ERR_USAGE: the reference renderer (scene->grid is NULL) and
+ * switching shading on (it rebuilds the atlas). TF, range, step, MIP and object changes only
+ * re-classify, and still work. */
+void leap_scene_release_voxels(leap_scene *scene);
 
 /* Switches the transfer function and value range: re-classifies the stored brick ranges and
  * rebuilds the boxes (no voxel data is read). */

@@ -342,12 +342,12 @@ static leap_result validate(const leap_reference_desc *desc, leap_error *err)
 {
     if (!desc)
         return leap_fail(err, LEAP_ERR_USAGE, "reference: no render description");
-    if (desc->labels && !leap_grid_has_labels(desc->grid))
-        return leap_fail(err, LEAP_ERR_USAGE, "reference: objects given for a grid without labels");
     if (!desc->grid || !desc->tf || !desc->rays || !desc->march)
         return leap_fail(err, LEAP_ERR_USAGE,
-                         "reference: the description needs a grid, a transfer function, a view "
-                         "and march parameters");
+                         "reference: the description needs a grid (with its voxels), a transfer function, a "
+                         "view and march parameters");
+    if (desc->labels && !leap_grid_has_labels(desc->grid))
+        return leap_fail(err, LEAP_ERR_USAGE, "reference: objects given for a grid without labels");
     const leap_rays *v = desc->rays;
     const leap_march *m = desc->march;
     for (int c = 0; c < 3; ++c)
