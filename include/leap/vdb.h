@@ -159,12 +159,18 @@ void leap_grid_reader_labels(leap_grid_reader *reader, const int32_t min[3], con
 /* ---- Grids made in memory (imported formats) -------------------------------------- */
 
 /* A dense box of voxels, x fastest: voxel (x, y, z) has index (x, y, z) and the value
- * values[x + dim[0] * (y + dim[1] * z)] (or labels[...] for a segmentation; exactly one of
- * the two is set). */
+ * values[x + dim[0] * (y + dim[1] * z)] (or labels[...] for a segmentation, or read_planes;
+ * exactly one of the three is set). */
 typedef struct leap_dense_volume {
     int32_t dim[3];
     const float *values;
     const int64_t *labels;
+    /* Instead of values / labels: the voxels come LEAP_DENSE_PLANES z-planes at a time, planes
+     * z0 .. z0 + nz - 1 written to out (x fastest; floats, or int64 when planes_are_labels), so
+     * an importer keeps no float copy of the whole volume. */
+    void (*read_planes)(void *ctx, int32_t z0, int32_t nz, void *out);
+    void *planes_ctx;
+    int planes_are_labels;
     double background;           /* voxels equal to it become inactive (tiles where blocks are) */
     double index_to_world[4][4]; /* row-major affine */
     const char *grid_name;
@@ -174,6 +180,8 @@ typedef struct leap_dense_volume {
  * labels) with OpenVDB's multi-threaded dense copy: everything that opens a leap_vdb_file
  * (grid info, loading, info) works on it unchanged. `path` names the source in messages.
  * Errors: LEAP_ERR_USAGE (bad dimensions), LEAP_ERR_OOM. Close with leap_vdb_close. */
+#define LEAP_DENSE_PLANES 8 /* one layer of OpenVDB leaves */
+
 leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volume, leap_vdb_file **out,
                                 leap_error *err);
 

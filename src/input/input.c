@@ -58,6 +58,59 @@ leap_result leap__input_finish(const char *path, const int32_t dim[3], const dou
     return r;
 }
 
+/* An importer's planes with the threshold applied: values below it become the background. */
+typedef struct plane_source {
+    leap__input_read_planes read;
+    const void *ctx;
+    size_t plane_voxels;
+    int labels, has_threshold;
+    double threshold;
+    float background;
+} plane_source;
+
+static void thresholded_planes(void *ctx, int32_t z0, int32_t nz, void *out)
+{
+    const plane_source *p = ctx;
+    const size_t n = p->plane_voxels * (size_t)nz;
+    if (p->labels) {
+        int64_t *ids = out;
+        p->read(p->ctx, z0, nz, NULL, ids);
+        for (size_t i = 0; p->has_threshold && i < n; ++i)
+            if ((double)ids[i] < p->threshold) ids[i] = 0;
+    } else {
+        float *values = out;
+        p->read(p->ctx, z0, nz, values, NULL);
+        for (size_t i = 0; p->has_threshold && i < n; ++i)
+            if (values[i] < p->threshold) values[i] = p->background;
+    }
+}
+
+leap_result leap__input_finish_planes(const char *path, const int32_t dim[3], const double index_to_world[4][4],
+                                      int labels, leap__input_read_planes read, const void *ctx,
+                                      const leap_input_options *o, leap_vdb_file **out, leap_error *err)
+{
+    plane_source p = {.read = read, .ctx = ctx, .plane_voxels = (size_t)dim[0] * (size_t)dim[1], .labels = labels,
+                      .has_threshold = o && o->has_threshold, .threshold = o ? o->threshold : 0.0};
+    if (!labels) { /* the background: the smallest value, read in layers like the grid */
+        float *layer = malloc(p.plane_voxels * LEAP_DENSE_PLANES * sizeof *layer), lo = INFINITY;
+        if (!layer)
+            return leap_fail(err, LEAP_ERR_OOM, "'%s': out of memory for %d x %d x %d voxels", path, dim[0], dim[1],
+                             LEAP_DENSE_PLANES);
+        for (int32_t z0 = 0; z0 < dim[2]; z0 += LEAP_DENSE_PLANES) {
+            const int32_t nz = dim[2] - z0 < LEAP_DENSE_PLANES ? dim[2] - z0 : LEAP_DENSE_PLANES;
+            read(ctx, z0, nz, layer, NULL);
+            for (size_t i = 0; i < p.plane_voxels * (size_t)nz; ++i)
+                if (layer[i] < lo) lo = layer[i]; /* NaN never compares below */
+        }
+        free(layer);
+        p.background = isfinite(lo) ? lo : 0.0f; /* no finite voxel at all: 0 */
+    }
+    leap_dense_volume dense = {.dim = {dim[0], dim[1], dim[2]}, .read_planes = thresholded_planes, .planes_ctx = &p,
+                               .planes_are_labels = labels, .background = labels ? 0.0 : p.background};
+    memcpy(dense.index_to_world, index_to_world, sizeof dense.index_to_world);
+    return leap_vdb_from_dense(path, &dense, out, err);
+}
+
 int leap_input_is_nifti(const char *path)
 {
     return path && (ends_with(path, ".nii") || ends_with(path, ".nii.gz") || ends_with(path, ".hdr") ||

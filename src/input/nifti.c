@@ -1,6 +1,7 @@
 /* NIfTI-1/2 import through the NIfTI library (nifti2_io): header checks with messages that
- * name the field, voxel data converted to float (or exact int64 labels), then an OpenVDB grid
- * made in memory (leap_vdb_from_dense). The rules are in include/leap/input.h. */
+ * name the field, voxel data converted to float (or exact int64 labels) a layer of planes at a
+ * time into an OpenVDB grid made in memory (leap_vdb_from_dense). The rules are in
+ * include/leap/input.h. */
 #include "input_internal.h"
 
 #include <ctype.h>
@@ -60,6 +61,29 @@ static int64_t label(const nifti_image *nim, size_t n, int *bad)
     }
     case NIFTI_TYPE_INT64: return ((const int64_t *)nim->data)[n];
     default: return (int64_t)voxel(nim, n);
+    }
+}
+
+/* The loaded image as planes of floats (scaled) or exact labels (leap__input_read_planes). */
+typedef struct nifti_planes {
+    const nifti_image *nim;
+    int scaled;
+} nifti_planes;
+
+static void read_nifti_planes(const void *ctx, int32_t z0, int32_t nz, float *values, int64_t *ids)
+{
+    const nifti_planes *p = ctx;
+    const nifti_image *nim = p->nim;
+    const size_t plane = (size_t)nim->nx * (size_t)nim->ny, first = plane * (size_t)z0, n = plane * (size_t)nz;
+    int bad = 0; /* checked before: every label fits */
+    for (size_t i = 0; i < n; ++i) {
+        if (ids) {
+            ids[i] = label(nim, first + i, &bad);
+        } else {
+            double v = voxel(nim, first + i);
+            if (p->scaled) v = v * nim->scl_slope + nim->scl_inter;
+            values[i] = (float)v;
+        }
     }
 }
 
@@ -194,24 +218,13 @@ leap_result leap__input_open_nifti(const char *path, const leap_input_options *o
                        ((o && o->labels) || nim->intent_code == NIFTI_INTENT_LABEL ||
                         nim->intent_code == NIFTI_INTENT_NEURONAME);
     const int32_t dim[3] = {(int32_t)nim->nx, (int32_t)nim->ny, (int32_t)nim->nz};
-    float *values = NULL;
-    int64_t *ids = NULL;
     if (labels) {
-        ids = malloc(n * sizeof *ids);
         int bad = 0;
-        for (size_t i = 0; ids && i < n; ++i) ids[i] = label(nim, i, &bad);
+        for (size_t i = 0; i < n && !bad; ++i) label(nim, i, &bad);
         if (bad) {
             nifti_image_free(nim);
-            free(ids);
             return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': a label above 2^63 - 1 (uint64 labels must fit int64)",
                              path);
-        }
-    } else {
-        values = malloc(n * sizeof *values);
-        for (size_t i = 0; values && i < n; ++i) {
-            double v = voxel(nim, i);
-            if (scaled) v = v * nim->scl_slope + nim->scl_inter;
-            values[i] = (float)v;
         }
     }
     if (info) {
@@ -222,6 +235,8 @@ leap_result leap__input_open_nifti(const char *path, const leap_input_options *o
                  type_name(nim->datatype), (long long)nim->nx, (long long)nim->ny, (long long)nim->nz,
                  source, scaling, labels ? ", label map" : "");
     }
-    nifti_image_free(nim); /* the converted copy is all that is needed from here */
-    return leap__input_finish(path, dim, m, values, ids, o, out, err);
+    const nifti_planes planes = {.nim = nim, .scaled = scaled};
+    r = leap__input_finish_planes(path, dim, m, labels, read_nifti_planes, &planes, o, out, err);
+    nifti_image_free(nim);
+    return r;
 }
