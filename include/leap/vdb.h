@@ -158,19 +158,15 @@ void leap_grid_reader_labels(leap_grid_reader *reader, const int32_t min[3], con
 
 /* ---- Grids made in memory (imported formats) -------------------------------------- */
 
-/* A dense box of voxels, x fastest: voxel (x, y, z) has index (x, y, z) and the value
- * values[x + dim[0] * (y + dim[1] * z)] (or labels[...] for a segmentation, or read_planes;
- * exactly one of the three is set). */
+/* A dense box of voxels, x fastest: voxel (x, y, z) has index (x, y, z). The importer hands
+ * them over LEAP_DENSE_PLANES z-planes at a time: read_planes writes planes z0 .. z0 + nz - 1
+ * to out (floats, or int64 for a segmentation, `labels`), so no copy of the whole volume is
+ * needed here. */
 typedef struct leap_dense_volume {
     int32_t dim[3];
-    const float *values;
-    const int64_t *labels;
-    /* Instead of values / labels: the voxels come LEAP_DENSE_PLANES z-planes at a time, planes
-     * z0 .. z0 + nz - 1 written to out (x fastest; floats, or int64 when planes_are_labels), so
-     * an importer keeps no float copy of the whole volume. */
     void (*read_planes)(void *ctx, int32_t z0, int32_t nz, void *out);
-    void *planes_ctx;
-    int planes_are_labels;
+    void *ctx;
+    int labels;
     double background;           /* voxels equal to it become inactive (tiles where blocks are) */
     double index_to_world[4][4]; /* row-major affine */
     const char *grid_name;

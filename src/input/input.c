@@ -29,35 +29,6 @@ leap_result leap__input_check_memory(const char *path, const int32_t dim[3], dou
     return LEAP_OK;
 }
 
-leap_result leap__input_finish(const char *path, const int32_t dim[3], const double index_to_world[4][4],
-                               float *values, int64_t *ids, const leap_input_options *o, leap_vdb_file **out,
-                               leap_error *err)
-{
-    if (!values && !ids)
-        return leap_fail(err, LEAP_ERR_OOM, "'%s': out of memory for %d x %d x %d voxels", path, dim[0], dim[1],
-                         dim[2]);
-    const size_t n = (size_t)dim[0] * (size_t)dim[1] * (size_t)dim[2];
-    leap_dense_volume dense = {.dim = {dim[0], dim[1], dim[2]}, .values = values, .labels = ids};
-    memcpy(dense.index_to_world, index_to_world, sizeof dense.index_to_world);
-    if (ids) {
-        for (size_t i = 0; o && o->has_threshold && i < n; ++i)
-            if ((double)ids[i] < o->threshold) ids[i] = 0;
-        dense.background = 0.0;
-    } else {
-        float lo = INFINITY;
-        for (size_t i = 0; i < n; ++i)
-            if (values[i] < lo) lo = values[i]; /* NaN never compares below */
-        if (!isfinite(lo)) lo = 0.0f;          /* no finite voxel at all */
-        for (size_t i = 0; o && o->has_threshold && i < n; ++i)
-            if (values[i] < o->threshold) values[i] = lo;
-        dense.background = lo;
-    }
-    leap_result r = leap_vdb_from_dense(path, &dense, out, err);
-    free(values);
-    free(ids);
-    return r;
-}
-
 /* An importer's planes with the threshold applied: values below it become the background. */
 typedef struct plane_source {
     leap__input_read_planes read;
@@ -105,10 +76,39 @@ leap_result leap__input_finish_planes(const char *path, const int32_t dim[3], co
         free(layer);
         p.background = isfinite(lo) ? lo : 0.0f; /* no finite voxel at all: 0 */
     }
-    leap_dense_volume dense = {.dim = {dim[0], dim[1], dim[2]}, .read_planes = thresholded_planes, .planes_ctx = &p,
-                               .planes_are_labels = labels, .background = labels ? 0.0 : p.background};
+    leap_dense_volume dense = {.dim = {dim[0], dim[1], dim[2]}, .read_planes = thresholded_planes, .ctx = &p,
+                               .labels = labels, .background = labels ? 0.0 : p.background};
     memcpy(dense.index_to_world, index_to_world, sizeof dense.index_to_world);
     return leap_vdb_from_dense(path, &dense, out, err);
+}
+
+/* Importers that hold the whole volume: its planes are copied out of it. */
+typedef struct whole_volume {
+    const float *values;
+    const int64_t *ids;
+    size_t plane_voxels;
+} whole_volume;
+
+static void read_whole_planes(const void *ctx, int32_t z0, int32_t nz, float *values, int64_t *ids)
+{
+    const whole_volume *w = ctx;
+    const size_t first = w->plane_voxels * (size_t)z0, n = w->plane_voxels * (size_t)nz;
+    if (ids) memcpy(ids, w->ids + first, n * sizeof *ids);
+    else memcpy(values, w->values + first, n * sizeof *values);
+}
+
+leap_result leap__input_finish(const char *path, const int32_t dim[3], const double index_to_world[4][4],
+                               float *values, int64_t *ids, const leap_input_options *o, leap_vdb_file **out,
+                               leap_error *err)
+{
+    if (!values && !ids)
+        return leap_fail(err, LEAP_ERR_OOM, "'%s': out of memory for %d x %d x %d voxels", path, dim[0], dim[1],
+                         dim[2]);
+    const whole_volume w = {values, ids, (size_t)dim[0] * (size_t)dim[1]};
+    leap_result r = leap__input_finish_planes(path, dim, index_to_world, ids != NULL, read_whole_planes, &w, o, out, err);
+    free(values);
+    free(ids);
+    return r;
 }
 
 int leap_input_is_nifti(const char *path)

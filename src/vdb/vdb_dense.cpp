@@ -19,24 +19,9 @@ vdb::math::Transform::Ptr make_transform(const double m[4][4])
     return vdb::math::Transform::createLinearTransform(a);
 }
 
-template <typename GridT>
-typename GridT::Ptr copy_dense(const leap_dense_volume &v, const typename GridT::ValueType *data)
-{
-    using V = typename GridT::ValueType;
-    const vdb::CoordBBox box(vdb::Coord(0), vdb::Coord(v.dim[0] - 1, v.dim[1] - 1, v.dim[2] - 1));
-    // LayoutXYZ: x varies fastest (Dense's "XYZ" names the order of the strides' sizes).
-    // Dense takes a mutable pointer; copyFromDense only reads through it.
-    vdb::tools::Dense<V, vdb::tools::LayoutXYZ> dense(box, const_cast<V *>(data));
-    typename GridT::Ptr grid = GridT::create(V(v.background));
-    // Tolerance 0: exactly the voxels equal to the background become inactive; constant
-    // blocks become tiles.
-    vdb::tools::copyFromDense(dense, *grid, V(0));
-    return grid;
-}
-
-// The same grid from voxels read a layer of leaves at a time (leap_dense_volume.read_planes):
-// each layer's blocks are whole leaves, so the layers copy to the leaves and tiles one copy of
-// the whole box makes.
+// A grid from voxels read a layer of leaves at a time (leap_dense_volume.read_planes): each
+// layer's blocks are whole leaves, so the layers copy to the leaves and tiles one copy of the
+// whole box would make.
 template <typename GridT>
 typename GridT::Ptr copy_planes(const leap_dense_volume &v)
 {
@@ -45,9 +30,12 @@ typename GridT::Ptr copy_planes(const leap_dense_volume &v)
     std::vector<V> layer((size_t)v.dim[0] * (size_t)v.dim[1] * LEAP_DENSE_PLANES);
     for (int32_t z0 = 0; z0 < v.dim[2]; z0 += LEAP_DENSE_PLANES) {
         const int32_t nz = std::min<int32_t>(LEAP_DENSE_PLANES, v.dim[2] - z0);
-        v.read_planes(v.planes_ctx, z0, nz, layer.data());
+        v.read_planes(v.ctx, z0, nz, layer.data());
         const vdb::CoordBBox box(vdb::Coord(0, 0, z0), vdb::Coord(v.dim[0] - 1, v.dim[1] - 1, z0 + nz - 1));
+        // LayoutXYZ: x varies fastest (Dense's "XYZ" names the order of the strides' sizes).
         vdb::tools::Dense<V, vdb::tools::LayoutXYZ> dense(box, layer.data());
+        // Tolerance 0: exactly the voxels equal to the background become inactive; constant
+        // blocks become tiles.
         vdb::tools::copyFromDense(dense, *grid, V(0));
     }
     return grid;
@@ -60,13 +48,10 @@ namespace leap_vdb_detail {
 vdb::GridBase::Ptr dense_to_grid(const leap_dense_volume &v)
 {
     vdb::GridBase::Ptr grid;
-    const bool labels = v.read_planes ? v.planes_are_labels : v.labels != nullptr;
-    if (v.read_planes && labels) grid = copy_planes<vdb::Int64Grid>(v);
-    else if (v.read_planes) grid = copy_planes<vdb::FloatGrid>(v);
-    else if (labels) grid = copy_dense<vdb::Int64Grid>(v, v.labels);
-    else grid = copy_dense<vdb::FloatGrid>(v, v.values);
+    if (v.labels) grid = copy_planes<vdb::Int64Grid>(v);
+    else grid = copy_planes<vdb::FloatGrid>(v);
     grid->setTransform(make_transform(v.index_to_world));
-    grid->setName(v.grid_name && *v.grid_name ? v.grid_name : (labels ? "labels" : "density"));
+    grid->setName(v.grid_name && *v.grid_name ? v.grid_name : (v.labels ? "labels" : "density"));
     return grid;
 }
 

@@ -349,7 +349,7 @@ leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volum
                                 leap_error *err)
 {
     if (out) *out = nullptr;
-    if (!path || !volume || !out || (volume->values != nullptr) + (volume->labels != nullptr) + (volume->read_planes != nullptr) != 1)
+    if (!path || !volume || !out || !volume->read_planes)
         return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_from_dense: bad arguments");
     for (int a = 0; a < 3; ++a)
         if (volume->dim[a] < 1)
