@@ -9,9 +9,9 @@
 // projection, so every pixel whose ray can touch the box gets exactly one fragment; the
 // fragment shader tests the exact box. A rectangle costs the rasteriser far less per box than
 // the box's faces would (2 triangles instead of 12), for some more fragments at its corners.
-// The box grows by a fraction of a pixel and the rectangle by one pixel, so raster snapping
-// never loses a pixel. A box reaching behind the eye plane takes the whole screen; one wholly
-// behind it is dropped.
+// The box grows by a quarter pixel and its rectangle by another, so neither float error nor
+// raster snapping (1/256 pixel) loses a pixel whose ray touches the box. A box reaching behind
+// the eye plane takes the whole screen; one wholly behind it is dropped.
 layout(location = 0) flat out uint box_index;
 
 void main()
@@ -36,7 +36,7 @@ void main()
         wmin = min(wmin, w);
         wmax = max(wmax, w);
     }
-    vec2 margin = 2.0 / vec2(frame.image.xy); // one pixel in NDC
+    vec2 margin = 0.5 / vec2(frame.image.xy); // a quarter pixel in NDC
     const float edge = 1.5;                   // past the screen edge, inside the guard band
     if (!(wmin > 1.0e-6)) {
         rmin = vec2(-edge);
