@@ -75,6 +75,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_CELL 8
 #define LEAP_CELL_SHIFT 3
 #define LEAP_SLOT 9
+#define LEAP_SLOT_TEXELS (LEAP_SLOT * LEAP_SLOT * LEAP_SLOT) /* texels per slot */
 #define LEAP_BLOCK_SHIFT_MAX 4
 #define LEAP_BLOCK_SHIFT_MIN 2
 #define LEAP_PAGE_NODE_SHIFT 2 /* middle nodes are 4^3 entries */

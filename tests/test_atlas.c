@@ -572,7 +572,7 @@ int main(void)
             if (twin->slot_count == sparse->slot_count && twin->page_words == sparse->page_words) {
                 CHECK_MSG(!memcmp(twin->pages, sparse->pages, sparse->page_words * sizeof *sparse->pages) &&
                               !memcmp(twin->slot_texels, sparse->slot_texels,
-                                      (size_t)sparse->slot_count * LEAP_SLOT * LEAP_SLOT * LEAP_SLOT * 2),
+                                      (size_t)sparse->slot_count * LEAP_SLOT_TEXELS * 2),
                           "build %d of the same grid differs", again + 2);
             }
             leap_atlas_destroy(twin);

@@ -13,7 +13,6 @@
 
 #include "shared.h"
 
-#define SLOT_TEXELS (LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
 #define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT)
 /* The page table is built before any device is chosen, so it keeps within the storage-buffer
  * range every Vulkan device guarantees (maxStorageBufferRange >= 2^27); the renderer checks
@@ -39,7 +38,7 @@ typedef struct builder {
     leap_atlas *a;
     uint32_t **blocks;        /* cell entries per allocated block */
     uint32_t blocks_cap;
-    uint16_t *slots;          /* SLOT_TEXELS per slot, in allocation order */
+    uint16_t *slots;          /* LEAP_SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
     uint32_t *ranges;         /* per slot, in allocation order: smallest texel | largest << 16 */
     size_t ranges_cap;
@@ -252,7 +251,7 @@ static uint64_t atlas_texels_for(uint64_t n)
     if (sy > MAX_SLOTS_PER_AXIS) sy = MAX_SLOTS_PER_AXIS;
     uint64_t sz = (n + sx * sy - 1) / (sx * sy);
     if (sz > MAX_SLOTS_PER_AXIS) return 0;
-    return sx * sy * sz * SLOT_TEXELS;
+    return sx * sy * sz * LEAP_SLOT_TEXELS;
 }
 
 /* The most slots whose 16-bit atlas fits one device allocation, and whose texels fit the host
@@ -264,7 +263,7 @@ static uint64_t slot_budget(void)
     double host = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
     while (lo < hi) { /* largest n that fits (texels grow with n) */
         uint64_t mid = lo + (hi - lo + 1) / 2, t = atlas_texels_for(mid);
-        int fits = t != 0 && (double)t * 2 <= LEAP_ATLAS_MAX_BYTES && (double)mid * SLOT_TEXELS * 2 <= host;
+        int fits = t != 0 && (double)t * 2 <= LEAP_ATLAS_MAX_BYTES && (double)mid * LEAP_SLOT_TEXELS * 2 <= host;
         if (fits) lo = mid; else hi = mid - 1;
     }
     return lo;
@@ -277,7 +276,7 @@ static leap_result slots_too_many(uint64_t slots, const char *how, leap_error *e
                      "atlas: the grid needs %s %llu bricks (%.2f GiB at 16 bits), more than the %llu that fit one "
                      "%.0f GiB device allocation and the free host memory (each 8^3 cell not of one value, "
                      "tile faces included, needs a brick)",
-                     how, (unsigned long long)slots, (double)slots * SLOT_TEXELS * 2 / gib,
+                     how, (unsigned long long)slots, (double)slots * LEAP_SLOT_TEXELS * 2 / gib,
                      (unsigned long long)slot_budget(), LEAP_ATLAS_MAX_BYTES / gib);
 }
 
@@ -331,7 +330,7 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
     leap_grid_reader *reader;
     leap_result r = leap_grid_reader_create(grid, &reader, err);
     if (r) return r;
-    uint16_t q[SLOT_TEXELS];
+    uint16_t q[LEAP_SLOT_TEXELS];
     uint32_t seed = 0x9e3779b9u, hits = 0, entry, range;
     for (int s = 0; s < BUDGET_SAMPLES; ++s) {
         seed ^= seed << 13, seed ^= seed >> 17, seed ^= seed << 5;
@@ -350,8 +349,8 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
 static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_error *err)
 {
     leap_atlas *a = b->a;
-    int64_t ids[SLOT_TEXELS];
-    uint32_t idx[SLOT_TEXELS], palette[SLOT_TEXELS];
+    int64_t ids[LEAP_SLOT_TEXELS];
+    uint32_t idx[LEAP_SLOT_TEXELS], palette[LEAP_SLOT_TEXELS];
     size_t cap = 0, rec_cap = 0;
     leap_result r = LEAP_OK;
     for (size_t i = 0; i < l->count && !r; ++i) {
@@ -364,7 +363,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
         /* Object indices, and the distinct ones in a small unsorted palette (cells hold few). */
         int64_t last_id = 0;
         uint32_t last = UINT32_MAX, count = 0, pos = 0;
-        for (int j = 0; j < SLOT_TEXELS; ++j) {
+        for (int j = 0; j < LEAP_SLOT_TEXELS; ++j) {
             if (last == UINT32_MAX || ids[j] != last_id) { /* runs of one label are common */
                 last_id = ids[j];
                 last = (uint32_t)leap_labels_find(b->labels, ids[j]);
@@ -375,7 +374,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
             idx[j] = pos;
         }
         /* Ascending palette; voxels re-pointed through rank[] */
-        uint32_t order[SLOT_TEXELS], rank[SLOT_TEXELS];
+        uint32_t order[LEAP_SLOT_TEXELS], rank[LEAP_SLOT_TEXELS];
         for (uint32_t j = 0; j < count; ++j) order[j] = j;
         for (uint32_t j = 1; j < count; ++j) /* insertion sort: count is small */
             for (uint32_t m = j; m > 0 && palette[order[m]] < palette[order[m - 1]]; --m) {
@@ -383,7 +382,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
                 order[m] = order[m - 1];
                 order[m - 1] = t;
             }
-        uint32_t sorted[SLOT_TEXELS];
+        uint32_t sorted[LEAP_SLOT_TEXELS];
         for (uint32_t j = 0; j < count; ++j) {
             sorted[j] = palette[order[j]];
             rank[order[j]] = j;
@@ -395,7 +394,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
         } else {
             uint32_t bits = 1;
             while ((1u << bits) < count) bits <<= 1;
-            const size_t packed = ((size_t)SLOT_TEXELS * bits + 31) / 32;
+            const size_t packed = ((size_t)LEAP_SLOT_TEXELS * bits + 31) / 32;
             const size_t words = LEAP_LABEL_HEADER + count + packed;
             if (a->label_word_count + words > LEAP_LABEL_INDEX_MASK) {
                 r = leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: the label cells need more than 2^31 words (8 GiB)");
@@ -412,7 +411,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
             w[1] = a->record_count;
             memcpy(w + LEAP_LABEL_HEADER, palette, count * sizeof *palette);
             uint32_t *bitsbuf = w + LEAP_LABEL_HEADER + count;
-            for (int j = 0; j < SLOT_TEXELS; ++j) {
+            for (int j = 0; j < LEAP_SLOT_TEXELS; ++j) {
                 const size_t bit = (size_t)j * bits;
                 bitsbuf[bit / 32] |= rank[idx[j]] << (bit % 32);
             }
@@ -451,7 +450,7 @@ typedef struct fill_worker {
     leap_grid_reader *reader;
     uint32_t entries[FILL_CHUNK_KEYS];          /* a constant entry, or LEAP_PAGE_CONST clear: a slot */
     uint32_t ranges[FILL_CHUNK_KEYS];           /* the chunk's slots' smallest | largest << 16 */
-    uint16_t slots[FILL_CHUNK_KEYS * SLOT_TEXELS]; /* the chunk's slots' texels, in key order */
+    uint16_t slots[FILL_CHUNK_KEYS * LEAP_SLOT_TEXELS]; /* the chunk's slots' texels, in key order */
 } fill_worker;
 
 /* The keys of chunk k: *first and the count. */
@@ -474,10 +473,10 @@ static leap_result commit_chunk(fill_shared *sh, const fill_worker *w, size_t k)
         uint32_t entry = w->entries[i];
         if (!(entry & LEAP_PAGE_CONST)) {
             if (a->slot_count + 1 > sh->budget) return slots_too_many(a->slot_count + 1, "more than", sh->err);
-            if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * SLOT_TEXELS, sizeof(uint16_t)) ||
+            if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * LEAP_SLOT_TEXELS, sizeof(uint16_t)) ||
                 !leap__grow((void **)&b->ranges, &b->ranges_cap, (size_t)a->slot_count + 1, sizeof(uint32_t)))
                 return leap_fail(sh->err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
-            memcpy(b->slots + (size_t)a->slot_count * SLOT_TEXELS, w->slots + used * SLOT_TEXELS, SLOT_TEXELS * sizeof(uint16_t));
+            memcpy(b->slots + (size_t)a->slot_count * LEAP_SLOT_TEXELS, w->slots + used * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof(uint16_t));
             b->ranges[a->slot_count] = w->ranges[used++];
             entry = a->slot_count++;
         }
@@ -500,7 +499,7 @@ static void *fill_run(void *arg)
         for (size_t i = 0; i < n && !atomic_load_explicit(&sh->failed, memory_order_relaxed); ++i) {
             uint32_t c[3], range;
             key_cell(a, sh->keys->keys[first + i], c);
-            if (!read_cell(a, w->reader, c, sh->dense, w->slots + used * SLOT_TEXELS, &w->entries[i], &range)) {
+            if (!read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS, &w->entries[i], &range)) {
                 w->entries[i] = 0; /* a slot: numbered when committed */
                 w->ranges[used++] = range;
             }
@@ -676,7 +675,7 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
     for (int i = 0; i < 3; ++i) a->texel_dims[i] = a->slot_dims[i] * LEAP_SLOT;
     /* The slots keep their build order: unshuffled, the build's buffer is the atlas's. */
     a->slot_ranges = calloc((size_t)sx * sy * sz, sizeof(uint32_t));
-    const size_t slot_bytes = (size_t)(a->slot_count ? a->slot_count : 1) * SLOT_TEXELS * sizeof(uint16_t);
+    const size_t slot_bytes = (size_t)(a->slot_count ? a->slot_count : 1) * LEAP_SLOT_TEXELS * sizeof(uint16_t);
     if (a->slot_ranges && !seed) {
         a->slot_texels = a->slot_count ? realloc(b->slots, slot_bytes) : malloc(slot_bytes);
         if (a->slot_texels && a->slot_count) b->slots = NULL;
@@ -690,7 +689,7 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
     for (uint32_t s = 0; s < a->slot_count; ++s) {
         const uint32_t d = perm[s];
         a->slot_ranges[d] = b->ranges[s];
-        if (seed) memcpy(a->slot_texels + (size_t)d * SLOT_TEXELS, b->slots + (size_t)s * SLOT_TEXELS, SLOT_TEXELS * sizeof(uint16_t));
+        if (seed) memcpy(a->slot_texels + (size_t)d * LEAP_SLOT_TEXELS, b->slots + (size_t)s * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof(uint16_t));
     }
 
     for (uint32_t k = 0; k < a->block_count; ++k) {
@@ -892,7 +891,7 @@ void leap_atlas_texels(const leap_atlas *a, size_t first, size_t count, uint16_t
         const size_t row_slot = a->slot_dims[0] * (y / LEAP_SLOT + (size_t)a->slot_dims[1] * (z / LEAP_SLOT));
         const uint16_t *in_slot = a->slot_texels + LEAP_SLOT * (y % LEAP_SLOT + LEAP_SLOT * (z % LEAP_SLOT));
         for (size_t d = row_slot + x / LEAP_SLOT, l = x % LEAP_SLOT; x < end; ++d, l = 0) {
-            const uint16_t *src = in_slot + d * SLOT_TEXELS;
+            const uint16_t *src = in_slot + d * LEAP_SLOT_TEXELS;
             const int used = d < a->slot_count;
             for (; l < LEAP_SLOT && x < end; ++l, ++x) *out++ = used ? src[l] : 0;
         }

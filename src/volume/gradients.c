@@ -13,8 +13,6 @@
 
 #include "shared.h"
 
-#define SLOT_TEXELS ((size_t)LEAP_SLOT * LEAP_SLOT * LEAP_SLOT)
-
 /* Slot coordinate along axis i of a slot cell's page entry. */
 static uint32_t entry_slot(uint32_t entry, int i)
 {
@@ -44,7 +42,7 @@ static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
     if (entry & LEAP_PAGE_CONST) return (uint16_t)(entry & 0xffffu);
     const size_t slot = entry_slot_index(a, entry);
     const int32_t l[3] = {v[0] & (LEAP_CELL - 1), v[1] & (LEAP_CELL - 1), v[2] & (LEAP_CELL - 1)};
-    return a->slot_texels[slot * SLOT_TEXELS + (size_t)(l[0] + LEAP_SLOT * (l[1] + LEAP_SLOT * l[2]))];
+    return a->slot_texels[slot * LEAP_SLOT_TEXELS + (size_t)(l[0] + LEAP_SLOT * (l[1] + LEAP_SLOT * l[2]))];
 }
 
 /* Which cell each slot holds (the page table's inverse), for filling texels in any order. */
@@ -121,7 +119,7 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
             continue;
         }
         const int local[3] = {(int)(t[0] % LEAP_SLOT), (int)(t[1] % LEAP_SLOT), (int)(t[2] % LEAP_SLOT)};
-        const uint16_t *at = a->slot_texels + slot * SLOT_TEXELS + local[0] + stride[1] * local[1] + stride[2] * local[2];
+        const uint16_t *at = a->slot_texels + slot * LEAP_SLOT_TEXELS + local[0] + stride[1] * local[1] + stride[2] * local[2];
         for (int axis = 0; axis < 3; ++axis) {
             int32_t lo_v, hi_v;
             if (local[axis] > 0 && local[axis] < LEAP_SLOT - 1) {
