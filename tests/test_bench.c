@@ -110,6 +110,28 @@ static void check_config_large_and_nested_output(void)
     free(csv);
 }
 
+/* A bench without naive has no speedup to plot: it draws the stages only, and succeeds. */
+static void check_without_naive(void)
+{
+    char cmd[4096], path[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf %s/lone && %s bench %s/sphere.vdb --sizes 32x24 --views 1 --steps 0.5,1 "
+             "--modes sparseleap --repeats 1 --warmup 0 --no-reference -o %s/lone 2>%s/lone.err", LEAP_TEST_TMP,
+             LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    int rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/lone.err", LEAP_TEST_TMP);
+    char *err = read_whole_file(path, NULL);
+    CHECK_MSG(rc == 0, "bench --modes sparseleap: exit status %d; stderr: %s", rc, err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/lone/stages.png", LEAP_TEST_TMP);
+    CHECK(access(path, R_OK) == 0);
+    snprintf(path, sizeof path, "%s/lone/speedup.png", LEAP_TEST_TMP);
+    CHECK(access(path, F_OK) != 0);
+    snprintf(path, sizeof path, "%s/lone/report.md", LEAP_TEST_TMP);
+    char *md = read_whole_file(path, NULL);
+    CHECK(md && strstr(md, "stages.png") && !strstr(md, "speedup.png"));
+    free(md);
+}
+
 /* An image buffer that cannot be allocated fails the bench with an out-of-memory error
  * (exit 1, no results.csv) instead of leaving the size out. The address space is capped
  * below one 16384x16384 RGBA float image (4 GiB). AddressSanitizer needs more. */
@@ -300,6 +322,7 @@ int main(void)
 
     check_config_bad_option();
     check_config_large_and_nested_output();
+    check_without_naive();
     check_image_out_of_memory();
 
     /* --vs-vdb-render */

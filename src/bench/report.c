@@ -268,13 +268,17 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     }
     fclose(sp);
     fclose(sg);
+    int with_naive = 0; /* the speedup plot needs naive's frames */
+    for (int m = 0; m < o->nmodes; ++m) with_naive |= o->modes[m] == LEAP_RENDER_NAIVE;
+    snprintf(path, sizeof path, "%s/speedup.dat", o->out);
+    if (!with_naive) remove(path);
     char body[2048];
     snprintf(body, sizeof body,
              "set title 'speedup over naive (step %g)'\nset style data histograms\nset style fill solid 0.8\n"
              "set ylabel 'x naive frame time'\nset logscale y\nset yrange [%g:*]\nset key outside\nset grid y\n"
              "set xtics rotate by -20\nplot for [c=2:%d] '%s/speedup.dat' using c:xtic(1) title columnheader\n",
              o->steps[mid], sp_min / 2, o->nmodes + 1 + (vdb != NULL), o->out);
-    plots_ok &= run_gnuplot(o, o->out, "speedup", body);
+    if (with_naive) plots_ok &= run_gnuplot(o, o->out, "speedup", body);
     snprintf(body, sizeof body,
              "set title 'time per stage (step %g)'\nset style data histograms\nset style histogram rowstacked\n"
              "set style fill solid 0.8\nset ylabel 'ms'\nset key outside\nset grid y\nset xtics rotate by -45 font ',8'\n"
@@ -282,7 +286,7 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
              o->steps[mid], o->out);
     plots_ok &= run_gnuplot(o, o->out, "stages", body);
     if (extra_md && extra_md[0]) fputs(extra_md, md);
-    fprintf(md, "\n![speedup](speedup.png)\n\n![stages](stages.png)\n");
+    fprintf(md, "%s\n![stages](stages.png)\n", with_naive ? "\n![speedup](speedup.png)\n" : "");
     fclose(md);
     if (!plots_ok)
         return leap_fail(err, LEAP_ERR_IO, "%s: gnuplot failed to draw some plots (is gnuplot installed?)", o->out);
