@@ -52,9 +52,9 @@ def fixed_costs(directory):
         table = section[section.index("| mode | fixed ns/pixel"):]
         for line in table.split("\n")[2:]:
             cells = [c.strip() for c in line.strip("|").split("|")]
-            if len(cells) != 3:
+            if len(cells) not in (3, 4):  # 4: with the every-pixel column
                 break
-            out.setdefault(key, {})[cells[0]] = cells[1] if cells[0] != "naive" else cells[2]
+            out.setdefault(key, {})[cells[0]] = cells[1] if cells[0] != "naive" else cells[-1]
     return out
 
 

@@ -626,6 +626,78 @@ static void check_cloud_structure(leap_renderer *renderer)
     free(img);
 }
 
+/* Without the naive count, bbox, octree and a sparseleap chord frame dispatch only the pixels
+ * whose rays may meet the box of non-empty cells; the host writes the others (transparent, no
+ * sample, no depth). Those frames equal the counted ones, which dispatch every pixel, bit for
+ * bit, and naive to rounding: the volume at the image's edge, far away (a few pixels wide),
+ * behind the camera (nothing ahead: no pixel), and around it (the whole image). */
+static void check_box_pixels(leap_renderer *renderer)
+{
+    enum { N = W * H };
+    static float naive[N * 4], counted[N * 4], uncounted[N * 4], depth_a[N], depth_b[N], samples_a[N], samples_b[N];
+    static const char *const files[2] = {"sphere.vdb", "labels.vdb"};
+    int restricted = 0, empty = 0;
+    for (int f = 0; f < 2; ++f) {
+        leap_error err = {{0}};
+        leap_scene *s = load_scene(files[f], NULL, f ? "labels" : "viridis", 0);
+        if (!s) continue;
+        CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+        for (int c = 0; c < 5; ++c) {
+            leap_camera cam;
+            CHECK(camera(s, c == 4 ? 4 : 0, &cam));
+            double back[3];
+            for (int i = 0; i < 3; ++i) back[i] = cam.eye[i] - s->center[i];
+            if (c == 0 || c == 4) /* the volume across the image's lower left corner; 4: orthographic along -Z */
+                for (int i = 0; i < 3; ++i) {
+                    cam.target[i] = s->center[i] + (i == 2 ? 0.0 : i == 1 ? 0.5 : -0.5) * s->radius;
+                    if (c == 4) cam.eye[i] = cam.target[i] + (i == 2 ? 3 * s->radius : 0.0);
+                }
+            if (c == 1) /* 40 radii away: a few pixels */
+                for (int i = 0; i < 3; ++i) cam.eye[i] = s->center[i] + 16 * back[i];
+            if (c == 2 || c == 3) { /* looking away: from the orbit (nothing ahead), and from near the centre */
+                if (c == 3)
+                    for (int i = 0; i < 3; ++i) cam.eye[i] = s->center[i] + 0.02 * back[i];
+                for (int i = 0; i < 3; ++i) cam.target[i] = cam.eye[i] + back[i];
+            }
+            leap_rays view;
+            CHECK_OK(leap_scene_rays(s, &cam, W, H, &view, &err), &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err),
+                     &err);
+            double alpha = 0;
+            for (int i = 0; i < N; ++i) alpha += naive[4 * i + 3];
+            CHECK_MSG((alpha > 0.5) == (c != 2), "%s camera %d: naive's image %s", files[f], c, alpha > 0.5 ? "shows something" : "is empty");
+            for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
+                leap_frame_stats a, b;
+                CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, counted, depth_a, samples_a, &a,
+                                              &err), &err);
+                leap_renderer_count_naive(renderer, 0);
+                CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, uncounted, depth_b, samples_b, &b,
+                                              &err), &err);
+                leap_renderer_count_naive(renderer, 1);
+                /* Samples may be fewer: octree takes a sample on an EMPTY leaf's exit face (rounding)
+                 * that a ray missing the non-empty box never reaches now; such a pixel is transparent. */
+                int same = !memcmp(counted, uncounted, sizeof counted) && !memcmp(depth_a, depth_b, sizeof depth_a);
+                for (int i = 0; i < N; ++i)
+                    same &= samples_b[i] == samples_a[i] || (samples_b[i] < samples_a[i] && counted[4 * i + 3] == 0);
+                const image_diff d = compare_rgba(uncounted, naive, N);
+                printf("box pixels: %-11s camera %d %-10s composited %5llu of %d pixels, %llu samples%s\n", files[f], c,
+                       leap_mode_name((leap_mode)m), (unsigned long long)b.composited_pixels, N,
+                       (unsigned long long)b.total_samples, same ? "" : " DIFFERS");
+                CHECK_MSG(same && d.nonfinite == 0 && d.max_abs <= TOL, "%s camera %d %s: frames without the naive "
+                          "count differ (max abs %g vs naive)", files[f], c, leap_mode_name((leap_mode)m), d.max_abs);
+                CHECK(a.composited_pixels == N || (m == LEAP_RENDER_SPARSELEAP && !a.single_box));
+                restricted += b.composited_pixels < N && (m != LEAP_RENDER_SPARSELEAP || b.single_box);
+                empty += b.composited_pixels == 0;
+                if (c == 2) CHECK(b.total_samples == 0 && b.composited_pixels == 0);
+                if (c == 3) CHECK(b.total_samples > 0);
+            }
+        }
+        leap_scene_destroy(s);
+    }
+    printf("box pixels: %d frames composited part of the image, %d none of it\n", restricted, empty);
+    CHECK(restricted >= 24 && empty == 6);
+}
+
 int main(void)
 {
     leap_renderer *renderer = make_renderer();
@@ -690,6 +762,7 @@ int main(void)
     check_shading(renderer, naive, img);
     check_shading_sphere(renderer);
     check_cloud_structure(renderer);
+    check_box_pixels(renderer);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");

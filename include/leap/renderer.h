@@ -71,6 +71,9 @@ typedef struct leap_frame_stats {
     uint32_t events_max, segments_max;
     uint32_t overflow_pixels;
     uint32_t composite_chunks; /* dispatches of the composite pass (rays too long for one) */
+    uint64_t composited_pixels; /* pixels the composite pass ran for: naive every one; bbox, octree
+                                   and chord frames those whose rays may meet the box of non-empty
+                                   cells (every one with the naive count); sparseleap its listed rays */
     int single_box;            /* sparseleap: the boxes reduced to at most one NONEMPTY box, whose
                                   chord was each ray's segment (no raster, no resolve) */
     int tf_precorrected;       /* 1: opacity corrected in the TF table, 0: per sample */

@@ -22,10 +22,13 @@ typedef struct run_result {
 
 /* Fixed per-pixel cost, per volume x size x mode: the composite pass of a frame in which no
  * ray takes a sample in the skipping modes (every value transparent, first view), in ns per
- * pixel; naive still takes every sample there, so its entry is its ns per sample. NaN: not
- * measured. */
+ * pixel; naive still takes every sample there, so its entry is its ns per sample. Such a frame
+ * dispatches no pixel (no ray meets a non-empty cell); every_pixel is the same frame with
+ * every pixel dispatched (as with the naive count): what a ray costs before its first sample.
+ * NaN: not measured. */
 typedef struct fixed_costs {
     double ns[MAX_ITEMS][MAX_ITEMS][MAX_ITEMS];
+    double every_pixel[MAX_ITEMS][MAX_ITEMS][MAX_ITEMS];
 } fixed_costs;
 
 /* mode is an index into leap_bench_desc.modes, or VDB_MODE for a vdb_render row. */

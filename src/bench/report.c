@@ -186,16 +186,20 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
             }
             if (fixed) {
                 fprintf(md, "\nFixed per-pixel cost: composite pass of a frame in which no ray takes a sample (every "
-                            "value transparent; first view, step %g). Naive still takes every sample there: its "
-                            "figure is ns per sample.\n\n| mode | fixed ns/pixel | naive ns/sample |\n|---|---|---|\n",
+                            "value transparent; first view, step %g). No ray meets a non-empty cell, so the skipping "
+                            "modes dispatch no pixel; with every pixel dispatched (as when the naive count is asked "
+                            "for), the figure is what a ray costs before its first sample. Naive still takes every "
+                            "sample there: its figure is ns per sample.\n\n| mode | fixed ns/pixel | every pixel "
+                            "dispatched, ns/pixel | naive ns/sample |\n|---|---|---|---|\n",
                         o->steps[0]);
                 for (int m = 0; m < o->nmodes; ++m) {
                     double x = fixed->ns[v][si][m];
                     if (!isfinite(x)) continue;
                     if (o->modes[m] == LEAP_RENDER_NAIVE)
-                        fprintf(md, "| naive | n/a | %.2f |\n", x);
+                        fprintf(md, "| naive | n/a | n/a | %.2f |\n", x);
                     else
-                        fprintf(md, "| %s | %.1f | n/a |\n", leap_mode_name((leap_mode)o->modes[m]), x);
+                        fprintf(md, "| %s | %.1f | %.1f | n/a |\n", leap_mode_name((leap_mode)o->modes[m]), x,
+                                fixed->every_pixel[v][si][m]);
                 }
             }
             if (vdb && vdb->note[v][0]) {

@@ -48,12 +48,13 @@ static void errors(const float *img, const float *ref, size_t pixels, run_result
  * of naive samples for rays that take none); then one untimed frame gives the statistics, and
  * its image is compared with the reference. */
 static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_rays *view, int mode,
-                            const leap_bench_desc *o, float *img, const float *ref, run_result *out, leap_error *err)
+                            const leap_bench_desc *o, float *img, const float *ref, int count_naive, run_result *out,
+                            leap_error *err)
 {
     double frames[1000];
     leap_frame_stats st = {0};
     run_result r = {0};
-    leap_renderer_count_naive(renderer, 0);
+    leap_renderer_count_naive(renderer, count_naive);
     for (int i = 0; i < o->warmup + o->repeats; ++i) {
         leap_result lr = leap_renderer_render(renderer, view, &s->march, (leap_mode)mode, img, NULL, NULL, &st, err);
         if (lr) return lr;
@@ -104,10 +105,13 @@ static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const l
         return lr;
     for (int m = 0; m < o->nmodes && !lr; ++m) {
         run_result r;
-        if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, &r, err))) break;
+        if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, 0, &r, err))) break;
         fixed->ns[vi][si][m] = o->modes[m] == LEAP_RENDER_NAIVE
                                    ? (r.spp > 0 ? r.composite_ms * 1e6 / (r.spp * pixels) : NAN)
                                    : r.composite_ms * 1e6 / pixels;
+        if (o->modes[m] == LEAP_RENDER_NAIVE) continue;
+        if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, 1, &r, err))) break;
+        fixed->every_pixel[vi][si][m] = r.composite_ms * 1e6 / pixels;
     }
     leap_result restore = leap_scene_set_tf(s, &keep, lo, hi, err);
     if (!restore) restore = leap_renderer_bind_scene(renderer, s, err);
@@ -212,7 +216,7 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
                      leap_mode_name((leap_mode)o->modes[mi]));
             progress(o, b->done, b->total, what);
             run_result r;
-            if (time_run(b->renderer, s, &view, o->modes[mi], o, img, refp, &r, err)) return LEAP_ERR_IO;
+            if (time_run(b->renderer, s, &view, o->modes[mi], o, img, refp, 0, &r, err)) return LEAP_ERR_IO;
             if (o->modes[mi] == LEAP_RENDER_NAIVE) naive_ms = r.frame_ms[0];
             b->rows[b->nrows++] = (bench_row){vi, si, mi, st, view_i, r};
             fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%u,%.4f,%.6g,%.4f,%.6g,nan\n",
@@ -342,7 +346,7 @@ static leap_result run_all(bench_state *b, char *device, size_t device_n, leap_e
     else
         for (int a = 0; a < MAX_ITEMS; ++a)
             for (int c = 0; c < MAX_ITEMS; ++c)
-                for (int m = 0; m < MAX_ITEMS; ++m) b->fixed->ns[a][c][m] = NAN;
+                for (int m = 0; m < MAX_ITEMS; ++m) b->fixed->ns[a][c][m] = b->fixed->every_pixel[a][c][m] = NAN;
     if (!lr && b->vdb) lr = vdb_runner_open(b->vdb, o->vdb_shadow_step, err);
     for (int vi = 0; vi < o->nvolumes && !lr; ++vi) lr = run_volume(b, vi, err);
     if (b->rows && b->fixed) progress(o, b->done, b->total, lr ? "failed" : "done");

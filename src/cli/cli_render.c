@@ -210,6 +210,7 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
                                 fs->width && fs->height ? fs->gpu_composite_ms * 1e6 / ((double)fs->width * fs->height) : 0);
         cJSON_AddBoolToObject(root, "single_box_chord", fs->single_box != 0);
         cJSON_AddNumberToObject(root, "composite_dispatches", fs->composite_chunks);
+        cJSON_AddNumberToObject(root, "composited_pixels", (double)fs->composited_pixels);
         cJSON_AddStringToObject(root, "opacity_correction", fs->tf_precorrected ? "table" : "per_sample");
     }
     leap_occupancy_stats os;

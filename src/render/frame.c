@@ -18,17 +18,22 @@ static leap_vec4 v4(const double v[3], double w)
  * (px, py) of the view's ray through a point lands on framebuffer position (px, py).
  * Perspective: (a, b, c) = [dir_dx dir_dy dir0]^-1 (X - origin0), pixel = (a/c, b/c).
  * Orthographic: (px, py, t) = [origin_dx origin_dy dir0]^-1 (X - origin0). */
-static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
+static void pixel_rows(const leap_rays *v, double rows[3][4])
 {
     double inv[3][3] = {{0}};
     const double *a = v->ortho ? v->origin_dx : v->dir_dx, *b = v->ortho ? v->origin_dy : v->dir_dy;
     const double cols[3][3] = {{a[0], b[0], v->dir0[0]}, {a[1], b[1], v->dir0[1]}, {a[2], b[2], v->dir0[2]}};
     leap__invert3(cols, inv);
-    double rows[4][4];
     for (int i = 0; i < 3; ++i) {
         double off = -(inv[i][0] * v->origin0[0] + inv[i][1] * v->origin0[1] + inv[i][2] * v->origin0[2]);
         rows[i][0] = inv[i][0], rows[i][1] = inv[i][1], rows[i][2] = inv[i][2], rows[i][3] = off;
     }
+}
+
+static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
+{
+    double rows[3][4];
+    pixel_rows(v, rows);
     /* rows[0], rows[1] give pixel coordinates times w (perspective: w = rows[2]). */
     double w[4], sx = 2.0 / v->width, sy = 2.0 / v->height;
     for (int k = 0; k < 4; ++k) w[k] = v->ortho ? (k == 3 ? 1.0 : 0.0) : rows[2][k];
@@ -135,6 +140,54 @@ static double skip_far(const leap_rays *view, const leap_frame_gpu *f)
         }
     }
     return far + 2 * sqrt(3.0) * (1.0 + 1e-5 * mag);
+}
+
+chunk_rect renderer_box_pixels(const leap_rays *view, const leap_frame_gpu *f)
+{
+    const chunk_rect whole = {0, 0, (uint32_t)view->width, (uint32_t)view->height}, none = {0, 0, 0, 0};
+    const double lo[3] = {f->bbox_min.x, f->bbox_min.y, f->bbox_min.z};
+    const double hi[3] = {f->bbox_max.x, f->bbox_max.y, f->bbox_max.z};
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return none; /* no box: no ray takes a sample */
+    /* The box grown beyond the float error of the GPU's rays up to its far side, as for the
+     * dispatch count: a voxel plus 1e-5 of the coordinates involved. */
+    double mag = 0;
+    for (int corner = 0; corner < 4; ++corner) {
+        double o[3], d[3];
+        leap_rays_at(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
+        for (int b = 0; b < 8; ++b) {
+            double m = 0;
+            for (int a = 0; a < 3; ++a) {
+                const double c = (b >> a & 1) ? hi[a] : lo[a];
+                m += fabs(c) + fabs(o[a]) + fabs(c - o[a]);
+            }
+            mag = fmax(mag, m);
+        }
+    }
+    const double grow = 1.0 + 1e-5 * mag;
+    double rows[3][4], corner[8][3], x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
+    pixel_rows(view, rows);
+    int ahead = 0; /* corners on the rays' side of the eye (perspective) or image plane (ortho) */
+    for (int b = 0; b < 8; ++b) {
+        double p[3], *q = corner[b];
+        for (int a = 0; a < 3; ++a) p[a] = (b >> a & 1) ? hi[a] + grow : lo[a] - grow;
+        for (int i = 0; i < 3; ++i) q[i] = rows[i][0] * p[0] + rows[i][1] * p[1] + rows[i][2] * p[2] + rows[i][3];
+        ahead += q[2] > 0;
+    }
+    if (ahead == 0) return none; /* every ray leaves that plane forwards (t >= 0): none meets the box */
+    if (!view->ortho && ahead < 8) return whole; /* the box reaches behind the eye: unbounded */
+    for (int b = 0; b < 8; ++b) {
+        double *q = corner[b];
+        if (!view->ortho) q[0] /= q[2], q[1] /= q[2];
+        if (!isfinite(q[0]) || !isfinite(q[1])) return whole;
+        x0 = fmin(x0, q[0]), x1 = fmax(x1, q[0]), y0 = fmin(y0, q[1]), y1 = fmax(y1, q[1]);
+    }
+    /* Pixel i's ray passes through i + 0.5; a pixel more on each side. */
+    const double fx0 = fmax(ceil(x0 - 1.5), 0), fx1 = fmin(floor(x1 + 0.5) + 1, view->width);
+    const double fy0 = fmax(ceil(y0 - 1.5), 0), fy1 = fmin(floor(y1 + 0.5) + 1, view->height);
+    if (!(fx0 < fx1 && fy0 < fy1)) return none;
+    /* Work groups on the image's own grid of LEAP_COMPOSITE_GROUP-pixel squares. */
+    const uint32_t g = LEAP_COMPOSITE_GROUP;
+    return (chunk_rect){(uint32_t)fx0 / g * g, (uint32_t)fy0 / g * g, (uint32_t)fx1, (uint32_t)fy1};
 }
 
 /* Dispatches of n lattice indices, per_chunk at a time. */

@@ -293,6 +293,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
                                    &rects, err)))
         return lr;
     const uint32_t march_chunks = st.composite_chunks;
+    /* A skipping mode without lists takes no sample on a ray that misses the box of non-empty
+     * cells, so only the pixels that box may cover are dispatched (all of them when the naive
+     * count, a figure of every pixel, is wanted); the others are filled in below. */
+    chunk_rect drawn = {0, 0, (uint32_t)view->width, (uint32_t)view->height};
+    if (pass_mode != LEAP_RENDER_NAIVE && !listed && !r->count_naive) drawn = renderer_box_pixels(view, r->frame.mapped);
     if (overflow && overflow_chunks > st.composite_chunks) st.composite_chunks = overflow_chunks;
     write_descriptors(r);
     double t1 = leap__now_ms();
@@ -318,7 +323,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     st.tf_precorrected = r->labels || r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
         chunk_rect q = {0, 0, 0, 0}; /* the pixels this chunk marches (sparseleap: the segments') */
-        if (chunk < march_chunks) q = rects ? rects[chunk] : (chunk_rect){0, 0, (uint32_t)view->width, (uint32_t)view->height};
+        if (chunk < march_chunks) {
+            q = rects ? rects[chunk] : drawn;
+            q.x0 = q.x0 > drawn.x0 ? q.x0 : drawn.x0, q.y0 = q.y0 > drawn.y0 ? q.y0 : drawn.y0;
+            q.x1 = q.x1 < drawn.x1 ? q.x1 : drawn.x1, q.y1 = q.y1 < drawn.y1 ? q.y1 : drawn.y1;
+        }
         const int segments = q.x0 < q.x1 && q.y0 < q.y1, overflowed = overflow && chunk < overflow_chunks;
         if (!segments && !overflowed) continue;
         if (chunk > 0)
@@ -360,18 +369,20 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     uint64_t events = 0, segs = 0;
     uint32_t *pl = r->pixel_lists.mapped;
     const uint32_t *event_counts = r->event_counts.mapped;
-    for (size_t i = 0; i < pixels; ++i) {
+    for (size_t i = 0, px = 0, py = 0; i < pixels; ++i, px = px + 1 < (size_t)view->width ? px + 1 : (++py, 0)) {
+        const int outside = !chunk_rect_holds(drawn, px, py);
         /* The resolve pass writes the list facts of a pixel without events only for the
          * statistics (its naive count); else they are set here, for the lists' readers. */
         if (listed && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
         /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
          * sample, its naive count in the list facts (0 when not counted). */
-        const int skipped = listed && pl[4 * i] == 0;
+        const int skipped = outside || (listed && pl[4 * i] == 0);
         float naive = 0;
         if (skipped) {
-            memcpy(&naive, &pl[4 * i + 3], sizeof naive);
+            if (!outside) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
             if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
         }
+        st.composited_pixels += !skipped;
         uint32_t n = skipped ? 0 : (uint32_t)aux[4 * i + 1];
         st.total_samples += n;
         st.naive_samples += (uint64_t)(skipped ? naive : aux[4 * i + 2]);
@@ -389,6 +400,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     }
     if (!r->count_naive) st.naive_samples = 0;
     r->lists_valid = listed;
+    r->drawn = drawn;
     r->last_frame_pixels = pixels;
     st.readback_ms = leap__now_ms() - t2;
     st.samples_mean = (double)st.total_samples / (double)pixels;

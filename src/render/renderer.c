@@ -422,8 +422,8 @@ int leap_renderer_pixel_objects(const leap_renderer *r, int64_t *out)
     if (!r->labels || !r->last_frame_pixels) return 0;
     const float *aux = r->out_aux.mapped;
     const uint32_t *lists = leap_renderer_pixel_lists(r); /* x = 0: not composited, no object */
-    for (size_t i = 0; i < r->last_frame_pixels; ++i)
-        out[i] = lists && lists[4 * i] == 0 ? -1 : (int64_t)(-aux[4 * i + 3]) - 1;
+    for (size_t i = 0, x = 0, y = 0; i < r->last_frame_pixels; ++i, x = x + 1 < r->fb_width ? x + 1 : (++y, 0))
+        out[i] = !chunk_rect_holds(r->drawn, x, y) || (lists && lists[4 * i] == 0) ? -1 : (int64_t)(-aux[4 * i + 3]) - 1;
     return 1;
 }
 

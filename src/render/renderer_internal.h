@@ -20,6 +20,15 @@ enum {
 };
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
+typedef struct chunk_rect {
+    uint32_t x0, y0, x1, y1; /* pixels [x0, x1) x [y0, y1); empty if x0 >= x1 */
+} chunk_rect;
+
+static inline int chunk_rect_holds(chunk_rect q, size_t x, size_t y)
+{
+    return x >= q.x0 && x < q.x1 && y >= q.y0 && y < q.y1;
+}
+
 enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
 
 struct leap_renderer {
@@ -86,11 +95,13 @@ struct leap_renderer {
     const leap_occupancy *occupancy;
     const leap_boxes *box_set;
     int lists_valid;
+    chunk_rect drawn; /* the pixels the last frame composited; the others are transparent, no sample */
 };
 
-typedef struct chunk_rect {
-    uint32_t x0, y0, x1, y1; /* pixels [x0, x1) x [y0, y1); empty if x0 >= x1 */
-} chunk_rect;
+/* frame.c: the pixels whose rays may meet the frame's box of non-empty cells (f->bbox_*; a
+ * projection grown beyond float error), the whole image when the box reaches behind the eye.
+ * Rays outside it take no sample in a skipping mode. */
+chunk_rect renderer_box_pixels(const leap_rays *view, const leap_frame_gpu *f);
 
 /* The Vulkan context, for the present step on the same device (present.c). */
 struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
