@@ -66,7 +66,9 @@ layout(constant_id = 6) const uint leap_ray_pass = LEAP_RAY_PASS_IMAGE;
 bool leap_dispatched_pixel(out uvec2 pix)
 {
     if (leap_ray_pass == LEAP_RAY_PASS_IMAGE) {
-        pix = gl_GlobalInvocationID.xy + uvec2(push.pixel_x, push.pixel_y);
+        uint row = (gl_WorkGroupID.y * push.row_stride) % gl_NumWorkGroups.y;
+        pix = uvec2(gl_GlobalInvocationID.x, row * uint(LEAP_COMPOSITE_GROUP) + gl_LocalInvocationID.y) +
+              uvec2(push.pixel_x, push.pixel_y);
     } else {
         uint index = gl_WorkGroupID.x * uint(LEAP_COMPOSITE_GROUP * LEAP_COMPOSITE_GROUP) + gl_LocalInvocationIndex;
         if (!leap_listed_ray(leap_ray_pass, index, pix)) return false;

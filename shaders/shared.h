@@ -149,7 +149,10 @@ LEAP_STRUCT(leap_push_gpu) {
     uint32_t chunk; /* 0: which chunk of every ray's lattice this dispatch marches */
     uint32_t pixel_x, pixel_y; /* 4, 8: first pixel of the dispatched rectangle (later chunks
                                   cover only the pixels whose rays reach them) */
-    uint32_t pad;
+    uint32_t row_stride; /* 12: work-group row r of the dispatch composites the rectangle's row
+                            (r * row_stride) mod rows (coprime with rows): lavapipe hands each
+                            thread a contiguous share of the work groups, so consecutive
+                            dispatch rows are spread over the rectangle to balance the threads */
 } LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
 
 /* The event mask: one bit per pixel, set by the raster pass at the pixel's first event, so

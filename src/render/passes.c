@@ -154,6 +154,25 @@ static void shader_barrier(VkCommandBuffer cmd, VkPipelineStageFlags src, VkPipe
     vkCmdPipelineBarrier(cmd, src, dst, 0, 1, &mb, 0, NULL, 0, NULL);
 }
 
+static uint32_t gcd32(uint32_t a, uint32_t b)
+{
+    while (b) {
+        const uint32_t t = a % b;
+        a = b, b = t;
+    }
+    return a;
+}
+
+/* A stride coprime with n near n times the golden ratio's fraction: consecutive multiples
+ * modulo n then cover 0..n-1 evenly (push.row_stride in shared.h). */
+static uint32_t spread_stride(uint32_t n)
+{
+    if (n <= 2) return 1;
+    uint32_t s = (uint32_t)(0.6180339887 * n + 0.5);
+    while (gcd32(s, n) != 1) ++s;
+    return s;
+}
+
 static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count, const VkPipeline resolve[2],
                          int timed)
 {
@@ -333,7 +352,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         if (chunk > 0)
             shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                            VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0};
+        const uint32_t rows = (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP;
+        leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0, .row_stride = spread_stride(rows)};
         vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
         if (overflow) { /* sparseleap: the rays the resolve pass listed, with segments or overflowed */
             if (segments) {
