@@ -342,11 +342,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     st.tf_precorrected = r->labels || r->tf_precorrected;
     for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
         chunk_rect q = {0, 0, 0, 0}; /* the pixels this chunk marches (sparseleap: the segments') */
-        if (chunk < march_chunks) {
-            q = rects ? rects[chunk] : drawn;
-            q.x0 = q.x0 > drawn.x0 ? q.x0 : drawn.x0, q.y0 = q.y0 > drawn.y0 ? q.y0 : drawn.y0;
-            q.x1 = q.x1 < drawn.x1 ? q.x1 : drawn.x1, q.y1 = q.y1 < drawn.y1 ? q.y1 : drawn.y1;
-        }
+        if (chunk < march_chunks) q = rects ? chunk_rect_meet(rects[chunk], drawn) : drawn;
         const int segments = q.x0 < q.x1 && q.y0 < q.y1, overflowed = overflow && chunk < overflow_chunks;
         if (!segments && !overflowed) continue;
         if (chunk > 0)

@@ -29,6 +29,12 @@ static inline int chunk_rect_holds(chunk_rect q, size_t x, size_t y)
     return x >= q.x0 && x < q.x1 && y >= q.y0 && y < q.y1;
 }
 
+static inline chunk_rect chunk_rect_meet(chunk_rect a, chunk_rect b)
+{
+    return (chunk_rect){a.x0 > b.x0 ? a.x0 : b.x0, a.y0 > b.y0 ? a.y0 : b.y0, a.x1 < b.x1 ? a.x1 : b.x1,
+                        a.y1 < b.y1 ? a.y1 : b.y1};
+}
+
 enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
 
 struct leap_renderer {
