@@ -79,6 +79,18 @@ static void check_config_bad_option(void)
 
 /* A valid config over 64 KiB (padded with whitespace) is read whole; -o a/b/c creates the
  * missing parents. */
+/* Runs cmd, whose stderr goes to LEAP_TEST_TMP/err_name, and checks that it exits 0 (the
+ * failure message quotes that stderr). */
+static void check_succeeds(const char *cmd, const char *err_name, const char *what)
+{
+    char path[2048];
+    int rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/%s", LEAP_TEST_TMP, err_name);
+    char *err = read_whole_file(path, NULL);
+    CHECK_MSG(rc == 0, "%s: exit status %d; stderr: %s", what, rc, err ? err : "(none)");
+    free(err);
+}
+
 static void check_config_large_and_nested_output(void)
 {
     char cfg[1024], cmd[4096], path[2048];
@@ -96,11 +108,7 @@ static void check_config_large_and_nested_output(void)
     free(text);
     snprintf(cmd, sizeof cmd, "rm -rf %s/nested && %s bench --config %s -o %s/nested/a/b 2>%s/large.err", LEAP_TEST_TMP,
              LEAP_EXE, cfg, LEAP_TEST_TMP, LEAP_TEST_TMP);
-    int rc = run_status(cmd);
-    snprintf(path, sizeof path, "%s/large.err", LEAP_TEST_TMP);
-    char *err = read_whole_file(path, NULL);
-    CHECK_MSG(rc == 0, "config over 64 KiB, -o nested/a/b: exit status %d; stderr: %s", rc, err ? err : "(none)");
-    free(err);
+    check_succeeds(cmd, "large.err", "config over 64 KiB, -o nested/a/b");
     snprintf(path, sizeof path, "%s/nested/a/b/results.csv", LEAP_TEST_TMP);
     char *csv = read_whole_file(path, NULL);
     int rows = 0;
@@ -117,11 +125,7 @@ static void check_without_naive(void)
     snprintf(cmd, sizeof cmd, "rm -rf %s/lone && %s bench %s/sphere.vdb --sizes 32x24 --views 1 --steps 0.5,1 "
              "--modes sparseleap --repeats 1 --warmup 0 --no-reference -o %s/lone 2>%s/lone.err", LEAP_TEST_TMP,
              LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
-    int rc = run_status(cmd);
-    snprintf(path, sizeof path, "%s/lone.err", LEAP_TEST_TMP);
-    char *err = read_whole_file(path, NULL);
-    CHECK_MSG(rc == 0, "bench --modes sparseleap: exit status %d; stderr: %s", rc, err ? err : "(none)");
-    free(err);
+    check_succeeds(cmd, "lone.err", "bench --modes sparseleap");
     snprintf(path, sizeof path, "%s/lone/stages.png", LEAP_TEST_TMP);
     CHECK(access(path, R_OK) == 0);
     snprintf(path, sizeof path, "%s/lone/speedup.png", LEAP_TEST_TMP);

@@ -116,15 +116,16 @@ static double lattice_bound(double t0, double t1, double step)
     return ((t1 - floor(t0 / step) * step) / step + 2) * (1 + 1e-5) + 2;
 }
 
-/* The farthest t at which a skipping mode may take a sample: no ray (unit length in index
- * space, from an origin inside the image corners' origins) leaves the box of the non-empty
- * cells later than at that box's farthest corner, grown beyond float error. -1: no box. */
-static double skip_far(const leap_rays *view, const leap_frame_gpu *f)
+/* The frame's box of the non-empty cells (f->bbox_*) as seen from the image corners' ray
+ * origins: *far, the farthest distance from an origin to a corner of it, and *mag, the largest
+ * sum of the coordinates' magnitudes involved (what float error scales with). 0: no box. */
+static int nonempty_reach(const leap_rays *view, const leap_frame_gpu *f, double lo[3], double hi[3], double *far,
+                          double *mag)
 {
-    const double lo[3] = {f->bbox_min.x, f->bbox_min.y, f->bbox_min.z};
-    const double hi[3] = {f->bbox_max.x, f->bbox_max.y, f->bbox_max.z};
-    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return -1;
-    double far = 0, mag = 0;
+    lo[0] = f->bbox_min.x, lo[1] = f->bbox_min.y, lo[2] = f->bbox_min.z;
+    hi[0] = f->bbox_max.x, hi[1] = f->bbox_max.y, hi[2] = f->bbox_max.z;
+    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return 0;
+    *far = 0, *mag = 0;
     for (int corner = 0; corner < 4; ++corner) {
         double o[3], d[3];
         leap_rays_at(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
@@ -135,35 +136,31 @@ static double skip_far(const leap_rays *view, const leap_frame_gpu *f)
                 dist += (c - o[a]) * (c - o[a]);
                 m += fabs(c) + fabs(o[a]);
             }
-            far = fmax(far, sqrt(dist));
-            mag = fmax(mag, m);
+            *far = fmax(*far, sqrt(dist));
+            *mag = fmax(*mag, m);
         }
     }
+    return 1;
+}
+
+/* The farthest t at which a skipping mode may take a sample: no ray (unit length in index
+ * space, from an origin inside the image corners' origins) leaves the box of the non-empty
+ * cells later than at that box's farthest corner, grown beyond float error. -1: no box. */
+static double skip_far(const leap_rays *view, const leap_frame_gpu *f)
+{
+    double lo[3], hi[3], far, mag;
+    if (!nonempty_reach(view, f, lo, hi, &far, &mag)) return -1;
     return far + 2 * sqrt(3.0) * (1.0 + 1e-5 * mag);
 }
 
 chunk_rect renderer_box_pixels(const leap_rays *view, const leap_frame_gpu *f)
 {
     const chunk_rect whole = {0, 0, (uint32_t)view->width, (uint32_t)view->height}, none = {0, 0, 0, 0};
-    const double lo[3] = {f->bbox_min.x, f->bbox_min.y, f->bbox_min.z};
-    const double hi[3] = {f->bbox_max.x, f->bbox_max.y, f->bbox_max.z};
-    if (!(lo[0] <= hi[0] && lo[1] <= hi[1] && lo[2] <= hi[2])) return none; /* no box: no ray takes a sample */
+    double lo[3], hi[3], far, mag;
+    if (!nonempty_reach(view, f, lo, hi, &far, &mag)) return none; /* no box: no ray takes a sample */
     /* The box grown beyond the float error of the GPU's rays up to its far side, as for the
-     * dispatch count: a voxel plus 1e-5 of the coordinates involved. */
-    double mag = 0;
-    for (int corner = 0; corner < 4; ++corner) {
-        double o[3], d[3];
-        leap_rays_at(view, corner & 1 ? view->width : 0, corner & 2 ? view->height : 0, o, d);
-        for (int b = 0; b < 8; ++b) {
-            double m = 0;
-            for (int a = 0; a < 3; ++a) {
-                const double c = (b >> a & 1) ? hi[a] : lo[a];
-                m += fabs(c) + fabs(o[a]) + fabs(c - o[a]);
-            }
-            mag = fmax(mag, m);
-        }
-    }
-    const double grow = 1.0 + 1e-5 * mag;
+     * dispatch count: a voxel plus 1e-5 of the coordinates and distances involved. */
+    const double grow = 1.0 + 1e-5 * (mag + 2 * far);
     double rows[3][4], corner[8][3], x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
     pixel_rows(view, rows);
     int ahead = 0; /* corners on the rays' side of the eye (perspective) or image plane (ortho) */
