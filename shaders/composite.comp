@@ -9,53 +9,6 @@
 // same ray; they differ only in which intervals of it they visit.
 layout(local_size_x = LEAP_COMPOSITE_GROUP, local_size_y = LEAP_COMPOSITE_GROUP) in;
 
-// Class of the occupancy-tree leaf holding cell c, and that leaf's cube [lo, lo + size) in
-// cells, found by descending from the root.
-uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
-{
-    size = 1 << frame.lists.w;
-    lo = ivec3(0);
-    if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, ivec3(size)))) {
-        lo = c; // outside the tree (float rounding at the domain): treat as non-empty
-        size = 1;
-        return LEAP_CLASS_NONEMPTY;
-    }
-    uint node = 0u;
-    for (;;) {
-        size >>= 1;
-        ivec3 upper = ivec3(greaterThanEqual(c, lo + size));
-        lo += upper * size;
-        uint word = tree[node * 8u + uint(upper.x + 2 * upper.y + 4 * upper.z)];
-        if ((word & LEAP_TREE_LEAF) != 0u) return word & 3u;
-        node = word;
-    }
-}
-
-// The octree mode: walks the lattice, looking up the tree leaf of the next sample; an EMPTY
-// leaf skips every sample before its exit, any other leaf marches every sample up to its exit.
-// Restarting the descent from the root at each leaf replaces the PUSH/POP stack.
-void leap_march_octree(leap_ray ray, leap_lattice lat, float t_enter, float t_exit, inout float j_next,
-                       inout leap_accum acc)
-{
-    j_next = leap_lattice_first(lat, t_enter);
-    for (float t = lat.t0 + j_next * lat.dt; t <= t_exit && !leap_accum_done(acc); t = lat.t0 + j_next * lat.dt) {
-        // The same float position and cell the sampler uses for this sample.
-        ivec3 cell = ivec3(floor(ray.origin + t * ray.dir)) >> LEAP_CELL_SHIFT;
-        ivec3 lo;
-        int size;
-        uint cls = leap_tree_leaf(cell, lo, size);
-        float b0, b1;
-        if (!leap_clip_box(ray, vec3(lo * LEAP_CELL), vec3((lo + size) * LEAP_CELL), b0, b1)) b1 = t;
-        if (cls == LEAP_CLASS_EMPTY && b1 > t) {
-            j_next = max(leap_lattice_first(lat, b1), j_next + 1.0);
-        } else {
-            // Non-empty, or a sample on the exit face (rounding): march from this sample up to
-            // the leaf's exit; the sample at t is always taken, so every step makes progress.
-            leap_march_interval(ray, lat, t_enter, min(max(b1, t), t_exit), j_next, acc);
-        }
-    }
-}
-
 layout(push_constant) uniform Push { leap_push_gpu push; };
 
 // Which pixels a dispatch composites (LEAP_RAY_PASS_IMAGE: those of a rectangle), or which
@@ -113,7 +66,7 @@ void main()
         } else if (mode == LEAP_MODE_OCTREE) {
             // Also sparseleap's rays whose events or segments did not fit (the overflow list):
             // they still skip every EMPTY leaf, and take the same samples.
-            leap_march_octree(ray, lat, ca, cb, j_next, acc);
+            leap_march_interval(ray, lat, ca, cb, j_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;
             if (leap_clip_box(ray, frame.bbox_min.xyz, frame.bbox_max.xyz, b0, b1))

@@ -373,6 +373,28 @@ vec3 leap_shade_rgb(vec3 rgb, vec3 stored, leap_light k)
     return rgb + w * (lit - rgb);
 }
 
+// Class of the occupancy-tree leaf holding cell c, and that leaf's cube [lo, lo + size) in
+// cells, found by descending from the root.
+uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
+{
+    size = 1 << frame.lists.w;
+    lo = ivec3(0);
+    if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, ivec3(size)))) {
+        lo = c; // outside the tree (float rounding at the domain): treat as non-empty
+        size = 1;
+        return LEAP_CLASS_NONEMPTY;
+    }
+    uint node = 0u;
+    for (;;) {
+        size >>= 1;
+        ivec3 upper = ivec3(greaterThanEqual(c, lo + size));
+        lo += upper * size;
+        uint word = tree[node * 8u + uint(upper.x + 2 * upper.y + 4 * upper.z)];
+        if ((word & LEAP_TREE_LEAF) != 0u) return word & 3u;
+        node = word;
+    }
+}
+
 // One past the last lattice index of the run from j (whose sample lies in `cell`) through the
 // cell: the sample at the computed exit wall's lattice index less one must lie in the cell too,
 // else the run is j alone, so the run j .. k-1 is the cell's (a cell is convex) however the exit
@@ -407,12 +429,31 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     vec3 inv_dir = vec3(1.0e30);
     for (int a = 0; a < 3; ++a)
         if (r.dir[a] != 0.0) inv_dir[a] = 1.0 / r.dir[a];
+    // Octree: the tree leaf last looked up (none yet), found again only when a sample leaves it.
+    ivec3 leaf_lo = ivec3(0);
+    int leaf_size = 0;
+    uint leaf_class = LEAP_CLASS_NONEMPTY;
     while (more) {
         // No clamp: q stays within float rounding of the domain box, and the page grid has
         // at least one spare cell on every side of it (see leap_atlas). Voxel centres sit at
         // integer q; a slot cell's samples read the atlas at texel_base + q.
         vec3 q = r.origin + t * r.dir;
         ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+        if (leap_mode == LEAP_MODE_OCTREE) {
+            // The octree mode skips every sample of an EMPTY leaf, up to the leaf's exit; the
+            // sample at t lies in the leaf, so unless the exit rounds to t or before (then the
+            // sample is taken: it composites nothing) the skip makes progress.
+            if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
+                leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
+            float b0, b1;
+            if (leaf_class == LEAP_CLASS_EMPTY &&
+                leap_clip_box(r, vec3(leaf_lo * LEAP_CELL), vec3((leaf_lo + leaf_size) * LEAP_CELL), b0, b1) && b1 > t) {
+                j = max(leap_lattice_first(lat, b1), j + 1.0);
+                t = lat.t0 + j * lat.dt;
+                more = t <= tb;
+                continue;
+            }
+        }
         leap_cursor_seek(cur, cell);
         bool constant = cur.constant;
         vec4 c = vec4(0.0);
