@@ -64,7 +64,8 @@ static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
  * lane taking n lattice indices of step dt crosses at most X = sqrt(3) n dt / 8 + 4 cells,
  * and so tree leaves. It runs n sample iterations plus:
  * - naive, bbox: the march loop's outer iteration and two inner-loop entries per cell;
- * - octree: per leaf, the visit, a descent of up to depth iterations, and the march loop's three;
+ * - octree: per cell, the march loop's three and, where a sample leaves a leaf, a descent of up to
+ *   depth iterations and the skip of an EMPTY leaf (depth + 6 bounds the sum);
  * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry,
  *   and per cell the march loop's three; an overflowed pixel walks the tree as octree does, in
  *   a pipeline of its own with octree's figure (frame.overflow.x). */
