@@ -440,9 +440,9 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
         vec3 q = r.origin + t * r.dir;
         ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
         if (leap_mode == LEAP_MODE_OCTREE) {
-            // The octree mode skips every sample of an EMPTY leaf, up to the leaf's exit; the
-            // sample at t lies in the leaf, so unless the exit rounds to t or before (then the
-            // sample is taken: it composites nothing) the skip makes progress.
+            // The octree mode skips every sample of an EMPTY leaf, up to the leaf's exit. The
+            // sample at t lies in the leaf, so the skip makes progress unless the exit rounds to
+            // t or before; then the sample is taken, as naive takes it.
             if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
                 leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
             float b0, b1;
