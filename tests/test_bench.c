@@ -77,8 +77,6 @@ static void check_config_bad_option(void)
     free(err);
 }
 
-/* A valid config over 64 KiB (padded with whitespace) is read whole; -o a/b/c creates the
- * missing parents. */
 /* Runs cmd, whose stderr goes to LEAP_TEST_TMP/err_name, and checks that it exits 0 (the
  * failure message quotes that stderr). */
 static void check_succeeds(const char *cmd, const char *err_name, const char *what)
@@ -91,6 +89,8 @@ static void check_succeeds(const char *cmd, const char *err_name, const char *wh
     free(err);
 }
 
+/* A valid config over 64 KiB (padded with whitespace) is read whole; -o a/b/c creates the
+ * missing parents. */
 static void check_config_large_and_nested_output(void)
 {
     char cfg[1024], cmd[4096], path[2048];
