@@ -19,5 +19,6 @@ layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint
 layout(std430, set = 0, binding = LEAP_BINDING_OBJECTS) readonly buffer Objects { vec4 objects[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_SLOT_RANGES) readonly buffer SlotRanges { uint slot_ranges[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_RAYS) buffer Rays { uint ray_lists[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_MISSES) buffer Misses { uint misses[]; };
 
 #endif

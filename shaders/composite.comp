@@ -34,30 +34,42 @@ void main()
     uvec2 pix;
     if (!leap_dispatched_pixel(pix)) return;
     uint pixel = pix.y * frame.image.x + pix.x;
-    // Later chunks continue only the rays an earlier chunk left unfinished.
-    if (push.chunk > 0u && out_aux[pixel].w != 1.0) return;
+    // Later chunks, and the passes after a data miss, continue only the rays left waiting
+    // (out_aux.w = 1 + the lattice index they go on from).
+    const uint chunk = push.chunk & ~LEAP_PUSH_RESUME;
+    const bool resume = push.chunk != 0u;
+    float j_wait = 0.0;
+    if (resume) {
+        if (out_aux[pixel].w < 1.0) return;
+        j_wait = out_aux[pixel].w - 1.0;
+    }
     leap_ray ray = leap_pixel_ray(vec2(pix) + 0.5);
     leap_accum acc = leap_accum_init();
     if (leap_mip) acc.color.r = frame.mip_floor.x; // -2: below every signed table coordinate (leap_mip_sample)
     float t_enter, t_exit, j_next = 0.0, naive_samples = 0.0;
     bool finished = true;
+    float j_go_on = 0.0; // an unfinished ray: the lattice index it goes on from
     if (leap_clip_box(ray, frame.domain_min.xyz, frame.domain_max.xyz, t_enter, t_exit) &&
         leap_clip_keep(ray, t_enter, t_exit)) {
         leap_lattice lat = leap_lattice_make(t_enter);
         // This chunk takes lattice indices [j_lo, j_hi): every mode marches only [ca, cb],
         // bounded half a step away from the neighbouring chunks' samples.
         const float per_chunk = leap_ray_pass == LEAP_RAYS_OVERFLOW ? frame.overflow.x : frame.limits.z;
-        float j_lo = float(push.chunk) * per_chunk, j_hi = j_lo + per_chunk;
+        float j_lo = float(chunk) * per_chunk, j_hi = j_lo + per_chunk;
+        // A ray waiting beyond this chunk is left as it is. One waiting before it stopped at a
+        // cell that is still missing (residency changes only between passes), so it stops
+        // there again at once.
+        if (resume && j_wait >= j_hi) return;
         float ca = t_enter, cb = min(t_exit, lat.t0 + (j_hi - 0.5) * lat.dt);
-        if (push.chunk > 0u) {
-            ca = max(t_enter, lat.t0 + (j_lo - 0.5) * lat.dt);
+        if (resume) {
+            ca = max(t_enter, lat.t0 + (j_wait - 0.5) * lat.dt);
             vec4 c = out_rgba[pixel], aux = out_aux[pixel];
             acc.color.rgb = c.rgb;
             acc.transmittance = c.a;
             acc.depth_t = aux.x;
             acc.samples = uint(aux.y);
             acc.first_object = aux.z;
-            j_next = j_lo;
+            j_next = j_wait;
         }
         const uint mode = leap_mode; // a specialisation constant: the other modes compile out
         uvec4 list = mode == LEAP_MODE_SPARSELEAP ? pixel_lists[pixel] : uvec4(0u);
@@ -73,7 +85,7 @@ void main()
                 leap_march_interval(ray, lat, max(b0, ca), min(b1, cb), j_next, acc);
         } else {
             uint count = list.x & LEAP_PIXEL_COUNT_MASK, base = pixel * frame.lists.y;
-            for (uint s = 0u; s < count && !leap_accum_done(acc); ++s) {
+            for (uint s = 0u; s < count && !leap_accum_done(acc) && !acc.waiting; ++s) {
                 vec2 seg = segments[base + s];
                 leap_march_interval(ray, lat, max(seg.x, ca), min(seg.y, cb), j_next, acc);
             }
@@ -82,13 +94,14 @@ void main()
         // to the domain exit, or to the sample where early termination stopped every mode.
         float j_end = leap_lattice_end(lat, t_exit);
         // bbox_max.w: the skipping modes take no sample beyond it (renderer_chunk_count).
-        finished = leap_accum_done(acc) || leap_lattice_end(lat, min(t_exit, frame.bbox_max.w)) <= j_hi;
+        finished = !acc.waiting && (leap_accum_done(acc) || leap_lattice_end(lat, min(t_exit, frame.bbox_max.w)) <= j_hi);
+        j_go_on = acc.waiting ? j_next : j_hi;
         if (leap_accum_done(acc)) j_end = j_next;
         naive_samples = max(j_end - leap_lattice_first(lat, t_enter), 0.0);
     }
     if (!finished) {
         out_rgba[pixel] = vec4(acc.color.rgb, acc.transmittance);
-        out_aux[pixel] = vec4(acc.depth_t, float(acc.samples), acc.first_object, 1.0);
+        out_aux[pixel] = vec4(acc.depth_t, float(acc.samples), acc.first_object, 1.0 + j_go_on);
         return;
     }
 

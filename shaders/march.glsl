@@ -35,6 +35,7 @@ struct leap_accum {
     float depth_t; // t of the first sample above the depth opacity, or -1
     uint samples;
     float first_object; // label volumes: index of the first object drawn with opacity > 0, or -1
+    bool waiting;       // stopped at a cell not resident in the brick cache (a data miss)
 };
 
 leap_ray leap_pixel_ray(vec2 pixel_centre)
@@ -75,7 +76,8 @@ struct leap_cell_cursor {
     bool constant;
     float value;     // constant cells
     vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q
-    uint slot;       // slot cells: the slot's index (LEAP_BINDING_SLOT_RANGES)
+    uint slot;       // slot cells: the slot's index (LEAP_BINDING_SLOT_RANGES); missing ones: the host atlas's
+    bool missing;    // slot cells not resident in the brick cache (LEAP_PAGE_MISSING)
     uint object;     // label volumes, constant cells: the object index
     uint record;     // label volumes, other cells: the record's first word in pages[]
 };
@@ -90,6 +92,7 @@ leap_cell_cursor leap_cursor_init()
     c.value = 0.0;
     c.texel_base = vec3(0.0);
     c.slot = 0u;
+    c.missing = false;
     c.object = 0u;
     c.record = 0u;
     return c;
@@ -123,6 +126,7 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
         entry = pages[frame.top_dims.w + (entry << (3 * shift)) + uint(c.x | (c.y << shift) | (c.z << (2 * shift)))];
     }
     cur.constant = (entry & LEAP_PAGE_CONST) != 0u;
+    cur.missing = false;
     if (leap_labels) {
         cur.object = entry & LEAP_LABEL_INDEX_MASK;
         cur.record = frame.labels.x + entry;
@@ -132,6 +136,8 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
         uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
         cur.texel_base = vec3(slot * uint(LEAP_SLOT)) - vec3(cell * LEAP_CELL) + 0.5;
         if (leap_mip) cur.slot = slot.x + frame.slot_dims.x * (slot.y + frame.slot_dims.y * slot.z);
+        cur.missing = (entry & LEAP_PAGE_MISSING) != 0u;
+        if (cur.missing) cur.slot = entry & (LEAP_PAGE_MISSING - 1u);
     }
 }
 
@@ -143,6 +149,7 @@ leap_accum leap_accum_init()
     a.depth_t = -1.0;
     a.samples = 0u;
     a.first_object = -1.0;
+    a.waiting = false;
     return a;
 }
 
@@ -422,7 +429,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     if (leap_shade) light = leap_light_make(r);
     leap_cell_cursor cur = leap_cursor_init();
     float t = lat.t0 + j * lat.dt;
-    bool more = t <= tb;
+    bool more = t <= tb && !acc.waiting;
     // Cell exits (leap_cell_run_end): the walls a ray leaves cells by (an axis it does not
     // move along never bounds the exit).
     ivec3 exit_side = ivec3(greaterThanEqual(r.dir, vec3(0.0)));
@@ -455,6 +462,12 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
             }
         }
         leap_cursor_seek(cur, cell);
+        if (cur.missing) { // a data miss: report the slot; the ray waits at sample j for a later pass
+            atomicOr(misses[1u + cur.slot / 32u], 1u << (cur.slot % 32u));
+            misses[0] = 1u;
+            acc.waiting = true;
+            break;
+        }
         bool constant = cur.constant;
         vec4 c = vec4(0.0);
         if (!leap_mip) c = leap_labels ? objects[cur.object] : leap_tf_lookup(tf, cur.value);

@@ -51,6 +51,10 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
                                      its smallest stored value | its largest << 16 (MIP skips a
                                      cell that cannot raise a ray's maximum); scalar atlases */
 #define LEAP_BINDING_RAYS 16      /* storage uint[]: a sparseleap frame's rays (see LEAP_RAYS_*) */
+#define LEAP_BINDING_MISSES 17    /* storage uint[]: the GPU brick cache's data misses of one pass:
+                                     word 0 != 0 when any, then a bit per atlas slot (slot s:
+                                     word 1 + s / 32, bit s % 32) that a ray needed but was not
+                                     resident (LEAP_PAGE_MISSING) */
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 
@@ -80,6 +84,10 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BLOCK_SHIFT_MIN 2
 #define LEAP_PAGE_NODE_SHIFT 2 /* middle nodes are 4^3 entries */
 #define LEAP_PAGE_CONST 0x80000000u
+/* A slot cell not resident in the GPU brick cache: the entry holds LEAP_PAGE_MISSING | the
+ * cell's slot in the host atlas (below 2^30). A ray that reaches such a cell reports it
+ * (LEAP_BINDING_MISSES) and waits at that sample until a later pass finds it resident. */
+#define LEAP_PAGE_MISSING 0x40000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
 
@@ -138,7 +146,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * dispatch can safely take is composited over several dispatches, each taking at most
  * frame.limits.z lattice indices (sparseleap's overflowed rays: frame.overflow.x, so they may
  * need more dispatches); the partial result waits in out_rgba (rgb, transmittance)
- * and out_aux (depth t, samples, first object, 1) between them. A finished ray's out_aux is
+ * and out_aux (depth t, samples, first object, 1 + the lattice index it goes on from) between
+ * them, as it does while it waits on a data miss (LEAP_PAGE_MISSING). A finished ray's out_aux is
  * (depth, samples, naive samples, -(first object + 1)), first object -1 when none or not a
  * label volume. */
 #define LEAP_LOOP_ITERATIONS_SAFE 60000
@@ -146,7 +155,8 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 
 /* Push constants of the composite pass. */
 LEAP_STRUCT(leap_push_gpu) {
-    uint32_t chunk; /* 0: which chunk of every ray's lattice this dispatch marches */
+    uint32_t chunk; /* 0: which chunk of every ray's lattice this dispatch marches, |
+                       LEAP_PUSH_RESUME in the passes that continue rays waiting on a miss */
     uint32_t pixel_x, pixel_y; /* 4, 8: first pixel of the dispatched rectangle (later chunks
                                   cover only the pixels whose rays reach them) */
     uint32_t row_stride; /* 12: work-group row r of the dispatch composites the rectangle's row
@@ -154,6 +164,7 @@ LEAP_STRUCT(leap_push_gpu) {
                             thread a contiguous share of the work groups, so consecutive
                             dispatch rows are spread over the rectangle to balance the threads */
 } LEAP_STRUCT_END(leap_push_gpu) /* 16 bytes */
+#define LEAP_PUSH_RESUME 0x80000000u
 
 /* The event mask: one bit per pixel, set by the raster pass at the pixel's first event, so
  * that the resolve pass finds the pixels with events without reading every pixel's count.

@@ -156,6 +156,8 @@ int main(void)
         {"--ambient 20", "--ambient"},
         {"--shininess 0.5", "--shininess"},
         {"--light 1,0", "--light"},
+        {"--gpu-cache 12Q", "--gpu-cache"},
+        {"--gpu-cache 0", "--gpu-cache"},
     };
     for (size_t i = 0; i < sizeof usage_errors / sizeof usage_errors[0]; ++i) {
         snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, usage_errors[i].opts);
@@ -298,6 +300,39 @@ int main(void)
               cJSON_GetObjectItem(mem, "page_table")->valuedouble > 0 &&
               cJSON_GetObjectItem(mem, "page_table")->valuedouble < cJSON_GetObjectItem(mem, "gpu_volume")->valuedouble);
         cJSON_Delete(root);
+    }
+
+    /* --gpu-cache: a cache of a few dozen of the sphere's bricks gives the same picture (its
+     * 8-bit pixels within one step: texel addresses round as the bricks' places in the image),
+     * and says so in --stats; shading refuses it (exit 1, no output). */
+    {
+        char whole[1100], cached[1100];
+        snprintf(whole, sizeof whole, "%s/whole.png", tmp);
+        snprintf(cached, sizeof cached, "%s/cached.png", tmp);
+        snprintf(args, sizeof args, "render %s -o %s --size 64x48 -q", sphere, whole);
+        CHECK_MSG(run(args) == 0, "%s", out_text);
+        snprintf(args, sizeof args, "render %s -o %s --size 64x48 --gpu-cache 64K --stats %s -q", sphere, cached, stats);
+        CHECK_MSG(run(args) == 0, "%s", out_text);
+        int wa = 0, ha = 0, ca = 0, wb = 0, hb = 0, cb = 0;
+        float *pa = NULL, *pb = NULL;
+        CHECK_OK(leap_image_read(whole, &wa, &ha, &ca, &pa, &err), &err);
+        CHECK_OK(leap_image_read(cached, &wb, &hb, &cb, &pb, &err), &err);
+        double worst = pa && pb && wa == wb && ha == hb && ca == cb ? 0 : INFINITY;
+        for (int i = 0; pa && pb && isfinite(worst) && i < wa * ha * ca; ++i) worst = fmax(worst, fabs(pa[i] - pb[i]));
+        CHECK_MSG(worst <= 1.0 / 255 + 1e-6, "the cached render differs by %g", worst);
+        free(pa);
+        free(pb);
+        FILE *fs = fopen(stats, "rb");
+        json[fs ? fread(json, 1, sizeof json - 1, fs) : 0] = '\0';
+        if (fs) fclose(fs);
+        cJSON *st = cJSON_Parse(json), *cache = st ? cJSON_GetObjectItem(st, "gpu_cache") : NULL;
+        CHECK_MSG(cache && cJSON_GetObjectItem(cache, "passes")->valuedouble > 1 &&
+                      cJSON_GetObjectItem(cache, "slots")->valuedouble < cJSON_GetObjectItem(cache, "bricks")->valuedouble,
+                  "%s", json);
+        cJSON_Delete(st);
+        snprintf(args, sizeof args, "render %s -o %s --gpu-cache 64K --shade", sphere, out);
+        remove(out);
+        EXPECT_FAIL(1, args, "cache", out);
     }
 
     /* A turntable: frame k is the single render of --orbit 35 + 360k/N, 25; folders are made. */

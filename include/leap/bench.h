@@ -38,6 +38,7 @@ typedef struct leap_bench_desc {
     int mip, shade;                /* every frame (and the reference) in MIP / minIP (leap_march.mip), or
                                       shaded (leap_shading_default) */
     int vs_vdb;                    /* also time vdb_render */
+    uint64_t gpu_cache_bytes;      /* leap_renderer_desc.cache_bytes (0: the whole atlas) */
     double vdb_shadow_step;        /* vdb_render -shadowstep, voxels */
     char vdb_render_exe[4096];     /* its path, from leap_bench_find_vdb_render; needed with vs_vdb */
     /* Optional: progress (done of total steps, what runs now) and messages. */

@@ -47,6 +47,10 @@ typedef struct leap_renderer_desc {
                                        float are uploaded so (lavapipe filters them faster
                                        than 16-bit); larger ones keep 16-bit UNORM. 0 =
                                        LEAP_FLOAT_ATLAS_MAX_BYTES, UINT64_MAX = always, 1 = never */
+    uint64_t cache_bytes;    /* room for the atlas image; when its slots need more, the image is
+                                a cache of slots loaded as rays miss them, over several passes
+                                per frame (the same image, slower). 0 = the whole atlas. Not
+                                with gradient shading; label volumes need no atlas image. */
 } leap_renderer_desc;
 
 #define LEAP_FLOAT_ATLAS_MAX_BYTES (512ull << 20)
@@ -78,6 +82,11 @@ typedef struct leap_frame_stats {
                                   chord was each ray's segment (no raster, no resolve) */
     int tf_precorrected;       /* 1: opacity corrected in the TF table, 0: per sample */
     uint32_t width, height;
+    /* The GPU brick cache (leap_renderer_desc.cache_bytes): slots it holds (0: no cache), and
+     * in this frame its composite passes, the misses rays reported over them (a slot once per
+     * pass), the slots loaded and those evicted for them. */
+    uint32_t cache_slots, cache_passes;
+    uint64_t cache_misses, cache_loaded, cache_evicted;
 } leap_frame_stats;
 
 leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer **out, leap_error *err);
@@ -97,7 +106,9 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 
 /* The parts of a binding, for tests and tools that vary one of them. */
 
-/* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after). */
+/* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after,
+ * unless the renderer was given too little room for it (cache_bytes): its cache then loads
+ * slots from the atlas while it renders, so the atlas must outlive the binding). */
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err);
 
 /* Shading: uploads the values and gradients of the volume's atlas (leap_value_gradients_fill;

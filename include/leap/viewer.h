@@ -425,6 +425,7 @@ typedef struct leap_viewer_session_desc {
     const char *script_path;  /* names the script in messages (NULL: none) */
     const char *device_name;  /* as leap_renderer_desc */
     uint32_t max_segments;    /* as leap_renderer_desc */
+    uint64_t cache_bytes;     /* as leap_renderer_desc */
     double budget_ms;         /* frame-time target while the camera moves */
     int adaptive;             /* 0: always full resolution */
     int quiet;                /* 1: no informational notes (device, screenshots written) */

@@ -102,6 +102,9 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
                 "are rendered as a user gets them, without the statistics' naive count; one more frame per "
                 "configuration, untimed, gives the samples, events and segments. ",
             device, o->views, o->elevation, o->repeats, o->warmup);
+    if (o->gpu_cache_bytes)
+        fprintf(md, "The volume's bricks go through a GPU cache of %.1f MiB (--gpu-cache): a frame whose rays need "
+                    "bricks it does not hold takes more passes. ", (double)o->gpu_cache_bytes / (1 << 20));
     if (o->mip || o->shade)
         fprintf(md, "Every frame and the reference %s. ", o->mip > 0   ? "are maximum intensity projections"
                                                            : o->mip < 0 ? "are minimum intensity projections"

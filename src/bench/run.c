@@ -326,7 +326,7 @@ static leap_result run_volume(bench_state *b, int vi, leap_error *err)
 static leap_result run_all(bench_state *b, char *device, size_t device_n, leap_error *err)
 {
     const leap_bench_desc *o = b->o;
-    leap_renderer_desc rd = {.device_name = o->device};
+    leap_renderer_desc rd = {.device_name = o->device, .cache_bytes = o->gpu_cache_bytes};
     leap_result lr = leap_renderer_create(&rd, &b->renderer, err);
     if (lr) return lr;
     char path[4096];

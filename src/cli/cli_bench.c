@@ -59,7 +59,9 @@ static const char *bench_help =
     "                      printed with the volume named, its other vdb_render runs are\n"
     "                      skipped, the rest of the bench completes and leap exits 1.\n"
     "  --vdb-shadow-step F vdb_render's shadow-ray step in voxels (default 3, its own default)\n"
-    "  --device NAME       Vulkan device\n";
+    "  --device NAME       Vulkan device\n"
+    "  --gpu-cache SIZE    the volume's bricks through a GPU cache of SIZE (e.g. 64M; see\n"
+    "                      leap render --help)\n";
 
 static void progress(int done, int total, const char *what, void *user)
 {
@@ -128,6 +130,10 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
         } else if ((v = cli_option_value(argc, argv, &i, "--device", &missing)) || missing) {
             if (missing) rc = cli_usage_error("bench", "option --device needs a value");
             o->device = v;
+        } else if ((v = cli_option_value(argc, argv, &i, "--gpu-cache", &missing)) || missing) {
+            if (missing) rc = cli_usage_error("bench", "option --gpu-cache needs a value");
+            else if (!(o->gpu_cache_bytes = cli_parse_bytes(v)))
+                rc = cli_usage_error("bench", "--gpu-cache '%s' must be a size such as 64M, 1.5G or 500000 (bytes)", v);
         } else if (a[0] == '-' && a[1] == '-' && a[2]) {
             const char *name = a + 2;
             char key[64];

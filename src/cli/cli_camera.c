@@ -63,6 +63,10 @@ const char *cli_camera_options_help =
     "                      more walk the occupancy tree instead (as --mode octree) and\n"
     "                      are counted as overflowed\n"
     "  --device NAME       Vulkan device whose name contains NAME (env LEAP_DEVICE)\n"
+    "  --gpu-cache SIZE    room for the volume's bricks on the device, e.g. 64M or 2G; a\n"
+    "                      volume that needs more is rendered through a cache of that size,\n"
+    "                      loading bricks as rays miss them over several passes a frame\n"
+    "                      (the same image, slower; not with --shade; default: room for all)\n"
     "segmentations (int32/int64 grids; each object in its own colour, nearest voxel):\n"
     "  --labels            render a grid of integer values as a segmentation\n"
     "  --show IDS          show only these objects, e.g. 12,57,300-400 (default: all)\n"
@@ -165,11 +169,11 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.show = o->scene.hide = o->scene.objects = NULL;
         return 1;
     }
-    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
+    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
            FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
-        [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [ORBIT] = "--orbit", [EYE] = "--eye",
+        [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [GPU_CACHE] = "--gpu-cache", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
         [OPACITY] = "--label-opacity", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane",
         [LIGHT] = "--light", [AMBIENT] = "--ambient", [DIFFUSE] = "--diffuse", [SPECULAR] = "--specular",
@@ -209,6 +213,10 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->max_segments = (int)n;
         break;
     case DEVICE: o->device = v; break;
+    case GPU_CACHE:
+        if (!(o->gpu_cache_bytes = cli_parse_bytes(v)))
+            FAIL("--gpu-cache '%s' must be a size such as 64M, 1.5G or 500000 (bytes)", v);
+        break;
     case ORBIT:
         o->orbit_n = leap__parse_numbers(v, o->orbit, 2, 3);
         if (o->orbit_n < 0 || (o->orbit_n == 3 && !(o->orbit[2] > 0)))

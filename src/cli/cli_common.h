@@ -47,6 +47,9 @@ int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs,
                       int n_outputs);
 /* 1 if the directory that would hold `path` exists and is writable. */
 int cli_dir_writable(const char *path);
+/* A byte count: a number with an optional unit K, M, G, T (powers of 1024; "MiB" and "MB"
+ * read the same). 0 when malformed or below one byte. */
+uint64_t cli_parse_bytes(const char *s);
 
 /* Options shared by render, segments, bench and view. */
 typedef struct cli_camera_options {
@@ -60,6 +63,7 @@ typedef struct cli_camera_options {
     double background[4];
     int has_background, alpha;
     int legend;                /* --legend: the colour bar and its values drawn into the image */
+    uint64_t gpu_cache_bytes;  /* --gpu-cache (leap_renderer_desc.cache_bytes), 0: none */
 } cli_camera_options;
 
 /* Help text for the shared options. */

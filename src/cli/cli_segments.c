@@ -151,7 +151,8 @@ int cli_segments(int argc, char **argv)
         cli_runtime_error("out of memory for a %dx%d image", o.view.width, o.view.height);
         goto done;
     }
-    leap_renderer_desc rd = {.device_name = o.view.device, .max_segments = (uint32_t)o.view.max_segments, .keep_lists = 1};
+    leap_renderer_desc rd = {.device_name = o.view.device, .max_segments = (uint32_t)o.view.max_segments, .keep_lists = 1,
+                             .cache_bytes = o.view.gpu_cache_bytes};
     if (leap_renderer_create(&rd, &renderer, &err)) {
         cli_runtime_error("%s", err.msg);
         goto done;

@@ -79,7 +79,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
         cli_runtime_error("out of memory for a %dx%d image", o->width, o->height);
         goto done;
     }
-    leap_renderer_desc rd = {.device_name = o->device, .max_segments = (uint32_t)o->max_segments};
+    leap_renderer_desc rd = {.device_name = o->device, .max_segments = (uint32_t)o->max_segments, .cache_bytes = o->gpu_cache_bytes};
     if ((r = leap_renderer_create(&rd, &renderer, &err)) || (r = leap_renderer_bind_scene(renderer, scene, &err))) {
         rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
         goto done;

@@ -207,6 +207,7 @@ static int run_session(const view_options *o, leap_scene *scene, const leap_view
         .script_path = o->script,
         .device_name = o->view.device,
         .max_segments = (uint32_t)o->view.max_segments,
+        .cache_bytes = o->view.gpu_cache_bytes,
         .budget_ms = o->budget_ms,
         .adaptive = o->adaptive,
         .quiet = o->quiet,

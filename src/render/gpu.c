@@ -392,6 +392,25 @@ static leap_result fill_linear(leap_gpu *gpu, leap_image *img, leap_texel_fill f
     return LEAP_OK;
 }
 
+/* The stages that sample the volume's images. */
+#define IMAGE_READERS (VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT)
+
+static VkImageMemoryBarrier image_barrier(VkImage image, VkAccessFlags from, VkAccessFlags to, VkImageLayout old_layout,
+                                          VkImageLayout new_layout)
+{
+    return (VkImageMemoryBarrier){
+        .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
+        .srcAccessMask = from,
+        .dstAccessMask = to,
+        .oldLayout = old_layout,
+        .newLayout = new_layout,
+        .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+        .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
+        .image = image,
+        .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
+    };
+}
+
 leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t extent[3], size_t texel_bytes,
                                 leap_texel_fill fill, const void *ctx, leap_image *out, leap_error *err)
 {
@@ -466,30 +485,21 @@ leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t e
 
     const size_t texels = (size_t)ext.width * ext.height * ext.depth;
     leap_buffer staging = {0};
+    out->host_linear = linear;
     if (linear) r = fill_linear(gpu, out, fill, ctx, err);
     else if (!(r = leap_gpu_buffer_create(gpu, texels * texel_bytes, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err)))
         fill(staging.mapped, 0, texels, ctx);
     if (!r) r = leap_gpu_begin(gpu, err);
     if (!r) {
-        VkImageMemoryBarrier to_dst = {
-            .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
-            .srcAccessMask = 0,
-            .dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT,
-            .oldLayout = VK_IMAGE_LAYOUT_UNDEFINED,
-            .newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-            .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-            .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
-            .image = out->image,
-            .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
-        };
-        VkImageMemoryBarrier to_read = to_dst;
-        to_read.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-        to_read.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-        const VkPipelineStageFlags readers = VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT;
+        const VkImageMemoryBarrier to_dst = image_barrier(out->image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        VkImageMemoryBarrier to_read = image_barrier(out->image, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
+                                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
         if (linear) {
             to_read.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
             to_read.oldLayout = VK_IMAGE_LAYOUT_PREINITIALIZED;
-            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_HOST_BIT, readers, 0, 0, NULL, 0, NULL, 1, &to_read);
+            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_HOST_BIT, IMAGE_READERS, 0, 0, NULL, 0, NULL, 1, &to_read);
         } else {
             vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
                                  0, 0, NULL, 0, NULL, 1, &to_dst);
@@ -499,9 +509,8 @@ leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t e
             };
             vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, out->image,
                                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
-            to_read.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-            to_read.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, readers, 0, 0, NULL, 0, NULL, 1, &to_read);
+            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, IMAGE_READERS, 0, 0, NULL, 0, NULL, 1,
+                                 &to_read);
         }
         r = leap_gpu_submit_wait(gpu, err);
     }
@@ -509,6 +518,60 @@ leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t e
     if (!r) return LEAP_OK;
 fail:
     leap_gpu_image_destroy(gpu, out);
+    return r;
+}
+
+leap_result leap_gpu_image_write_cubes(leap_gpu *gpu, leap_image *img, size_t texel_bytes, uint32_t edge,
+                                       size_t count, const uint32_t (*origins)[3], const void *texels,
+                                       leap_error *err)
+{
+    if (count == 0) return LEAP_OK;
+    const size_t row = edge * texel_bytes, cube = (size_t)edge * edge * row;
+    const char *src = texels;
+    if (img->host_linear) {
+        void *mapped = NULL;
+        LEAP_VK_CHECK(vkMapMemory(gpu->device, img->memory, 0, VK_WHOLE_SIZE, 0, &mapped));
+        const VkImageSubresource sub = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0};
+        VkSubresourceLayout layout;
+        vkGetImageSubresourceLayout(gpu->device, img->image, &sub, &layout);
+        for (size_t i = 0; i < count; ++i)
+            for (uint32_t z = 0; z < edge; ++z)
+                for (uint32_t y = 0; y < edge; ++y)
+                    memcpy((char *)mapped + layout.offset + (origins[i][2] + z) * layout.depthPitch +
+                               (origins[i][1] + y) * layout.rowPitch + origins[i][0] * texel_bytes,
+                           src + i * cube + ((size_t)z * edge + y) * row, row);
+        vkUnmapMemory(gpu->device, img->memory);
+        return LEAP_OK;
+    }
+    leap_buffer staging = {0};
+    VkBufferImageCopy *copies = calloc(count, sizeof *copies);
+    leap_result r = copies ? leap_gpu_buffer_create(gpu, count * cube, VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging, err)
+                           : leap_fail(err, LEAP_ERR_OOM, "out of host memory for %zu texel copies", count);
+    if (!r) r = leap_gpu_begin(gpu, err);
+    if (!r) {
+        memcpy(staging.mapped, texels, count * cube);
+        for (size_t i = 0; i < count; ++i)
+            copies[i] = (VkBufferImageCopy){
+                .bufferOffset = i * cube,
+                .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
+                .imageOffset = {(int32_t)origins[i][0], (int32_t)origins[i][1], (int32_t)origins[i][2]},
+                .imageExtent = {edge, edge, edge},
+            };
+        const VkImageMemoryBarrier to_dst = image_barrier(img->image, VK_ACCESS_SHADER_READ_BIT,
+                                                          VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                                                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+        const VkImageMemoryBarrier to_read = image_barrier(img->image, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                                           VK_ACCESS_SHADER_READ_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+        vkCmdPipelineBarrier(gpu->cmd, IMAGE_READERS, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, NULL, 0, NULL, 1, &to_dst);
+        vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, img->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                               (uint32_t)count, copies);
+        vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, IMAGE_READERS, 0, 0, NULL, 0, NULL, 1, &to_read);
+        r = leap_gpu_submit_wait(gpu, err);
+    }
+    free(copies);
+    leap_gpu_buffer_destroy(gpu, &staging);
     return r;
 }
 

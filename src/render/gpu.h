@@ -68,6 +68,7 @@ typedef struct leap_image {
     VkFormat format;
     uint32_t extent[3];
     VkDeviceSize memory_bytes; /* size of `memory`, counted in allocated_bytes */
+    int host_linear;           /* linear tiling in host memory, written in place */
 } leap_image;
 
 /* Creates the context. Errors: LEAP_ERR_VULKAN naming the failing call and VkResult, or
@@ -106,6 +107,12 @@ leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t e
 leap_result leap_gpu_image_create(leap_gpu *gpu, VkFormat format, const uint32_t extent[3],
                                   const void *data, size_t bytes, leap_image *out, leap_error *err);
 void leap_gpu_image_destroy(leap_gpu *gpu, leap_image *img); /* accepts zeroed */
+/* Rewrites `count` cubes of edge^3 texels of a 3D image made by leap_gpu_image_fill, cube i
+ * at texel origins[i] (x fastest in `texels`, cube after cube), while the device is idle: in
+ * place on a CPU device, else through a staging buffer and a copy. */
+leap_result leap_gpu_image_write_cubes(leap_gpu *gpu, leap_image *img, size_t texel_bytes, uint32_t edge,
+                                       size_t count, const uint32_t (*origins)[3], const void *texels,
+                                       leap_error *err);
 
 /* Starts recording the context's command buffer / submits it and waits. */
 leap_result leap_gpu_begin(leap_gpu *gpu, leap_error *err);

@@ -118,6 +118,7 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_SEGMENTS] = &r->segments, [LEAP_BINDING_PIXELS] = &r->pixel_lists, [LEAP_BINDING_RAYS] = &r->ray_lists,
         [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
         [LEAP_BINDING_SLOT_RANGES] = r->slot_ranges.buffer ? &r->slot_ranges : &r->pages, /* labels: never read */
+        [LEAP_BINDING_MISSES] = &r->misses,
     };
     const int shading = r->value_gradients_serial == r->atlas_serial && r->value_gradients.view;
     VkDescriptorImageInfo img[3] = {
@@ -171,6 +172,50 @@ static uint32_t spread_stride(uint32_t n)
     uint32_t s = (uint32_t)(0.6180339887 * n + 0.5);
     while (gcd32(s, n) != 1) ++s;
     return s;
+}
+
+/* What a frame's composite passes dispatch (see leap_renderer_render). */
+typedef struct composite_plan {
+    VkPipeline composite, overflow; /* overflow: sparseleap's overflowed rays, else none */
+    uint32_t chunks, march_chunks, overflow_chunks;
+    const chunk_rect *rects; /* per chunk, the pixels whose rays reach it (NULL: all drawn) */
+    chunk_rect drawn;
+} composite_plan;
+
+/* Records the composite dispatches of every chunk into the context's command buffer, then
+ * the barrier before the host reads the outputs. `resume` (LEAP_PUSH_RESUME): a pass after a
+ * data miss, which goes on with the rays left waiting. */
+static void record_composite(leap_renderer *r, const composite_plan *p, uint32_t resume)
+{
+    VkCommandBuffer cmd = r->gpu->cmd;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p->composite);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+    for (uint32_t chunk = 0; chunk < p->chunks; ++chunk) {
+        chunk_rect q = {0, 0, 0, 0}; /* the pixels this chunk marches (sparseleap: the segments') */
+        if (chunk < p->march_chunks) q = p->rects ? chunk_rect_meet(p->rects[chunk], p->drawn) : p->drawn;
+        const int segments = q.x0 < q.x1 && q.y0 < q.y1, overflowed = p->overflow && chunk < p->overflow_chunks;
+        if (!segments && !overflowed) continue;
+        if (chunk > 0)
+            shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                           VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        const uint32_t rows = (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP;
+        leap_push_gpu push = {.chunk = chunk | resume, .pixel_x = q.x0, .pixel_y = q.y0, .row_stride = spread_stride(rows)};
+        vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
+        if (p->overflow) { /* sparseleap: the rays the resolve pass listed, with segments or overflowed */
+            if (segments) {
+                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p->composite);
+                vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_MARCH);
+            }
+            if (overflowed) {
+                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, p->overflow);
+                vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_OVERFLOW);
+            }
+        } else
+            vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
+                          (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    }
+    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_HOST_READ_BIT);
 }
 
 static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_count, const VkPipeline resolve[2],
@@ -337,38 +382,23 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, gpu->timestamps, TS_START);
     }
     if (listed) record_lists(r, view, box_count, resolve, timed);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
     st.tf_precorrected = r->labels || r->tf_precorrected;
-    for (uint32_t chunk = 0; chunk < st.composite_chunks; ++chunk) {
-        chunk_rect q = {0, 0, 0, 0}; /* the pixels this chunk marches (sparseleap: the segments') */
-        if (chunk < march_chunks) q = rects ? chunk_rect_meet(rects[chunk], drawn) : drawn;
-        const int segments = q.x0 < q.x1 && q.y0 < q.y1, overflowed = overflow && chunk < overflow_chunks;
-        if (!segments && !overflowed) continue;
-        if (chunk > 0)
-            shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                           VK_ACCESS_SHADER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
-        const uint32_t rows = (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP;
-        leap_push_gpu push = {.chunk = chunk, .pixel_x = q.x0, .pixel_y = q.y0, .row_stride = spread_stride(rows)};
-        vkCmdPushConstants(cmd, r->pipeline_layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof push, &push);
-        if (overflow) { /* sparseleap: the rays the resolve pass listed, with segments or overflowed */
-            if (segments) {
-                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, composite);
-                vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_MARCH);
-            }
-            if (overflowed) {
-                vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, overflow);
-                vkCmdDispatchIndirect(cmd, r->ray_lists.buffer, 16 * LEAP_RAYS_OVERFLOW);
-            }
-        } else
-            vkCmdDispatch(cmd, (q.x1 - q.x0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP,
-                          (q.y1 - q.y0 + LEAP_COMPOSITE_GROUP - 1) / LEAP_COMPOSITE_GROUP, 1);
+    const composite_plan plan = {composite, overflow, st.composite_chunks, march_chunks, overflow_chunks, rects, drawn};
+    record_composite(r, &plan, 0);
+    if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
+    lr = leap_gpu_submit_wait(gpu, err);
+    /* The brick cache: more passes while rays wait on missed slots, each after loading them. */
+    st.cache_slots = r->cache.capacity;
+    st.cache_passes = 1;
+    while (!lr && renderer_cache_missed(r)) {
+        if (!(lr = renderer_cache_service(r, &st, err)) && !(lr = leap_gpu_begin(gpu, err))) {
+            record_composite(r, &plan, LEAP_PUSH_RESUME);
+            lr = leap_gpu_submit_wait(gpu, err);
+        }
+        ++st.cache_passes;
     }
     free(rects);
-    if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, gpu->timestamps, TS_COMPOSITE);
-    shader_barrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, VK_ACCESS_SHADER_WRITE_BIT,
-                   VK_ACCESS_HOST_READ_BIT);
-    if ((lr = leap_gpu_submit_wait(gpu, err))) return lr;
+    if (lr) return lr;
     double t2 = leap__now_ms();
     st.render_ms = t2 - t1;
     double ts[TS_COUNT];

@@ -40,6 +40,7 @@ leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer *
     r->max_segments = desc && desc->max_segments ? desc->max_segments : LEAP_MAX_SEGMENTS;
     if (r->max_segments > LEAP_MAX_SEGMENTS) r->max_segments = LEAP_MAX_SEGMENTS;
     r->float_atlas_max_bytes = desc && desc->float_atlas_max_bytes ? desc->float_atlas_max_bytes : LEAP_FLOAT_ATLAS_MAX_BYTES;
+    r->cache_bytes = desc ? desc->cache_bytes : 0;
     leap_gpu_desc gd = {.device_name = desc ? desc->device_name : NULL};
     if (desc) {
         gd.instance_extensions = desc->instance_extensions;
@@ -73,6 +74,8 @@ void leap_renderer_destroy(leap_renderer *r)
         leap_gpu_image_destroy(gpu, &r->tf);
         leap_gpu_buffer_destroy(gpu, &r->pages);
         leap_gpu_buffer_destroy(gpu, &r->slot_ranges);
+        leap_gpu_buffer_destroy(gpu, &r->misses);
+        renderer_cache_release(r);
         leap_gpu_image_destroy(gpu, &r->atlas);
         leap_gpu_image_destroy(gpu, &r->value_gradients);
         leap_gpu_buffer_destroy(gpu, &r->frame);
@@ -123,7 +126,7 @@ static void atlas_texels_float(void *dst, size_t first, size_t count, const void
     for (size_t done = 0; done < count;) {
         const size_t n = count - done < 4096 ? count - done : 4096;
         leap_atlas_texels(ctx, first + done, n, chunk);
-        for (size_t i = 0; i < n; ++i) values[done + i] = (float)chunk[i] * (float)(1.0 / 65535.0);
+        for (size_t i = 0; i < n; ++i) values[done + i] = renderer_texel_float(chunk[i]);
         done += n;
     }
 }
@@ -137,6 +140,13 @@ static leap_result upload_slot_ranges(leap_renderer *r, const leap_atlas *a, lea
                                             &r->slot_ranges, err);
     if (!lr && bytes) memcpy(r->slot_ranges.mapped, a->slot_ranges, bytes);
     return lr;
+}
+
+/* Shading reads a second image in the slots' layout, which the brick cache does not keep. */
+static leap_result shading_refuses_cache(const leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+{
+    return leap_fail(err, LEAP_ERR_UNSUPPORTED, "gradient shading does not run with a GPU brick cache (the volume's %u "
+                     "bricks need more than the %.1f MiB given)", atlas->slot_count, (double)r->cache_bytes / (1 << 20));
 }
 
 /* The volume's values as unshaded and MIP frames sample them: float, or 16 bits when float
@@ -182,6 +192,8 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
     r->value_gradients_serial = 0;
     leap_gpu_buffer_destroy(r->gpu, &r->pages);
     leap_gpu_buffer_destroy(r->gpu, &r->slot_ranges);
+    leap_gpu_buffer_destroy(r->gpu, &r->misses);
+    renderer_cache_release(r);
     r->has_volume = 0;
     r->atlas_serial = 0;
     r->last_frame_pixels = 0;
@@ -191,23 +203,33 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
                          "the volume's page table and label cells take %.1f MiB, more than the %llu MiB one storage "
                          "buffer of this device can hold",
                          (double)page_bytes / (1 << 20), (unsigned long long)(r->gpu->storage_buffer_range >> 20));
-    leap_result lr = values || atlas->labels ? upload_values(r, atlas, err) : LEAP_OK; /* labels: never shaded */
-    if (!lr)
-        lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
-    if (!lr && !atlas->labels) lr = upload_slot_ranges(r, atlas, err);
+    const uint32_t capacity = renderer_cache_capacity(r, atlas);
+    if (capacity && !values)
+        return shading_refuses_cache(r, atlas, err);
+    leap_result lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
+    if (!lr && capacity) {
+        lr = renderer_cache_upload(r, atlas, capacity, err);
+    } else if (!lr) {
+        for (int i = 0; i < 3; ++i) {
+            r->slot_dims[i] = atlas->slot_dims[i];
+            r->texel_dims[i] = atlas->texel_dims[i];
+        }
+        if (values || atlas->labels) lr = upload_values(r, atlas, err); /* labels: never shaded */
+        if (!lr && !atlas->labels) lr = upload_slot_ranges(r, atlas, err);
+        if (!lr) memcpy(r->pages.mapped, atlas->pages, atlas->page_words * 4);
+    }
+    /* A missed slot's bit, for each slot of the host atlas (none are missed without a cache). */
+    const size_t miss_words = 1 + (capacity ? ((size_t)atlas->slot_count + 31) / 32 : 0);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, miss_words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->misses, err);
     if (lr) return lr;
-    memcpy(r->pages.mapped, atlas->pages, atlas->page_words * 4);
+    memset(r->misses.mapped, 0, miss_words * 4);
     if (atlas->labels)
         memcpy((uint32_t *)r->pages.mapped + atlas->page_words, atlas->label_words, atlas->label_word_count * 4);
     r->labels = atlas->labels;
     r->label_base = (uint32_t)atlas->page_words;
     r->value_min = atlas->value_min;
     r->value_max = atlas->value_max;
-    for (int i = 0; i < 3; ++i) {
-        r->top_dims[i] = atlas->top_dims[i];
-        r->slot_dims[i] = atlas->slot_dims[i];
-        r->texel_dims[i] = atlas->texel_dims[i];
-    }
+    for (int i = 0; i < 3; ++i) r->top_dims[i] = atlas->top_dims[i];
     r->block_shift = atlas->block_shift;
     r->block_base = atlas->block_base;
     r->mid_levels = atlas->mid_levels;
@@ -232,6 +254,8 @@ leap_result leap_renderer_set_value_gradients(leap_renderer *r, const leap_atlas
     if (!r->has_volume || r->atlas_serial != atlas->serial)
         return leap_fail(err, LEAP_ERR_USAGE, "renderer: the shading texels' atlas is not the volume uploaded");
     if (r->value_gradients_serial == atlas->serial) return LEAP_OK;
+    if (r->cache.capacity)
+        return shading_refuses_cache(r, atlas, err);
     VkFormatProperties fp;
     vkGetPhysicalDeviceFormatProperties(r->gpu->physical, VK_FORMAT_R16G16B16A16_UNORM, &fp);
     if (!(fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT))

@@ -10,7 +10,7 @@
 
 _Static_assert(sizeof(leap_frame_gpu) == 608, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 17
+#define BINDING_COUNT 18
 
 /* Kinds of composite pipeline: scalar with opacity corrected per sample or in the TF table,
  * labels, MIP, and the two scalar ones shaded. */
@@ -36,6 +36,28 @@ static inline chunk_rect chunk_rect_meet(chunk_rect a, chunk_rect b)
 }
 
 enum { TS_START, TS_RASTER, TS_RESOLVE, TS_COMPOSITE, TS_COUNT };
+
+/* A 16-bit atlas texel as a float atlas holds it: decoded as the shader decodes a constant cell's. */
+static inline float renderer_texel_float(uint16_t v)
+{
+    return (float)v * (float)(1.0 / 65535.0);
+}
+
+/* The GPU brick cache (cache.c): when the renderer is given less room than the atlas's
+ * slots, its atlas image holds `capacity` of them (host slot h in image slot h % capacity)
+ * and the page table marks the others LEAP_PAGE_MISSING; a frame then runs composite passes
+ * until no ray reports a miss, loading the missed slots between passes. */
+typedef struct brick_cache {
+    uint32_t capacity;       /* slots the atlas image holds; 0: no cache, every slot resident */
+    uint32_t host_slots;     /* slots of the host atlas */
+    uint32_t *host_of;       /* per image slot: the host slot it holds, or CACHE_NONE */
+    uint32_t *image_of;      /* per host slot: its image slot, or CACHE_NONE */
+    uint32_t *entry_word;    /* per host slot: the page-table word of its cell */
+    uint32_t *loaded_in;     /* per image slot: the service that loaded it (not evicted in it) */
+    uint32_t service;        /* services so far */
+    const leap_atlas *atlas; /* the host texels (not owned: the scene outlives its binding) */
+} brick_cache;
+#define CACHE_NONE UINT32_MAX
 
 struct leap_renderer {
     leap_gpu *gpu;
@@ -97,6 +119,9 @@ struct leap_renderer {
     uint32_t top_dims[3], block_base, mid_levels, slot_dims[3], block_shift;
     uint64_t float_atlas_max_bytes;
     uint32_t texel_bytes; /* 4: R32_SFLOAT, 2: R16_UNORM */
+    uint64_t cache_bytes; /* leap_renderer_desc.cache_bytes */
+    brick_cache cache;
+    leap_buffer misses;   /* LEAP_BINDING_MISSES */
     /* Not owned. */
     const leap_occupancy *occupancy;
     const leap_boxes *box_set;
@@ -122,6 +147,17 @@ leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *o
 leap_result renderer_resolve_pipelines(leap_renderer *r, VkPipeline stages[2], leap_error *err);
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);
+/* cache.c: the slots r->cache_bytes holds when fewer than the atlas's; then the atlas image
+ * (r->texel_bytes, slot and texel dims), slot ranges and page table (into r->pages) of a cache
+ * holding the first `capacity` slots. */
+uint32_t renderer_cache_capacity(const leap_renderer *r, const leap_atlas *atlas); /* 0: no cache needed */
+leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uint32_t capacity, leap_error *err);
+void renderer_cache_release(leap_renderer *r);
+/* cache.c: after a composite pass: 1 when a ray reported a miss. */
+int renderer_cache_missed(const leap_renderer *r);
+/* cache.c: loads the missed slots into their places (one per place and service), evicting
+ * what was there, and clears the misses; counts into st. */
+leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_error *err);
 /* renderer.c: the TF table for a step (uploaded again when the step changes). */
 leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_error *err);
 /* renderer.c: the label volume's object table for a step. */

@@ -250,6 +250,7 @@ leap_result leap_viewer_session_start_gpu(leap_viewer_session *s, leap_error *er
     leap_renderer_desc rd = {
         .device_name = s->desc.device_name,
         .max_segments = s->desc.max_segments,
+        .cache_bytes = s->desc.cache_bytes,
         .instance_extensions = exts,
         .instance_extension_count = ext_count,
         .swapchain = 1,

@@ -1,0 +1,193 @@
+/* The GPU brick cache (see brick_cache in renderer_internal.h). The host atlas keeps every
+ * slot's texels; the atlas image holds `capacity` of them, host slot h always in image slot
+ * h % capacity. A non-resident slot's cell entry is LEAP_PAGE_MISSING | its host slot; a ray
+ * reaching it reports the slot and waits at that sample (composite.comp), and the frame's
+ * next pass goes on once it is loaded. Each pass lets every waiting ray whose slot was loaded
+ * take at least that cell, so a frame ends with every ray finished on any capacity of at
+ * least one slot. A slot's place in the image depends on nothing but the slot, so every mode
+ * reads the same texel addresses and gives the same image bit for bit; against the whole
+ * atlas's image (other places) float rounding of the addresses may differ in the last bits. */
+#include "renderer_internal.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#include "leap/atlas.h"
+
+/* Image slots per axis for `capacity` slots: a near cube, each side within the page entry's
+ * LEAP_SLOT_BITS (capacity is below the host atlas's slots, which fit them). */
+static void cache_dims(uint32_t capacity, uint32_t dims[3])
+{
+    uint32_t side = 1;
+    while (side * side * side < capacity) ++side;
+    dims[0] = dims[1] = side;
+    dims[2] = (capacity + side * side - 1) / (side * side);
+}
+
+static uint64_t cache_texel_bytes(const leap_renderer *r)
+{
+    return r->cache_bytes <= r->float_atlas_max_bytes ? sizeof(float) : sizeof(uint16_t);
+}
+
+static uint32_t pack_slot(const uint32_t dims[3], uint32_t slot)
+{
+    const uint32_t x = slot % dims[0], y = slot / dims[0] % dims[1], z = slot / dims[0] / dims[1];
+    return x | y << LEAP_SLOT_BITS | z << (2 * LEAP_SLOT_BITS);
+}
+
+static uint32_t unpack_slot(const uint32_t dims[3], uint32_t entry)
+{
+    const uint32_t x = entry & LEAP_SLOT_MASK, y = entry >> LEAP_SLOT_BITS & LEAP_SLOT_MASK,
+                   z = entry >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK;
+    return x + dims[0] * (y + dims[1] * z);
+}
+
+typedef struct cache_fill {
+    const leap_renderer *r;
+    int as_float;
+} cache_fill;
+
+/* The image's texels (leap_texel_fill): each image slot's host slot, 0 where none. */
+static void fill_texels(void *dst, size_t first, size_t count, const void *ctx)
+{
+    const cache_fill *f = ctx;
+    const brick_cache *c = &f->r->cache;
+    const uint32_t *td = f->r->texel_dims, *sd = f->r->slot_dims;
+    for (size_t i = 0; i < count; ++i) {
+        const size_t n = first + i, x = n % td[0], y = n / td[0] % td[1], z = n / td[0] / td[1];
+        const uint32_t slot = (uint32_t)(x / LEAP_SLOT + sd[0] * (y / LEAP_SLOT + (size_t)sd[1] * (z / LEAP_SLOT)));
+        const uint32_t host = slot < c->capacity ? c->host_of[slot] : CACHE_NONE;
+        const uint16_t v = host == CACHE_NONE ? 0
+                           : c->atlas->slot_texels[(size_t)host * LEAP_SLOT_TEXELS + x % LEAP_SLOT +
+                                                   LEAP_SLOT * (y % LEAP_SLOT + LEAP_SLOT * (z % LEAP_SLOT))];
+        if (f->as_float) ((float *)dst)[i] = renderer_texel_float(v);
+        else ((uint16_t *)dst)[i] = v;
+    }
+}
+
+uint32_t renderer_cache_capacity(const leap_renderer *r, const leap_atlas *atlas)
+{
+    if (!r->cache_bytes || atlas->labels || atlas->slot_count == 0) return 0;
+    const uint64_t slots = r->cache_bytes / (LEAP_SLOT_TEXELS * cache_texel_bytes(r));
+    return slots >= atlas->slot_count ? 0 : (uint32_t)(slots ? slots : 1);
+}
+
+void renderer_cache_release(leap_renderer *r)
+{
+    brick_cache *c = &r->cache;
+    free(c->host_of);
+    free(c->image_of);
+    free(c->entry_word);
+    free(c->loaded_in);
+    memset(c, 0, sizeof *c);
+}
+
+leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uint32_t capacity, leap_error *err)
+{
+    renderer_cache_release(r);
+    brick_cache *c = &r->cache;
+    c->capacity = capacity;
+    c->host_slots = atlas->slot_count;
+    c->atlas = atlas;
+    c->host_of = malloc(capacity * sizeof *c->host_of);
+    c->loaded_in = calloc(capacity, sizeof *c->loaded_in);
+    c->image_of = malloc(atlas->slot_count * sizeof *c->image_of);
+    c->entry_word = malloc(atlas->slot_count * sizeof *c->entry_word);
+    if (!c->host_of || !c->loaded_in || !c->image_of || !c->entry_word) {
+        renderer_cache_release(r);
+        return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for a brick cache of %u slots", capacity);
+    }
+    /* At first the image holds the first host slots, in order. */
+    for (uint32_t i = 0; i < capacity; ++i) c->host_of[i] = i;
+    for (uint32_t h = 0; h < atlas->slot_count; ++h) c->image_of[h] = h < capacity ? h : CACHE_NONE;
+    r->texel_bytes = (uint32_t)cache_texel_bytes(r);
+    const int as_float = r->texel_bytes == sizeof(float);
+    cache_dims(capacity, r->slot_dims);
+    for (int a = 0; a < 3; ++a) r->texel_dims[a] = r->slot_dims[a] * LEAP_SLOT;
+    const cache_fill fill = {r, as_float};
+    leap_result lr = leap_gpu_image_fill(r->gpu, as_float ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM, r->texel_dims,
+                                         r->texel_bytes, fill_texels, &fill, &r->atlas, err);
+    const size_t range_bytes = (size_t)r->slot_dims[0] * r->slot_dims[1] * r->slot_dims[2] * sizeof(uint32_t);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, range_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->slot_ranges, err);
+    if (lr) {
+        renderer_cache_release(r);
+        return lr;
+    }
+    uint32_t *ranges = r->slot_ranges.mapped;
+    memset(ranges, 0, range_bytes);
+    for (uint32_t i = 0; i < capacity; ++i) ranges[i] = atlas->slot_ranges[i];
+    /* The cell entries follow the middle nodes; every one that is no constant is a slot. */
+    uint32_t *pages = r->pages.mapped;
+    memcpy(pages, atlas->pages, atlas->page_words * 4);
+    for (size_t w = atlas->block_base; w < atlas->page_words; ++w) {
+        if (pages[w] & LEAP_PAGE_CONST) continue;
+        const uint32_t h = unpack_slot(atlas->slot_dims, pages[w]);
+        c->entry_word[h] = (uint32_t)w;
+        pages[w] = h < capacity ? pack_slot(r->slot_dims, h) : LEAP_PAGE_MISSING | h;
+    }
+    return LEAP_OK;
+}
+
+int renderer_cache_missed(const leap_renderer *r)
+{
+    return r->cache.capacity && ((const uint32_t *)r->misses.mapped)[0] != 0;
+}
+
+leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_error *err)
+{
+    brick_cache *c = &r->cache;
+    uint32_t *bits = (uint32_t *)r->misses.mapped + 1, *pages = r->pages.mapped, *ranges = r->slot_ranges.mapped;
+    const uint32_t service = ++c->service;
+    const size_t words = ((size_t)c->host_slots + 31) / 32;
+    /* The missed slots, in host order, each into its place. */
+    uint32_t n = 0;
+    for (size_t w = 0; w < words; ++w)
+        for (uint32_t b = bits[w]; b; b &= b - 1) {
+            const uint32_t h = (uint32_t)(w * 32) + (uint32_t)__builtin_ctz(b);
+            ++st->cache_misses;
+            /* Its place, unless a slot missed before it took that place in this service: h then
+             * waits for a later one. */
+            const uint32_t slot = h % c->capacity, old = c->host_of[slot];
+            if (c->loaded_in[slot] == service || c->image_of[h] != CACHE_NONE) continue;
+            if (old != CACHE_NONE) {
+                pages[c->entry_word[old]] = LEAP_PAGE_MISSING | old;
+                c->image_of[old] = CACHE_NONE;
+                ++st->cache_evicted;
+            }
+            c->host_of[slot] = h;
+            c->image_of[h] = slot;
+            c->loaded_in[slot] = service;
+            pages[c->entry_word[h]] = pack_slot(r->slot_dims, slot);
+            ranges[slot] = c->atlas->slot_ranges[h];
+            ++n;
+        }
+    if (n == 0)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "brick cache: rays wait on slots that are resident (no progress)");
+    /* The texels of the slots loaded now, cube by cube. */
+    uint32_t(*origins)[3] = malloc(n * sizeof *origins);
+    void *texels = malloc((size_t)n * LEAP_SLOT_TEXELS * r->texel_bytes);
+    leap_result lr = LEAP_OK;
+    if (!origins || !texels) lr = leap_fail(err, LEAP_ERR_OOM, "brick cache: out of host memory for %u slots", n);
+    for (uint32_t slot = 0, k = 0; !lr && slot < c->capacity && k < n; ++slot) {
+        if (c->loaded_in[slot] != service) continue;
+        const uint32_t *d = r->slot_dims;
+        origins[k][0] = slot % d[0] * LEAP_SLOT;
+        origins[k][1] = slot / d[0] % d[1] * LEAP_SLOT;
+        origins[k][2] = slot / d[0] / d[1] * LEAP_SLOT;
+        const uint16_t *src = c->atlas->slot_texels + (size_t)c->host_of[slot] * LEAP_SLOT_TEXELS;
+        for (size_t i = 0; i < LEAP_SLOT_TEXELS; ++i) {
+            const size_t at = (size_t)k * LEAP_SLOT_TEXELS + i;
+            if (r->texel_bytes == sizeof(float)) ((float *)texels)[at] = renderer_texel_float(src[i]);
+            else ((uint16_t *)texels)[at] = src[i];
+        }
+        ++k;
+    }
+    if (!lr)
+        lr = leap_gpu_image_write_cubes(r->gpu, &r->atlas, r->texel_bytes, LEAP_SLOT, n,
+                                        (const uint32_t(*)[3])origins, texels, err);
+    free(origins);
+    free(texels);
+    memset(r->misses.mapped, 0, (words + 1) * sizeof(uint32_t));
+    st->cache_loaded += n;
+    return lr;
+}
