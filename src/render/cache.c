@@ -139,12 +139,22 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
     uint32_t *bits = (uint32_t *)r->misses.mapped + 1, *pages = r->pages.mapped, *ranges = r->slot_ranges.mapped;
     const uint32_t service = ++c->service;
     const size_t words = ((size_t)c->host_slots + 31) / 32;
-    /* The missed slots, in host order, each into its place. */
+    /* Room for the texels of every slot this service can load, before any page entry changes. */
+    uint64_t missed = 0;
+    for (size_t w = 0; w < words; ++w) missed += (uint64_t)__builtin_popcount(bits[w]);
+    const uint32_t most = missed < c->capacity ? (uint32_t)missed : c->capacity;
+    uint32_t(*origins)[3] = malloc((most ? most : 1) * sizeof *origins);
+    void *texels = malloc((size_t)(most ? most : 1) * LEAP_SLOT_TEXELS * r->texel_bytes);
+    if (!origins || !texels) {
+        free(origins);
+        free(texels);
+        return leap_fail(err, LEAP_ERR_OOM, "brick cache: out of host memory for %u slots", most);
+    }
+    /* The missed slots, in host order, each into its place, their texels cube by cube. */
     uint32_t n = 0;
     for (size_t w = 0; w < words; ++w)
         for (uint32_t b = bits[w]; b; b &= b - 1) {
             const uint32_t h = (uint32_t)(w * 32) + (uint32_t)__builtin_ctz(b);
-            ++st->cache_misses;
             /* Its place, unless a slot missed before it took that place in this service: h then
              * waits for a later one. */
             const uint32_t slot = h % c->capacity, old = c->host_of[slot];
@@ -159,32 +169,23 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
             c->loaded_in[slot] = service;
             pages[c->entry_word[h]] = pack_slot(r->slot_dims, slot);
             ranges[slot] = c->atlas->slot_ranges[h];
+            const uint32_t *d = r->slot_dims;
+            origins[n][0] = slot % d[0] * LEAP_SLOT;
+            origins[n][1] = slot / d[0] % d[1] * LEAP_SLOT;
+            origins[n][2] = slot / d[0] / d[1] * LEAP_SLOT;
+            const uint16_t *src = c->atlas->slot_texels + (size_t)h * LEAP_SLOT_TEXELS;
+            for (size_t i = 0; i < LEAP_SLOT_TEXELS; ++i) {
+                const size_t at = (size_t)n * LEAP_SLOT_TEXELS + i;
+                if (r->texel_bytes == sizeof(float)) ((float *)texels)[at] = renderer_texel_float(src[i]);
+                else ((uint16_t *)texels)[at] = src[i];
+            }
             ++n;
         }
-    if (n == 0)
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "brick cache: rays wait on slots that are resident (no progress)");
-    /* The texels of the slots loaded now, cube by cube. */
-    uint32_t(*origins)[3] = malloc(n * sizeof *origins);
-    void *texels = malloc((size_t)n * LEAP_SLOT_TEXELS * r->texel_bytes);
-    leap_result lr = LEAP_OK;
-    if (!origins || !texels) lr = leap_fail(err, LEAP_ERR_OOM, "brick cache: out of host memory for %u slots", n);
-    for (uint32_t slot = 0, k = 0; !lr && slot < c->capacity && k < n; ++slot) {
-        if (c->loaded_in[slot] != service) continue;
-        const uint32_t *d = r->slot_dims;
-        origins[k][0] = slot % d[0] * LEAP_SLOT;
-        origins[k][1] = slot / d[0] % d[1] * LEAP_SLOT;
-        origins[k][2] = slot / d[0] / d[1] * LEAP_SLOT;
-        const uint16_t *src = c->atlas->slot_texels + (size_t)c->host_of[slot] * LEAP_SLOT_TEXELS;
-        for (size_t i = 0; i < LEAP_SLOT_TEXELS; ++i) {
-            const size_t at = (size_t)k * LEAP_SLOT_TEXELS + i;
-            if (r->texel_bytes == sizeof(float)) ((float *)texels)[at] = renderer_texel_float(src[i]);
-            else ((uint16_t *)texels)[at] = src[i];
-        }
-        ++k;
-    }
-    if (!lr)
-        lr = leap_gpu_image_write_cubes(r->gpu, &r->atlas, r->texel_bytes, LEAP_SLOT, n,
-                                        (const uint32_t(*)[3])origins, texels, err);
+    st->cache_misses += missed;
+    leap_result lr = n ? leap_gpu_image_write_cubes(r->gpu, &r->atlas, r->texel_bytes, LEAP_SLOT, n,
+                                                    (const uint32_t(*)[3])origins, texels, err)
+                       : leap_fail(err, LEAP_ERR_UNSUPPORTED, "brick cache: rays wait on slots that are resident "
+                                   "(no progress)");
     free(origins);
     free(texels);
     memset(r->misses.mapped, 0, (words + 1) * sizeof(uint32_t));

@@ -395,20 +395,22 @@ static leap_result fill_linear(leap_gpu *gpu, leap_image *img, leap_texel_fill f
 /* The stages that sample the volume's images. */
 #define IMAGE_READERS (VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT | VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT)
 
-static VkImageMemoryBarrier image_barrier(VkImage image, VkAccessFlags from, VkAccessFlags to, VkImageLayout old_layout,
-                                          VkImageLayout new_layout)
+void leap_gpu_image_barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to,
+                            VkAccessFlags src_access, VkAccessFlags dst_access, VkPipelineStageFlags src_stage,
+                            VkPipelineStageFlags dst_stage)
 {
-    return (VkImageMemoryBarrier){
+    const VkImageMemoryBarrier b = {
         .sType = VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER,
-        .srcAccessMask = from,
-        .dstAccessMask = to,
-        .oldLayout = old_layout,
-        .newLayout = new_layout,
+        .srcAccessMask = src_access,
+        .dstAccessMask = dst_access,
+        .oldLayout = from,
+        .newLayout = to,
         .srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
         .dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED,
         .image = image,
         .subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1},
     };
+    vkCmdPipelineBarrier(cmd, src_stage, dst_stage, 0, 0, NULL, 0, NULL, 1, &b);
 }
 
 leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t extent[3], size_t texel_bytes,
@@ -491,26 +493,23 @@ leap_result leap_gpu_image_fill(leap_gpu *gpu, VkFormat format, const uint32_t e
         fill(staging.mapped, 0, texels, ctx);
     if (!r) r = leap_gpu_begin(gpu, err);
     if (!r) {
-        const VkImageMemoryBarrier to_dst = image_barrier(out->image, 0, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                                          VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-        VkImageMemoryBarrier to_read = image_barrier(out->image, VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT,
-                                                     VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
         if (linear) {
-            to_read.srcAccessMask = VK_ACCESS_HOST_WRITE_BIT;
-            to_read.oldLayout = VK_IMAGE_LAYOUT_PREINITIALIZED;
-            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_HOST_BIT, IMAGE_READERS, 0, 0, NULL, 0, NULL, 1, &to_read);
+            leap_gpu_image_barrier(gpu->cmd, out->image, VK_IMAGE_LAYOUT_PREINITIALIZED,
+                                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_HOST_WRITE_BIT,
+                                   VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_HOST_BIT, IMAGE_READERS);
         } else {
-            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT,
-                                 0, 0, NULL, 0, NULL, 1, &to_dst);
+            leap_gpu_image_barrier(gpu->cmd, out->image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                   0, VK_ACCESS_TRANSFER_WRITE_BIT, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT,
+                                   VK_PIPELINE_STAGE_TRANSFER_BIT);
             VkBufferImageCopy copy = {
                 .imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1},
                 .imageExtent = ext,
             };
             vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, out->image,
                                    VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &copy);
-            vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, IMAGE_READERS, 0, 0, NULL, 0, NULL, 1,
-                                 &to_read);
+            leap_gpu_image_barrier(gpu->cmd, out->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                   VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                                   VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, IMAGE_READERS);
         }
         r = leap_gpu_submit_wait(gpu, err);
     }
@@ -557,17 +556,14 @@ leap_result leap_gpu_image_write_cubes(leap_gpu *gpu, leap_image *img, size_t te
                 .imageOffset = {(int32_t)origins[i][0], (int32_t)origins[i][1], (int32_t)origins[i][2]},
                 .imageExtent = {edge, edge, edge},
             };
-        const VkImageMemoryBarrier to_dst = image_barrier(img->image, VK_ACCESS_SHADER_READ_BIT,
-                                                          VK_ACCESS_TRANSFER_WRITE_BIT,
-                                                          VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
-                                                          VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
-        const VkImageMemoryBarrier to_read = image_barrier(img->image, VK_ACCESS_TRANSFER_WRITE_BIT,
-                                                           VK_ACCESS_SHADER_READ_BIT, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                                           VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-        vkCmdPipelineBarrier(gpu->cmd, IMAGE_READERS, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, NULL, 0, NULL, 1, &to_dst);
+        leap_gpu_image_barrier(gpu->cmd, img->image, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL,
+                               VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_ACCESS_SHADER_READ_BIT, VK_ACCESS_TRANSFER_WRITE_BIT,
+                               IMAGE_READERS, VK_PIPELINE_STAGE_TRANSFER_BIT);
         vkCmdCopyBufferToImage(gpu->cmd, staging.buffer, img->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                                (uint32_t)count, copies);
-        vkCmdPipelineBarrier(gpu->cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, IMAGE_READERS, 0, 0, NULL, 0, NULL, 1, &to_read);
+        leap_gpu_image_barrier(gpu->cmd, img->image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                               VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, VK_ACCESS_TRANSFER_WRITE_BIT,
+                               VK_ACCESS_SHADER_READ_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, IMAGE_READERS);
         r = leap_gpu_submit_wait(gpu, err);
     }
     free(copies);

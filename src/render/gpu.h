@@ -114,6 +114,11 @@ leap_result leap_gpu_image_write_cubes(leap_gpu *gpu, leap_image *img, size_t te
                                        size_t count, const uint32_t (*origins)[3], const void *texels,
                                        leap_error *err);
 
+/* Records a layout transition of a colour image (its one level and layer). */
+void leap_gpu_image_barrier(VkCommandBuffer cmd, VkImage image, VkImageLayout from, VkImageLayout to,
+                            VkAccessFlags src_access, VkAccessFlags dst_access, VkPipelineStageFlags src_stage,
+                            VkPipelineStageFlags dst_stage);
+
 /* Starts recording the context's command buffer / submits it and waits. */
 leap_result leap_gpu_begin(leap_gpu *gpu, leap_error *err);
 leap_result leap_gpu_submit_wait(leap_gpu *gpu, leap_error *err);
