@@ -50,4 +50,15 @@ static leap_renderer *make_renderer_with(const leap_renderer_desc *desc)
 
 static leap_renderer *make_renderer(void) { return make_renderer_with(NULL); }
 
+#if defined(W) && defined(H)
+/* The GPU modes, naive first, and one frame's outputs at W x H (tests that define W and H). */
+static const char *mode_names[] = {"naive", "bbox", "octree", "sparseleap"};
+static const leap_mode modes[] = {LEAP_RENDER_NAIVE, LEAP_RENDER_BBOX, LEAP_RENDER_OCTREE, LEAP_RENDER_SPARSELEAP};
+
+typedef struct frame_out {
+    float rgba[W * H * 4], depth[W * H], samples[W * H];
+    leap_frame_stats st;
+} frame_out;
+#endif
+
 #endif

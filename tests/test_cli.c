@@ -158,6 +158,8 @@ int main(void)
         {"--light 1,0", "--light"},
         {"--gpu-cache 12Q", "--gpu-cache"},
         {"--gpu-cache 0", "--gpu-cache"},
+        {"--memory-budget lots", "--memory-budget"},
+        {"--memory-budget 1", "too small"}, /* read on demand, but not even its topology fits */
     };
     for (size_t i = 0; i < sizeof usage_errors / sizeof usage_errors[0]; ++i) {
         snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, usage_errors[i].opts);

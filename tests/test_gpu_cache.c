@@ -4,19 +4,10 @@
  * (colour and depth), and the whole atlas's image within the float rounding of texel
  * addresses (bricks sit elsewhere in the image); a cache that holds every brick is no cache;
  * label volumes need none; shading refuses a cache with a clear error. */
+#define W 64 /* the frames' size (gpu_fixture.h's frame_out) */
+#define H 64
 #include "gpu_fixture.h"
 #include "leap/scene.h"
-
-#define W 64
-#define H 64
-
-static const char *mode_names[] = {"naive", "bbox", "octree", "sparseleap"};
-static const leap_mode modes[] = {LEAP_RENDER_NAIVE, LEAP_RENDER_BBOX, LEAP_RENDER_OCTREE, LEAP_RENDER_SPARSELEAP};
-
-typedef struct frame_out {
-    float rgba[W * H * 4], depth[W * H], samples[W * H];
-    leap_frame_stats st;
-} frame_out;
 
 static leap_scene *load(const char *file, const char *grid, int mip)
 {

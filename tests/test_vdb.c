@@ -1051,6 +1051,107 @@ static void test_histogram(void)
     }
 }
 
+/* ---- grids read on demand --------------------------------------------------------- */
+
+/* A grid read on demand gives what the same grid loaded whole gives: info, bricks, histogram,
+ * and the values readers read (boxes covering every leaf and its apron, read in two orders). */
+static void check_on_demand(const char *path, const char *name)
+{
+    leap_error err = {{0}};
+    leap_grid *whole = load(path, name), *lazy = NULL;
+    leap_vdb_file *f = open_file(path, &err);
+    if (f) {
+        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &lazy, &err), &err);
+        leap_vdb_close(f); /* the grid outlives its file here too */
+    }
+    if (!whole || !lazy) {
+        leap_grid_destroy(whole);
+        leap_grid_destroy(lazy);
+        return;
+    }
+    CHECK(leap_grid_on_demand(lazy) && !leap_grid_on_demand(whole));
+    const leap_grid_info *a = leap_grid_get_info(whole), *b = leap_grid_get_info(lazy);
+    CHECK_MSG(a->leaf_count == b->leaf_count && a->active_voxels == b->active_voxels &&
+                  a->value_min == b->value_min && a->value_max == b->value_max && a->background == b->background &&
+                  a->nonfinite_values == b->nonfinite_values && !memcmp(a->bbox_min, b->bbox_min, sizeof a->bbox_min) &&
+                  !memcmp(a->bbox_max, b->bbox_max, sizeof a->bbox_max),
+              "%s: info differs (values [%g, %g] vs [%g, %g], %llu vs %llu non-finite)", path, a->value_min,
+              a->value_max, b->value_min, b->value_max, (unsigned long long)a->nonfinite_values,
+              (unsigned long long)b->nonfinite_values);
+    CHECK_MSG(leap_grid_leaves_read(lazy) == b->leaf_count, "%s: the load read %llu leaves of %llu", path,
+              (unsigned long long)leap_grid_leaves_read(lazy), (unsigned long long)b->leaf_count);
+    size_t na = 0, nb = 0;
+    leap_brick *ba = get_bricks(whole, &na), *bb = get_bricks(lazy, &nb);
+    CHECK_MSG(na == nb && !memcmp(ba, bb, na * sizeof *ba), "%s: bricks differ", path);
+    uint64_t ha[64], hb[64];
+    const double lo = a->value_min, hi = a->value_max > lo ? a->value_max : lo + 1;
+    CHECK_OK(leap_grid_histogram(whole, lo, hi, 64, ha, &err), &err);
+    CHECK_OK(leap_grid_histogram(lazy, lo, hi, 64, hb, &err), &err);
+    CHECK_MSG(!memcmp(ha, hb, sizeof ha), "%s: histograms differ", path);
+    leap_grid_reader *ra = NULL, *rb = NULL;
+    CHECK_OK(leap_grid_reader_create(whole, &ra, &err), &err);
+    CHECK_OK(leap_grid_reader_create(lazy, &rb, &err), &err);
+    size_t differ = 0;
+    enum { E = 10 };
+    float va[E * E * E], vb[E * E * E];
+    for (int pass = 0; pass < 2 && ra && rb; ++pass) /* forward, then backward: other leaves kept */
+        for (size_t k = 0; k < na; ++k) {
+            const leap_brick *br = &ba[pass ? na - 1 - k : k];
+            const int32_t min[3] = {br->origin[0] - 1, br->origin[1] - 1, br->origin[2] - 1}, dim[3] = {E, E, E};
+            leap_grid_reader_box(ra, min, dim, va);
+            leap_grid_reader_box(rb, min, dim, vb);
+            differ += memcmp(va, vb, sizeof va) != 0;
+            differ += leap_grid_reader_value(ra, min[0], min[1] + 3, min[2] + 5) !=
+                      leap_grid_reader_value(rb, min[0], min[1] + 3, min[2] + 5);
+        }
+    CHECK_MSG(differ == 0, "%s: %zu boxes read differently", path, differ);
+    CHECK_OK(leap_grid_read_status(lazy, &err), &err);
+    printf("on demand %-40s %llu leaves, %zu bricks, %llu leaf reads: same info, bricks, histogram, values\n", path,
+           (unsigned long long)b->leaf_count, nb, (unsigned long long)leap_grid_leaves_read(lazy));
+    leap_grid_reader_destroy(ra);
+    leap_grid_reader_destroy(rb);
+    free(ba);
+    free(bb);
+    leap_grid_destroy(whole);
+    leap_grid_destroy(lazy);
+}
+
+static void test_on_demand(void)
+{
+    static const char *const volumes[][2] = {{"sphere.vdb", NULL}, {"blobs.vdb", NULL}, {"shell.vdb", NULL},
+                                             {"cloud.vdb", NULL}, {"rotated.vdb", "density"}};
+    for (size_t v = 0; v < sizeof volumes / sizeof *volumes; ++v) {
+        char path[1024];
+        snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v][0]);
+        check_on_demand(path, volumes[v][1]);
+    }
+    /* Non-finite values (mapped as they are read), and a non-finite background. */
+    const char *nf = tmp_file("nonfinite.vdb");
+    check_on_demand(nf, "f");
+    const char *bg = tmp_file("nan_background.vdb");
+    leap_vdb_writer *w = new_writer();
+    if (w) {
+        const int g = add_grid(w, "g", LEAP_VDB_FLOAT, -INFINITY, NULL, 1);
+        for (int i = 0; i < 40; ++i) leap_vdb_writer_set(w, g, i, i % 9, i / 3, i % 5 == 0 ? NAN : 0.25 * i);
+        if (save(w, bg)) check_on_demand(bg, "g");
+    }
+    /* What cannot be read on demand says so. */
+    leap_error err = {{0}};
+    leap_vdb_file *f = open_file(nf, &err);
+    leap_grid *g = NULL;
+    if (f) {
+        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, "d"), &g, &err) == LEAP_ERR_UNSUPPORTED &&
+              strstr(err.msg, "only float grids"));
+        leap_vdb_close(f);
+    }
+    char path[1024];
+    snprintf(path, sizeof path, "%s/labels.vdb", LEAP_VOLUMES);
+    if ((f = open_file(path, &err))) {
+        CHECK(leap_vdb_load_grid_on_demand(f, 0, &g, &err) == LEAP_ERR_UNSUPPORTED && g == NULL);
+        leap_vdb_close(f);
+    }
+}
+
 int main(void)
 {
     if (mkdir(LEAP_TEST_TMP, 0755) != 0 && errno != EEXIST) {
@@ -1070,5 +1171,6 @@ int main(void)
     test_bad_files();
     test_shipped_volumes();
     test_histogram();
+    test_on_demand();
     return check_exit_code();
 }

@@ -15,6 +15,9 @@
 static const char usage[] =
     "usage: leap_make_volumes DIR\n"
     "       leap_make_volumes --tubes OUT.vdb [--size N] [--objects K] [--seed S] [--int32]\n"
+    "       leap_make_volumes --fog OUT.vdb [--size N]\n"
+    "The --fog form writes a dense float grid 'density' of N^3 active voxels (default 256) whose\n"
+    "values vary everywhere (every 8^3 cell needs a brick): a large volume for memory tests.\n"
     "The second form writes one synthetic segmentation: K tube-shaped objects (random walks,\n"
     "radius 2-6 voxels, IDs random below 2^40, or 2^31 with --int32) densely packed in an N^3\n"
     "int64 grid 'labels' (defaults: N 512, K 10000, S 1).\n"
@@ -369,6 +372,44 @@ static int tubes_main(int argc, char **argv)
     return make_tubes(argv[1], &d) ? 0 : 1;
 }
 
+/* leap_make_volumes --fog: rippled values in [0.05, 0.95], never constant over a cell. */
+static void fog_planes(void *ctx, int32_t z0, int32_t nz, void *out)
+{
+    const int32_t n = *(const int32_t *)ctx;
+    float *v = out;
+    for (int32_t z = z0; z < z0 + nz; ++z)
+        for (int32_t y = 0; y < n; ++y)
+            for (int32_t x = 0; x < n; ++x)
+                *v++ = (float)(0.5 + 0.3 * sin(0.37 * x + 0.11 * z) * cos(0.29 * y) + 0.15 * sin(0.23 * z + 0.05 * x));
+}
+
+static int fog_main(int argc, char **argv)
+{
+    int32_t n = 256;
+    if (argc == 4 && !strcmp(argv[2], "--size")) n = (int32_t)atoi(argv[3]);
+    else if (argc != 2) n = 0;
+    if (n < 8 || n > 2048) {
+        fprintf(stderr, "leap_make_volumes: --fog OUT.vdb [--size N] with 8 <= N <= 2048\n%s", usage);
+        return 2;
+    }
+    leap_dense_volume d = {.dim = {n, n, n}, .read_planes = fog_planes, .ctx = &n, .background = 0.0,
+                           .grid_name = "density", .index_to_world = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}};
+    leap_error err = {{0}};
+    leap_vdb_file *file = NULL;
+    leap_grid *grid = NULL;
+    leap_result r = leap_vdb_from_dense(argv[1], &d, &file, &err);
+    if (!r) r = leap_vdb_load_grid(file, 0, &grid, &err);
+    if (!r) r = leap_grid_save(grid, NULL, argv[1], &err);
+    leap_grid_destroy(grid);
+    leap_vdb_close(file);
+    if (r) {
+        fprintf(stderr, "leap_make_volumes: %s\n", err.msg);
+        return 1;
+    }
+    printf("%s: %d^3 float voxels (%.0f MiB of values)\n", argv[1], n, (double)n * n * n * 4 / (1 << 20));
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
@@ -376,6 +417,7 @@ int main(int argc, char **argv)
         return 0;
     }
     if (argc >= 3 && !strcmp(argv[1], "--tubes")) return tubes_main(argc - 1, argv + 1);
+    if (argc >= 3 && !strcmp(argv[1], "--fog")) return fog_main(argc - 1, argv + 1);
     if (argc != 2 || argv[1][0] == '-') {
         fputs(usage, stderr);
         return 2;

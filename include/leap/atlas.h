@@ -29,6 +29,8 @@ typedef struct leap_atlas_desc {
     int wide;             /* 1 = for gradient shading: a cell is constant only when the voxels
                              8c-1 .. 8c+9 (its samples' gradient footprint) are one value, so a
                              constant cell's gradient is 0; the others get slots (scalar grids) */
+    int stream_texels;    /* 1 = keep no texels: a slot's texels are read from the grid again
+                             when needed (leap_atlas_read_slot); the grid must outlive the atlas */
 } leap_atlas_desc;
 
 /* Read-only for other modules. */
@@ -52,7 +54,12 @@ typedef struct leap_atlas {
     uint16_t *slot_texels;     /* LEAP_SLOT^3 texels per slot (x fastest), for slots
                                 * d = x + slot_dims[0] * (y + slot_dims[1] * z) < slot_count (the
                                 * others are unused). Only the GPU image holds the 3D layout of
-                                * texel_dims (leap_atlas_texels), so the host keeps one copy. */
+                                * texel_dims (leap_atlas_texels), so the host keeps one copy.
+                                * NULL for an atlas built with stream_texels. */
+    uint64_t *slot_cells;      /* stream_texels: per slot (numbered as slot_texels), its cell
+                                * (x + cells[0] * (y + cells[1] * z)), read again by leap_atlas_read_slot */
+    const leap_grid *grid;     /* stream_texels: the grid the slots are read from */
+    leap_grid_reader *slot_reader;
     uint32_t *slot_ranges;     /* per slot (x + slot_dims[0] * (y + slot_dims[1] * z)): its smallest texel
                                 * | largest << 16 (MIP skipping) */
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
@@ -91,6 +98,11 @@ int leap_atlas_visit(const leap_atlas *atlas, leap_atlas_visit_fn visit, void *c
 /* The texels as the GPU image lays them out (texel_dims, x fastest): texels first .. first +
  * count - 1 into out, 0 in unused slots. */
 void leap_atlas_texels(const leap_atlas *atlas, size_t first, size_t count, uint16_t *out);
+
+/* Slot `slot`'s LEAP_SLOT_TEXELS texels into out: copied, or for an atlas built with
+ * stream_texels read from the grid again (the texels the build read; one caller at a time).
+ * Errors: LEAP_ERR_FORMAT when a leaf of a grid read on demand cannot be read. */
+leap_result leap_atlas_read_slot(const leap_atlas *atlas, uint32_t slot, uint16_t *out, leap_error *err);
 
 /* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);

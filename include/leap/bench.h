@@ -39,6 +39,7 @@ typedef struct leap_bench_desc {
                                       shaded (leap_shading_default) */
     int vs_vdb;                    /* also time vdb_render */
     uint64_t gpu_cache_bytes;      /* leap_renderer_desc.cache_bytes (0: the whole atlas) */
+    uint64_t memory_budget;        /* leap_scene_desc.memory_budget (0: the default) */
     double vdb_shadow_step;        /* vdb_render -shadowstep, voxels */
     char vdb_render_exe[4096];     /* its path, from leap_bench_find_vdb_render; needed with vs_vdb */
     /* Optional: progress (done of total steps, what runs now) and messages. */

@@ -40,6 +40,9 @@ typedef struct leap_scene_desc {
     int clip_count;        /* clipping planes in world units: keep a x + b y + c z + d >= 0 */
     double clip[LEAP_MAX_CLIPS][4];
     leap_shading shade;    /* gradient shading (shade.on; leap_shading_default for --shade) */
+    uint64_t memory_budget; /* bytes; 0 = leap_scene_default_memory_budget(). A .vdb grid that
+                              would take more in memory is read on demand: its atlas keeps no
+                              texels and the GPU brick cache gets what the budget leaves */
 } leap_scene_desc;
 
 typedef struct leap_scene {
@@ -60,10 +63,16 @@ typedef struct leap_scene {
     int merge, exact_boxes;
     double center[3], radius;  /* world-space bounding sphere */
     leap_input_info input;     /* the file's format, and its up direction (cameras' default) */
+    uint64_t memory_budget;    /* as given, or the default */
+    uint64_t gpu_cache_bytes;  /* a grid read on demand: the room its GPU brick cache may take
+                                  (leap_renderer_bind_scene); 0 otherwise */
     double load_ms;            /* opening the file and reading the grid */
     double bricks_ms;          /* listing the brick ranges for the occupancy */
     double atlas_ms, occupancy_ms, classify_ms, boxes_ms; /* the modules' own build times */
 } leap_scene;
+
+/* Half of the machine's physical memory. */
+uint64_t leap_scene_default_memory_budget(void);
 
 /* Loads and prepares everything. Errors name the file and the problem: LEAP_ERR_IO,
  * LEAP_ERR_FORMAT (including "no grid named X (grids: ...)"), LEAP_ERR_USAGE (bad TF),

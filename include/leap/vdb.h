@@ -85,6 +85,30 @@ int leap_vdb_find_grid(const leap_vdb_file *file, const char *name);
 leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err);
 void leap_grid_destroy(leap_grid *grid); /* accepts NULL */
 
+/* Bytes grid `index` takes in memory once loaded, as the file says before reading it: the
+ * tree's size when it was written ("file_mem_bytes" metadata), else the grid's bytes in the
+ * file (twice those of a grid saved as half). 0 for an imported grid, already in memory. */
+uint64_t leap_vdb_grid_memory_estimate(const leap_vdb_file *file, int index);
+
+/* Like leap_vdb_load_grid, but the leaves' voxel values stay in the file (OpenVDB's delayed
+ * loading, after the same checks of every byte of the grid's tree): memory holds the tree's
+ * topology and tiles; readers, leap_grid_bricks and leap_grid_histogram read each leaf they
+ * need into a short-lived copy (a reader keeps the last few hundred). The load itself reads
+ * every leaf once, for the info's value range. Values read are those leap_vdb_load_grid
+ * gives. Float grids in .vdb files with grid offsets only (LEAP_ERR_UNSUPPORTED otherwise).
+ * The file must not change while the grid is open: a leaf that cannot be read then reads as
+ * the background and is reported by leap_grid_read_status. */
+leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, leap_grid **out, leap_error *err);
+
+/* 1 for a grid read on demand. */
+int leap_grid_on_demand(const leap_grid *grid);
+
+/* Leaves read from the file so far (grids read on demand; 0 otherwise). */
+uint64_t leap_grid_leaves_read(const leap_grid *grid);
+
+/* LEAP_ERR_FORMAT naming the first leaf a grid read on demand failed to read, else LEAP_OK. */
+leap_result leap_grid_read_status(const leap_grid *grid, leap_error *err);
+
 const leap_grid_info *leap_grid_get_info(const leap_grid *grid);
 
 /* A brick: one leaf node (size 8, origin a multiple of 8) or one active tile (size 8,
@@ -133,7 +157,8 @@ void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const 
 int leap_grid_has_labels(const leap_grid *grid);
 
 /* Makes a float/double grid whose values are all integers a label grid (for `--labels`).
- * Errors: LEAP_ERR_USAGE naming a non-integer value and where it is. A label grid: no-op. */
+ * Errors: LEAP_ERR_USAGE naming a non-integer value and where it is, LEAP_ERR_UNSUPPORTED for
+ * a grid read on demand. A label grid: no-op. */
 leap_result leap_grid_make_labels(leap_grid *grid, leap_error *err);
 
 /* The grid's background label (label grids only). */

@@ -3,6 +3,7 @@
 #define LEAP_UTIL_H
 
 #include <stddef.h>
+#include <stdint.h>
 
 /* Monotonic clock in milliseconds. */
 double leap__now_ms(void);
@@ -10,6 +11,10 @@ double leap__now_ms(void);
 /* Grows *p (an array of elements of `elem` bytes, *cap of them) to hold at least `need`,
  * doubling; returns 0 on overflow or out of memory (then *p is unchanged). */
 int leap__grow(void **p, size_t *cap, size_t need, size_t elem);
+
+/* A byte count: a number with an optional unit K, M, G, T (powers of 1024; "MiB" and "MB"
+ * read the same). 0 when malformed or below one byte. */
+uint64_t leap__parse_bytes(const char *s);
 
 /* Between min_n and n comma-separated finite numbers ("1,2.5,-3"); returns the count or -1
  * (empty items, trailing commas, overflow and non-numbers are refused). */

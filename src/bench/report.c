@@ -105,6 +105,10 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     if (o->gpu_cache_bytes)
         fprintf(md, "The volume's bricks go through a GPU cache of %.1f MiB (--gpu-cache): a frame whose rays need "
                     "bricks it does not hold takes more passes. ", (double)o->gpu_cache_bytes / (1 << 20));
+    if (o->memory_budget)
+        fprintf(md, "Memory budget %.1f MiB (--memory-budget): a volume that needs more is read from its file on "
+                    "demand, its bricks through a GPU cache of what the budget leaves. ",
+                (double)o->memory_budget / (1 << 20));
     if (o->mip || o->shade)
         fprintf(md, "Every frame and the reference %s. ", o->mip > 0   ? "are maximum intensity projections"
                                                            : o->mip < 0 ? "are minimum intensity projections"

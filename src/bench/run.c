@@ -285,7 +285,8 @@ static leap_result run_volume(bench_state *b, int vi, leap_error *err)
 {
     const leap_bench_desc *o = b->o;
     leap_scene_desc sd = {.path = o->volumes[vi], .tf = o->tf, .step = o->steps[0], .exact_boxes = o->exact_boxes,
-                          .show = o->show, .objects = o->objects, .mip = o->mip, .shade = leap_shading_default()};
+                          .show = o->show, .objects = o->objects, .mip = o->mip, .shade = leap_shading_default(),
+                          .memory_budget = o->memory_budget};
     sd.shade.on = o->shade;
     leap_scene *s = NULL;
     leap_result lr;

@@ -61,7 +61,8 @@ static const char *bench_help =
     "  --vdb-shadow-step F vdb_render's shadow-ray step in voxels (default 3, its own default)\n"
     "  --device NAME       Vulkan device\n"
     "  --gpu-cache SIZE    the volume's bricks through a GPU cache of SIZE (e.g. 64M; see\n"
-    "                      leap render --help)\n";
+    "                      leap render --help)\n"
+    "  --memory-budget SIZE  memory each volume may take (see leap render --help)\n";
 
 static void progress(int done, int total, const char *what, void *user)
 {
@@ -132,8 +133,12 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
             o->device = v;
         } else if ((v = cli_option_value(argc, argv, &i, "--gpu-cache", &missing)) || missing) {
             if (missing) rc = cli_usage_error("bench", "option --gpu-cache needs a value");
-            else if (!(o->gpu_cache_bytes = cli_parse_bytes(v)))
+            else if (!(o->gpu_cache_bytes = leap__parse_bytes(v)))
                 rc = cli_usage_error("bench", "--gpu-cache '%s' must be a size such as 64M, 1.5G or 500000 (bytes)", v);
+        } else if ((v = cli_option_value(argc, argv, &i, "--memory-budget", &missing)) || missing) {
+            if (missing) rc = cli_usage_error("bench", "option --memory-budget needs a value");
+            else if (!(o->memory_budget = leap__parse_bytes(v)))
+                rc = cli_usage_error("bench", "--memory-budget '%s' must be a size such as 512M or 2GiB", v);
         } else if (a[0] == '-' && a[1] == '-' && a[2]) {
             const char *name = a + 2;
             char key[64];

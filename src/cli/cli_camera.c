@@ -67,6 +67,10 @@ const char *cli_camera_options_help =
     "                      volume that needs more is rendered through a cache of that size,\n"
     "                      loading bricks as rays miss them over several passes a frame\n"
     "                      (the same image, slower; not with --shade; default: room for all)\n"
+    "  --memory-budget SIZE  memory the volume may take (env LEAP_MEMORY_BUDGET; default:\n"
+    "                      half of physical memory); a .vdb float grid needing more is read\n"
+    "                      on demand, leaves from the file as rays reach them, through a\n"
+    "                      GPU cache of what the budget leaves (the same image, slower)\n"
     "segmentations (int32/int64 grids; each object in its own colour, nearest voxel):\n"
     "  --labels            render a grid of integer values as a segmentation\n"
     "  --show IDS          show only these objects, e.g. 12,57,300-400 (default: all)\n"
@@ -169,11 +173,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.show = o->scene.hide = o->scene.objects = NULL;
         return 1;
     }
-    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
+    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, MEMORY_BUDGET, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
            FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
-        [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [GPU_CACHE] = "--gpu-cache", [ORBIT] = "--orbit", [EYE] = "--eye",
+        [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [GPU_CACHE] = "--gpu-cache",
+        [MEMORY_BUDGET] = "--memory-budget", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
         [OPACITY] = "--label-opacity", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane",
         [LIGHT] = "--light", [AMBIENT] = "--ambient", [DIFFUSE] = "--diffuse", [SPECULAR] = "--specular",
@@ -214,8 +219,12 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         break;
     case DEVICE: o->device = v; break;
     case GPU_CACHE:
-        if (!(o->gpu_cache_bytes = cli_parse_bytes(v)))
+        if (!(o->gpu_cache_bytes = leap__parse_bytes(v)))
             FAIL("--gpu-cache '%s' must be a size such as 64M, 1.5G or 500000 (bytes)", v);
+        break;
+    case MEMORY_BUDGET:
+        if (!(o->scene.memory_budget = leap__parse_bytes(v)))
+            FAIL("--memory-budget '%s' must be a size such as 512M, 2GiB or 500000000 (bytes)", v);
         break;
     case ORBIT:
         o->orbit_n = leap__parse_numbers(v, o->orbit, 2, 3);

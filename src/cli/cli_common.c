@@ -205,21 +205,3 @@ void cli_progress(int done, int total, const char *what)
     fflush(stderr);
 }
 
-uint64_t cli_parse_bytes(const char *s)
-{
-    char *end;
-    errno = 0;
-    double n = strtod(s, &end);
-    if (end == s || errno || !(n >= 0) || !isfinite(n)) return 0;
-    static const char units[] = "KMGT";
-    const char *u = *end ? strchr(units, toupper((unsigned char)*end)) : NULL;
-    if (*end) {
-        if (!u) return 0;
-        n *= pow(1024.0, (double)(u - units + 1));
-        ++end;
-        if (*end == 'i' || *end == 'I') ++end;
-        if (*end == 'b' || *end == 'B') ++end;
-        if (*end) return 0;
-    }
-    return n >= 1 && n < 1.8e19 ? (uint64_t)n : 0;
-}

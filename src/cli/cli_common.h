@@ -47,9 +47,6 @@ int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs,
                       int n_outputs);
 /* 1 if the directory that would hold `path` exists and is writable. */
 int cli_dir_writable(const char *path);
-/* A byte count: a number with an optional unit K, M, G, T (powers of 1024; "MiB" and "MB"
- * read the same). 0 when malformed or below one byte. */
-uint64_t cli_parse_bytes(const char *s);
 
 /* Options shared by render, segments, bench and view. */
 typedef struct cli_camera_options {

@@ -253,6 +253,13 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(mem, "dense_bbox_16bit", dense * 2);
     cJSON_AddNumberToObject(root, "bricks_in_atlas", s->atlas->slot_count);
     cJSON_AddNumberToObject(mem, "page_table", (double)s->atlas->page_words * 4);
+    cJSON_AddNumberToObject(mem, "budget", (double)s->memory_budget);
+    if (s->grid && leap_grid_on_demand(s->grid)) { /* the voxels stay in the file (--memory-budget) */
+        cJSON *od = cJSON_AddObjectToObject(root, "on_demand");
+        cJSON_AddNumberToObject(od, "leaves", (double)s->info->leaf_count);
+        cJSON_AddNumberToObject(od, "leaves_read", (double)leap_grid_leaves_read(s->grid));
+        cJSON_AddNumberToObject(od, "gpu_cache_room", (double)s->gpu_cache_bytes);
+    }
     struct rusage usage; /* this process's peak so far (the image writer's process is not counted) */
     if (getrusage(RUSAGE_SELF, &usage) == 0) cJSON_AddNumberToObject(mem, "peak_rss", (double)usage.ru_maxrss * 1024);
     cJSON *pages = cJSON_AddObjectToObject(root, "page_table");

@@ -1,6 +1,7 @@
 /* The GPU brick cache (see brick_cache in renderer_internal.h). The host atlas keeps every
- * slot's texels; the atlas image holds `capacity` of them, host slot h always in image slot
- * h % capacity. A non-resident slot's cell entry is LEAP_PAGE_MISSING | its host slot; a ray
+ * slot's texels or reads them again from the grid (stream_texels); the atlas image holds
+ * `capacity` of them, host slot h always in image slot h % capacity. A non-resident slot's
+ * cell entry is LEAP_PAGE_MISSING | its host slot; a ray
  * reaching it reports the slot and waits at that sample (composite.comp), and the frame's
  * next pass goes on once it is loaded. Each pass lets every waiting ray whose slot was loaded
  * take at least that cell, so a frame ends with every ray finished on any capacity of at
@@ -26,7 +27,7 @@ static void cache_dims(uint32_t capacity, uint32_t dims[3])
 
 static uint64_t cache_texel_bytes(const leap_renderer *r)
 {
-    return r->cache_bytes <= r->float_atlas_max_bytes ? sizeof(float) : sizeof(uint16_t);
+    return r->cache_room <= r->float_atlas_max_bytes ? sizeof(float) : sizeof(uint16_t);
 }
 
 static uint32_t pack_slot(const uint32_t dims[3], uint32_t slot)
@@ -65,11 +66,16 @@ static void fill_texels(void *dst, size_t first, size_t count, const void *ctx)
     }
 }
 
-uint32_t renderer_cache_capacity(const leap_renderer *r, const leap_atlas *atlas)
+uint32_t renderer_cache_capacity(leap_renderer *r, const leap_atlas *atlas, uint64_t stream_bytes)
 {
-    if (!r->cache_bytes || atlas->labels || atlas->slot_count == 0) return 0;
-    const uint64_t slots = r->cache_bytes / (LEAP_SLOT_TEXELS * cache_texel_bytes(r));
-    return slots >= atlas->slot_count ? 0 : (uint32_t)(slots ? slots : 1);
+    const int streamed = !atlas->slot_texels && !atlas->labels;
+    r->cache_room = r->cache_bytes;
+    if (streamed && stream_bytes && (!r->cache_room || stream_bytes < r->cache_room)) r->cache_room = stream_bytes;
+    if (atlas->labels || atlas->slot_count == 0) return 0;
+    if (!r->cache_room) return streamed ? atlas->slot_count : 0;
+    const uint64_t slots = r->cache_room / (LEAP_SLOT_TEXELS * cache_texel_bytes(r));
+    if (slots >= atlas->slot_count) return streamed ? atlas->slot_count : 0;
+    return (uint32_t)(slots ? slots : 1);
 }
 
 void renderer_cache_release(leap_renderer *r)
@@ -97,9 +103,11 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
         renderer_cache_release(r);
         return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for a brick cache of %u slots", capacity);
     }
-    /* At first the image holds the first host slots, in order. */
-    for (uint32_t i = 0; i < capacity; ++i) c->host_of[i] = i;
-    for (uint32_t h = 0; h < atlas->slot_count; ++h) c->image_of[h] = h < capacity ? h : CACHE_NONE;
+    /* At first the image holds the first host slots, in order; none of an atlas that keeps no
+     * texels, whose slots are read as rays miss them. */
+    const uint32_t resident = atlas->slot_texels ? capacity : 0;
+    for (uint32_t i = 0; i < capacity; ++i) c->host_of[i] = i < resident ? i : CACHE_NONE;
+    for (uint32_t h = 0; h < atlas->slot_count; ++h) c->image_of[h] = h < resident ? h : CACHE_NONE;
     r->texel_bytes = (uint32_t)cache_texel_bytes(r);
     const int as_float = r->texel_bytes == sizeof(float);
     cache_dims(capacity, r->slot_dims);
@@ -115,7 +123,7 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
     }
     uint32_t *ranges = r->slot_ranges.mapped;
     memset(ranges, 0, range_bytes);
-    for (uint32_t i = 0; i < capacity; ++i) ranges[i] = atlas->slot_ranges[i];
+    for (uint32_t i = 0; i < resident; ++i) ranges[i] = atlas->slot_ranges[i];
     /* The cell entries follow the middle nodes; every one that is no constant is a slot. */
     uint32_t *pages = r->pages.mapped;
     memcpy(pages, atlas->pages, atlas->page_words * 4);
@@ -123,7 +131,7 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
         if (pages[w] & LEAP_PAGE_CONST) continue;
         const uint32_t h = unpack_slot(atlas->slot_dims, pages[w]);
         c->entry_word[h] = (uint32_t)w;
-        pages[w] = h < capacity ? pack_slot(r->slot_dims, h) : LEAP_PAGE_MISSING | h;
+        pages[w] = h < resident ? pack_slot(r->slot_dims, h) : LEAP_PAGE_MISSING | h;
     }
     return LEAP_OK;
 }
@@ -145,15 +153,18 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
     const uint32_t most = missed < c->capacity ? (uint32_t)missed : c->capacity;
     uint32_t(*origins)[3] = malloc((most ? most : 1) * sizeof *origins);
     void *texels = malloc((size_t)(most ? most : 1) * LEAP_SLOT_TEXELS * r->texel_bytes);
-    if (!origins || !texels) {
+    uint16_t *src = malloc(LEAP_SLOT_TEXELS * sizeof *src);
+    if (!origins || !texels || !src) {
         free(origins);
         free(texels);
+        free(src);
         return leap_fail(err, LEAP_ERR_OOM, "brick cache: out of host memory for %u slots", most);
     }
+    leap_result lr = LEAP_OK;
     /* The missed slots, in host order, each into its place, their texels cube by cube. */
     uint32_t n = 0;
-    for (size_t w = 0; w < words; ++w)
-        for (uint32_t b = bits[w]; b; b &= b - 1) {
+    for (size_t w = 0; w < words && !lr; ++w)
+        for (uint32_t b = bits[w]; b && !lr; b &= b - 1) {
             const uint32_t h = (uint32_t)(w * 32) + (uint32_t)__builtin_ctz(b);
             /* Its place, unless a slot missed before it took that place in this service: h then
              * waits for a later one. */
@@ -173,7 +184,8 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
             origins[n][0] = slot % d[0] * LEAP_SLOT;
             origins[n][1] = slot / d[0] % d[1] * LEAP_SLOT;
             origins[n][2] = slot / d[0] / d[1] * LEAP_SLOT;
-            const uint16_t *src = c->atlas->slot_texels + (size_t)h * LEAP_SLOT_TEXELS;
+            /* A slot that cannot be read ends the frame with that error. */
+            if ((lr = leap_atlas_read_slot(c->atlas, h, src, err))) break;
             for (size_t i = 0; i < LEAP_SLOT_TEXELS; ++i) {
                 const size_t at = (size_t)n * LEAP_SLOT_TEXELS + i;
                 if (r->texel_bytes == sizeof(float)) ((float *)texels)[at] = renderer_texel_float(src[i]);
@@ -182,7 +194,8 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
             ++n;
         }
     st->cache_misses += missed;
-    leap_result lr = n ? leap_gpu_image_write_cubes(r->gpu, &r->atlas, r->texel_bytes, LEAP_SLOT, n,
+    free(src);
+    if (!lr) lr = n ? leap_gpu_image_write_cubes(r->gpu, &r->atlas, r->texel_bytes, LEAP_SLOT, n,
                                                     (const uint32_t(*)[3])origins, texels, err)
                        : leap_fail(err, LEAP_ERR_UNSUPPORTED, "brick cache: rays wait on slots that are resident "
                                    "(no progress)");

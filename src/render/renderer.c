@@ -146,7 +146,7 @@ static leap_result upload_slot_ranges(leap_renderer *r, const leap_atlas *a, lea
 static leap_result shading_refuses_cache(const leap_renderer *r, const leap_atlas *atlas, leap_error *err)
 {
     return leap_fail(err, LEAP_ERR_UNSUPPORTED, "gradient shading does not run with a GPU brick cache (the volume's %u "
-                     "bricks need more than the %.1f MiB given)", atlas->slot_count, (double)r->cache_bytes / (1 << 20));
+                     "bricks need more than the %.1f MiB given)", atlas->slot_count, (double)r->cache_room / (1 << 20));
 }
 
 /* The volume's values as unshaded and MIP frames sample them: float, or 16 bits when float
@@ -176,7 +176,8 @@ static leap_result upload_values(leap_renderer *r, const leap_atlas *atlas, leap
 
 /* values = 0: a shaded scene's atlas, whose frames read its values with the gradients
  * (leap_renderer_set_value_gradients); unshaded frames need them uploaded (bind_scene). */
-static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int values, leap_error *err)
+static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int values, uint64_t stream_bytes,
+                              leap_error *err)
 {
     double reach = 0;
     for (int i = 0; i < 3; ++i) reach = fmax(reach, fmax(fabs(atlas->domain_min[i]), fabs(atlas->domain_max[i])));
@@ -203,7 +204,7 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
                          "the volume's page table and label cells take %.1f MiB, more than the %llu MiB one storage "
                          "buffer of this device can hold",
                          (double)page_bytes / (1 << 20), (unsigned long long)(r->gpu->storage_buffer_range >> 20));
-    const uint32_t capacity = renderer_cache_capacity(r, atlas);
+    const uint32_t capacity = renderer_cache_capacity(r, atlas, stream_bytes);
     if (capacity && !values)
         return shading_refuses_cache(r, atlas, err);
     leap_result lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
@@ -241,7 +242,7 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
 
 leap_result leap_renderer_set_volume(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
 {
-    return set_volume(r, atlas, 1, err);
+    return set_volume(r, atlas, 1, 0, err);
 }
 
 static void fill_value_gradients(void *dst, size_t first, size_t count, const void *ctx)
@@ -282,7 +283,8 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
 {
     leap_result lr = LEAP_OK;
     const int shaded = scene->march.shade.on;
-    if (!r->has_volume || r->atlas_serial != scene->atlas->serial) lr = set_volume(r, scene->atlas, !shaded, err);
+    if (!r->has_volume || r->atlas_serial != scene->atlas->serial)
+        lr = set_volume(r, scene->atlas, !shaded, scene->gpu_cache_bytes, err);
     else if (!shaded && !r->atlas.view) lr = upload_values(r, scene->atlas, err);
     if (!lr && shaded) lr = leap_renderer_set_value_gradients(r, scene->atlas, err);
     if (!lr) lr = leap_renderer_set_tf(r, &scene->tf, err);

@@ -55,7 +55,7 @@ typedef struct brick_cache {
     uint32_t *entry_word;    /* per host slot: the page-table word of its cell */
     uint32_t *loaded_in;     /* per image slot: the service that loaded it (not evicted in it) */
     uint32_t service;        /* services so far */
-    const leap_atlas *atlas; /* the host texels (not owned: the scene outlives its binding) */
+    const leap_atlas *atlas; /* the host slots (not owned: the scene outlives its binding) */
 } brick_cache;
 #define CACHE_NONE UINT32_MAX
 
@@ -120,6 +120,7 @@ struct leap_renderer {
     uint64_t float_atlas_max_bytes;
     uint32_t texel_bytes; /* 4: R32_SFLOAT, 2: R16_UNORM */
     uint64_t cache_bytes; /* leap_renderer_desc.cache_bytes */
+    uint64_t cache_room;  /* bytes the bound volume's cache image may take (0: no limit) */
     brick_cache cache;
     leap_buffer misses;   /* LEAP_BINDING_MISSES */
     /* Not owned. */
@@ -147,10 +148,12 @@ leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *o
 leap_result renderer_resolve_pipelines(leap_renderer *r, VkPipeline stages[2], leap_error *err);
 /* passes.c */
 void renderer_destroy_frame_buffers(leap_renderer *r);
-/* cache.c: the slots r->cache_bytes holds when fewer than the atlas's; then the atlas image
- * (r->texel_bytes, slot and texel dims), slot ranges and page table (into r->pages) of a cache
- * holding the first `capacity` slots. */
-uint32_t renderer_cache_capacity(const leap_renderer *r, const leap_atlas *atlas); /* 0: no cache needed */
+/* cache.c: the slots the cache's room holds (r->cache_bytes, or for an atlas that keeps no
+ * texels `stream_bytes` when smaller; sets r->cache_room) when fewer than the atlas's, or all
+ * of an atlas that keeps no texels; then the atlas image (r->texel_bytes, slot and texel dims),
+ * slot ranges and page table (into r->pages) of a cache holding the first `capacity` slots
+ * (none of an atlas that keeps no texels). */
+uint32_t renderer_cache_capacity(leap_renderer *r, const leap_atlas *atlas, uint64_t stream_bytes); /* 0: no cache */
 leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uint32_t capacity, leap_error *err);
 void renderer_cache_release(leap_renderer *r);
 /* cache.c: after a composite pass: 1 when a ray reported a miss. */

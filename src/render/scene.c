@@ -11,8 +11,17 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
-static leap_result open_grid(const char *path, const char *name, const leap_input_options *input,
+uint64_t leap_scene_default_memory_budget(void)
+{
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? (uint64_t)pages * (uint64_t)page / 2 : (uint64_t)4 << 30;
+}
+
+/* Reads the grid into memory, or on demand when it would not fit the budget: in memory a grid
+ * takes its tree, and its atlas about as much again (the host's texels and the GPU image). */
+static leap_result open_grid(const char *path, const char *name, const leap_input_options *input, uint64_t budget,
                              leap_input_info *info, leap_grid **grid, leap_error *err)
 {
     leap_vdb_file *file = NULL;
@@ -38,9 +47,48 @@ static leap_result open_grid(const char *path, const char *name, const leap_inpu
         return leap_fail(err, LEAP_ERR_FORMAT, "%s: no scalar grid to render (grids: %s)", path,
                          names[0] ? names : "none");
     }
-    r = leap_vdb_load_grid(file, index, grid, err);
+    const uint64_t need = 2 * leap_vdb_grid_memory_estimate(file, index);
+    if (need <= budget) {
+        r = leap_vdb_load_grid(file, index, grid, err);
+    } else if ((r = leap_vdb_load_grid_on_demand(file, index, grid, err)) == LEAP_ERR_UNSUPPORTED) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        r = leap_fail(err, r, "the grid needs about %.0f MiB in memory, more than the budget of %.0f MiB "
+                      "(--memory-budget, LEAP_MEMORY_BUDGET), and %s", (double)need / (1 << 20),
+                      (double)budget / (1 << 20), why);
+    }
     leap_vdb_close(file);
     return r;
+}
+
+/* What a scene read on demand holds besides the tree's topology and the atlas's tables, counted
+ * in its budget: per brick its range, occupancy, boxes and cache bookkeeping, per reading
+ * thread the leaves it keeps (1024, about 2.2 MiB), and the file's pages mapped between two
+ * trims (OnDemand::trim) with the build's passing arrays. Measured: peak resident memory grows
+ * by 294 bytes a brick (fog 256^3 and 384^3: 32,768 and 117,649 bricks), of which the topology
+ * takes about 155 and the tables 17; beyond the bricks, 26 MiB above a tiny volume's render
+ * with a 2 MiB cache. */
+#define ON_DEMAND_BRICK_BYTES 160
+#define ON_DEMAND_THREAD_BYTES ((uint64_t)5 << 19)
+#define ON_DEMAND_FIXED_BYTES ((uint64_t)16 << 20)
+
+/* A grid read on demand: the GPU brick cache gets what the budget leaves (at least a brick). */
+static leap_result share_budget(leap_scene *s, leap_error *err)
+{
+    const leap_atlas *a = s->atlas;
+    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    const uint64_t threads = (cpus > 1 ? (uint64_t)cpus : 1) + 1;
+    const uint64_t held = s->info->memory_bytes + (uint64_t)a->page_words * 4 +
+                          (uint64_t)a->slot_count * (sizeof *a->slot_cells + sizeof *a->slot_ranges) +
+                          (uint64_t)leap_grid_brick_count(s->grid) * ON_DEMAND_BRICK_BYTES +
+                          threads * ON_DEMAND_THREAD_BYTES + ON_DEMAND_FIXED_BYTES;
+    const uint64_t least = held + LEAP_SLOT_TEXELS * sizeof(float);
+    if (least > s->memory_budget)
+        return leap_fail(err, LEAP_ERR_USAGE, "a memory budget of %.1f MiB is too small for this grid read on demand: "
+                         "its topology, tables and bookkeeping take %.1f MiB", (double)s->memory_budget / (1 << 20),
+                         (double)held / (1 << 20));
+    s->gpu_cache_bytes = s->memory_budget - held;
+    return LEAP_OK;
 }
 
 int leap_scene_label_count(double lo, double hi)
@@ -263,6 +311,10 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
     if (s->march.mip)
         return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) does not apply to %s: a projected pixel has no "
                          "surface to light", s->march.mip > 0 ? "MIP (--mip)" : "minIP (--minip)");
+    if (s->grid && leap_grid_on_demand(s->grid))
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "shading (--shade) needs the whole volume in memory; this grid "
+                         "is read on demand under a memory budget of %.0f MiB (--memory-budget)",
+                         (double)s->memory_budget / (1 << 20));
     const double terms[4] = {sh.ambient, sh.diffuse, sh.specular, sh.shininess};
     static const char *const names[4] = {"ambient", "diffuse", "specular", "shininess"};
     for (int i = 0; i < 4; ++i)
@@ -276,7 +328,7 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
         if (!s->grid)
             return leap_fail(err, LEAP_ERR_USAGE, "shading rebuilds the volume from its voxels, which this scene "
                              "released (leap_scene_release_voxels)");
-        leap_atlas_desc ad = {.grid = s->grid, .wide = 1};
+        leap_atlas_desc ad = {.grid = s->grid, .wide = 1, .stream_texels = leap_grid_on_demand(s->grid)};
         leap_atlas *wide = NULL;
         leap_result r = leap_atlas_create(&ad, &wide, err);
         if (r) return r;
@@ -372,7 +424,14 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     double t = leap__now_ms();
     leap_input_options input = desc->input;
     input.labels = desc->labels;
-    leap_result r = open_grid(desc->path, desc->grid, &input, &s->input, &s->grid, err);
+    s->memory_budget = desc->memory_budget;
+    const char *env = getenv("LEAP_MEMORY_BUDGET");
+    if (!s->memory_budget && env && *env && !(s->memory_budget = leap__parse_bytes(env))) {
+        free(s);
+        return leap_fail(err, LEAP_ERR_USAGE, "LEAP_MEMORY_BUDGET '%.40s' must be a size such as 512M or 2GiB", env);
+    }
+    if (!s->memory_budget) s->memory_budget = leap_scene_default_memory_budget();
+    leap_result r = open_grid(desc->path, desc->grid, &input, s->memory_budget, &s->input, &s->grid, err);
     s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);
@@ -397,9 +456,11 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     }
     if (!r) r = choose_objects(s, desc, err);
     if (!r) {
-        leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on};
+        leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on,
+                              .stream_texels = leap_grid_on_demand(s->grid)};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
+        if (!r && ad.stream_texels) r = share_budget(s, err);
     }
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);
@@ -440,7 +501,8 @@ void leap_scene_destroy(leap_scene *s)
 
 void leap_scene_release_voxels(leap_scene *s)
 {
-    if (!s || !s->grid) return;
+    /* A grid read on demand holds no voxels, and its atlas reads slots from it. */
+    if (!s || !s->grid || leap_grid_on_demand(s->grid)) return;
     s->kept_info = *s->info;
     s->info = &s->kept_info;
     leap_grid_destroy(s->grid);

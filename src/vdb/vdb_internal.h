@@ -10,15 +10,18 @@
 #include <openvdb/io/GridDescriptor.h>
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
 #include <fcntl.h>
 #include <sys/mman.h>
+#include <sys/sysmacros.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -34,6 +37,7 @@
 #include <stdexcept>
 #include <string>
 #include <tuple>
+#include <unordered_map>
 #include <vector>
 
 namespace vdb = openvdb;
@@ -139,6 +143,7 @@ public:
         need(n, what);
         const unsigned char *p = data_ + pos_;
         pos_ += n;
+        if (pos_ > walked_ + RELEASE_BYTES) release();
         return p;
     }
     template <typename W>
@@ -168,8 +173,19 @@ public:
     }
 
 private:
+    // The pages walked past are dropped from the process as the walk goes on, so checking a
+    // large file does not hold it all in memory (a page read again is mapped again).
+    static constexpr uint64_t RELEASE_BYTES = 4u << 20;
+    void release()
+    {
+        const uint64_t page = uint64_t(::sysconf(_SC_PAGESIZE)), end = pos_ / page * page;
+        if (end > walked_) ::madvise(const_cast<unsigned char *>(data_) + walked_, end - walked_, MADV_DONTNEED);
+        walked_ = end;
+    }
+
     const unsigned char *data_;
     uint64_t pos_, limit_;
+    uint64_t walked_ = 0; // page-aligned: pages before it were released
     std::string prefix_;
 };
 
@@ -251,6 +267,70 @@ struct TileRec {
     float value;
 };
 
+float sanitize(float v, float bg, const Range &finite);
+
+// The file behind a grid read on demand (leap_vdb_load_grid_on_demand): OpenVDB's delayed
+// loading keeps each leaf's buffer in the file; a leaf is read into a copy, never into the
+// tree, so what was read can be dropped again.
+struct OnDemand {
+    vdb::io::File file; // keeps the mapping the leaves read from
+    dev_t dev = 0;
+    ino_t ino = 0;
+    // Values are mapped as the load maps a grid in memory: a non-finite background is
+    // replaced (resetBackground), and non-finite values once the load-time scan saw one.
+    float background = 0.0f, stored_background = 0.0f;
+    bool reset_background = false;
+    Range finite;
+    bool nonfinite = false;
+    std::atomic<uint64_t> leaves_read{0};
+    std::atomic<uint64_t> bytes_since_trim{0};
+    std::mutex mutex;   // guards error and the trim
+    std::string error;  // the first failed read
+    std::atomic<bool> failed{false};
+    std::vector<std::pair<unsigned long, size_t>> mapped; // the file's mapping (trim)
+
+    explicit OnDemand(const std::string &path) : file(path) {}
+    // Reads `leaf`'s values into `copy` (a leaf of the background if they cannot be read:
+    // the failure is kept for leap_grid_read_status).
+    void read(const LeafT &leaf, std::unique_ptr<LeafT> &copy);
+    // Drops the file's pages from this process's memory (they stay in the page cache).
+    void trim();
+};
+
+// Values of leaves for one thread: the tree's own buffers for a grid in memory; for a grid
+// read on demand, copies read from the file, of which the last LeafValues::KEPT stay (clock
+// eviction; about 2 MiB). That holds a brick's apron neighbours in the tree's order and the
+// next row of cells in the atlas's, so most leaves are read once or twice.
+class LeafValues {
+public:
+    static constexpr size_t KEPT = 1024;
+    explicit LeafValues(const leap_grid *grid);
+    const float *get(const LeafT &leaf)
+    {
+        if (!on_demand_) return leaf.buffer().data();
+        if (&leaf == last_) return last_values_;
+        auto at = index_.find(&leaf);
+        Slot *s = at != index_.end() ? &slots_[at->second] : load(leaf);
+        s->used = true;
+        last_ = &leaf;
+        return last_values_ = s->copy->buffer().data();
+    }
+
+private:
+    struct Slot {
+        const LeafT *leaf = nullptr;
+        std::unique_ptr<LeafT> copy;
+        bool used = false;
+    };
+    Slot *load(const LeafT &leaf);
+    OnDemand *on_demand_;
+    std::vector<Slot> slots_;
+    std::unordered_map<const LeafT *, size_t> index_;
+    size_t hand_ = 0;
+    const LeafT *last_ = nullptr;
+    const float *last_values_ = nullptr;
+};
+
 } // namespace leap_vdb_detail
 
 struct leap_grid {
@@ -258,16 +338,23 @@ struct leap_grid {
     vdb::Int64Tree::Ptr labels; // exact values of a label grid (null otherwise)
     leap_grid_info info;
     std::vector<leap_vdb_detail::TileRec> tiles; // active tiles, in iteration order
+    std::unique_ptr<leap_vdb_detail::OnDemand> on_demand; // null: every voxel is in memory
 };
 
-// Per-thread accessors (exact labels too for a label grid).
+// Per-thread accessors (exact labels too for a label grid). OpenVDB's accessor reads the
+// buffer of every leaf it caches, so a grid read on demand gets one that caches nodes above
+// the leaves only (node_acc).
 struct leap_grid_reader {
-    explicit leap_grid_reader(const leap_grid &g) : acc(g.grid->constTree())
+    explicit leap_grid_reader(const leap_grid &g) : acc(g.grid->constTree()), values(&g)
     {
         if (g.labels) labels.reset(new vdb::tree::ValueAccessor<const vdb::Int64Tree>(*g.labels));
+        if (g.on_demand) node_acc.reset(new NodeAccessor(g.grid->constTree()));
     }
+    using NodeAccessor = vdb::tree::ValueAccessor1<const leap_vdb_detail::FloatTree, true, 1>;
     vdb::tree::ValueAccessor<const leap_vdb_detail::FloatTree> acc;
+    std::unique_ptr<NodeAccessor> node_acc;
     std::unique_ptr<vdb::tree::ValueAccessor<const vdb::Int64Tree>> labels;
+    leap_vdb_detail::LeafValues values;
 };
 
 #endif

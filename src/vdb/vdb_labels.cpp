@@ -47,6 +47,9 @@ leap_result leap_grid_make_labels(leap_grid *grid, leap_error *err)
 {
     if (!grid) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_make_labels: NULL grid");
     if (grid->labels) return LEAP_OK;
+    if (grid->on_demand)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "a segmentation (--labels) is read whole, and this grid is read "
+                         "on demand under the memory budget (raise --memory-budget)");
     return guarded(err, LEAP_ERR_OOM, "labels", [&]() -> leap_result {
         const FloatTree &tree = grid->grid->constTree();
         // Every value the renderer can read must be an integer a float holds exactly.

@@ -3,6 +3,9 @@
 // through leap_error.
 #include "vdb_internal.h"
 
+#include <chrono>
+#include <thread>
+
 namespace leap_vdb_detail {
 
 void init_openvdb()
@@ -10,9 +13,10 @@ void init_openvdb()
     static std::once_flag once;
     std::call_once(once, [] {
         vdb::initialize();
-        // Delayed-load metadata serves only memory-mapped delayed loading, which leap does not
-        // use, and its reader sizes buffers from counts in the file without checking them. As
-        // an unregistered type it is read as opaque bytes of a checked length (and dropped).
+        // Delayed-load metadata only speeds up delayed loading (which then steps over each
+        // leaf's data by its stored size), and its reader sizes buffers from counts in the file
+        // without checking them. As an unregistered type it is read as opaque bytes of a
+        // checked length (and dropped).
         if (vdb::Metadata::isRegisteredType("__delayedload")) vdb::Metadata::unregisterType("__delayedload");
     });
 }
@@ -165,10 +169,7 @@ public:
     // Grid `gd` of this file: everything, or only its metadata and transform.
     vdb::GridBase::Ptr read(const vdb::io::GridDescriptor &gd, bool full)
     {
-        if (full && !gd.isInstance()) {
-            const Mapping m(path_, size_);
-            check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false);
-        }
+        if (full) check(gd);
         Stream s;
         start(s);
         gd.seekToGrid(s.is);
@@ -181,6 +182,14 @@ public:
             grid->readTransform(s.is);
         }
         return grid;
+    }
+
+    // Checks the bytes of grid `gd`'s tree before OpenVDB reads them.
+    void check(const vdb::io::GridDescriptor &gd)
+    {
+        if (gd.isInstance()) return;
+        const Mapping m(path_, size_);
+        check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false);
     }
 
     // Index of the instance parent of `gd` among `descs` (a grid that is no instance itself).
@@ -251,19 +260,124 @@ private:
     uint64_t size_;
 };
 
-float sanitize(float v, float bg, const Range &finite)
-{
-    if (std::isnan(v)) return bg;
-    if (std::isinf(v)) return v > 0 ? finite.hi : finite.lo;
-    return v;
-}
-
 // Converts a double/int32 grid into a float tree of the same topology, tiles and background.
 template <typename GridT>
 FloatTree::Ptr convert_tree(const vdb::GridBase &g)
 {
     const GridT &src = static_cast<const GridT &>(g);
     return FloatTree::Ptr(new FloatTree(src.tree()));
+}
+
+// Completes a loaded grid: maps non-finite values, finds the value ranges, tiles, counts and
+// bounds. A grid read on demand reads each leaf once here, into a copy.
+void scan_grid(leap_grid &g)
+{
+    OnDemand *od = g.on_demand.get();
+    FloatTree &tree = g.grid->tree();
+
+    uint64_t nonfinite = 0;
+    float bg = tree.background();
+    if (!std::isfinite(bg)) {
+        // Nothing can stand in for a non-finite background; 0 is the neutral choice.
+        ++nonfinite;
+        if (od) {
+            od->stored_background = bg;
+            od->reset_background = true;
+        }
+        bg = 0.0f;
+        tree.root().setBackground(bg, /*updateChildNodes=*/od == nullptr);
+        if (od) { // the tiles as updateChildNodes sets them; leaves in the file as they are read
+            auto off = tree.beginValueOff();
+            off.setMaxDepth(off.getLeafDepth() - 1);
+            for (; off; ++off) {
+                if (vdb::math::isApproxEqual(*off, od->stored_background)) off.setValue(bg);
+                else if (vdb::math::isApproxEqual(*off, -od->stored_background)) off.setValue(-bg);
+            }
+        }
+    }
+    if (od) od->background = bg;
+
+    std::vector<LeafT *> leaves;
+    leaves.reserve(tree.leafCount());
+    for (auto it = tree.beginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+
+    using Blocks = tbb::blocked_range<size_t>;
+    Scan scan = tbb::parallel_reduce(
+        Blocks(0, leaves.size(), 64), Scan(),
+        [&](const Blocks &r, Scan s) {
+            std::unique_ptr<LeafT> copy;
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const LeafT &leaf = *leaves[i];
+                if (od) od->read(leaf, copy);
+                const float *v = od ? copy->buffer().data() : leaf.buffer().data();
+                const auto &mask = leaf.getValueMask();
+                for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+            }
+            return s;
+        },
+        [](Scan a, const Scan &b) {
+            a.merge(b);
+            return a;
+        });
+
+    // Tiles at every level (leaf depth excluded), active or not.
+    auto tile_iter = tree.beginValueAll();
+    tile_iter.setMaxDepth(tile_iter.getLeafDepth() - 1);
+    for (auto it = tile_iter; it; ++it) scan.add(*it, it.isValueOn());
+
+    nonfinite += scan.nonfinite;
+    Range finite = scan.all;
+    if (finite.empty()) finite.add(bg);
+    if (scan.nonfinite > 0 && od) {
+        od->finite = finite; // leaves in the file are mapped as they are read
+        od->nonfinite = true;
+    } else if (scan.nonfinite > 0) {
+        tbb::parallel_for(Blocks(0, leaves.size(), 64), [&](const Blocks &r) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                float *v = leaves[i]->buffer().data();
+                for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], bg, finite);
+            }
+        });
+    }
+    if (scan.nonfinite > 0) {
+        for (auto it = tile_iter; it; ++it)
+            if (!std::isfinite(*it)) it.setValue(sanitize(*it, bg, finite));
+    }
+
+    Range values = scan.active;
+    if (scan.active_nan) values.add(bg);
+    if (scan.active_pinf) values.add(finite.hi);
+    if (scan.active_ninf) values.add(finite.lo);
+
+    leap_grid_info &info = g.info;
+    info.background = bg;
+    info.nonfinite_values = nonfinite;
+    info.leaf_count = leaves.size();
+    auto on_tiles = tree.cbeginValueOn();
+    on_tiles.setMaxDepth(on_tiles.getLeafDepth() - 1);
+    for (auto it = on_tiles; it; ++it) {
+        vdb::CoordBBox bb;
+        it.getBoundingBox(bb);
+        const int level = int(it.getLevel()) - 1;
+        if (level < 0 || level >= LEAP_TILE_LEVELS) continue;
+        ++info.active_tiles[level];
+        g.tiles.push_back(TileRec{bb.min(), level, *it});
+    }
+    info.active_voxels = tree.activeVoxelCount();
+    if (info.active_voxels > 0) {
+        vdb::CoordBBox bb;
+        tree.evalActiveVoxelBoundingBox(bb);
+        for (int a = 0; a < 3; ++a) {
+            info.bbox_min[a] = bb.min()[a];
+            info.bbox_max[a] = bb.max()[a];
+        }
+    } else {
+        info.bbox_min[0] = info.bbox_min[1] = info.bbox_min[2] = 0;
+        info.bbox_max[0] = info.bbox_max[1] = info.bbox_max[2] = -1;
+    }
+    info.value_min = values.empty() ? bg : values.lo;
+    info.value_max = values.empty() ? bg : values.hi;
+    info.memory_bytes = tree.memUsage();
 }
 
 } // namespace
@@ -276,6 +390,7 @@ struct leap_vdb_file {
     bool in_memory = false;                     // made by leap_vdb_from_dense
     std::vector<std::string> names; // unique names ("name[N]" for duplicates)
     std::vector<std::string> plain; // grid names as written
+    std::vector<uint64_t> memory;   // leap_vdb_grid_memory_estimate
     mutable std::vector<leap_grid_info> infos; // backgrounds are filled in lazily
     mutable std::vector<char> have_background;
     mutable int cached_index = -1; // grid read by leap_vdb_grid_info, not yet loaded
@@ -324,7 +439,8 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
         std::unique_ptr<leap_vdb_file> f(new leap_vdb_file);
         f->path = path;
         f->reader.reset(new VdbReader(path, uint64_t(st.st_size)));
-        // No delayed loading: a grid is read completely and checked once, at load time.
+        // No grid is read here: a load reads one whole, or its topology for reading on demand,
+        // after checking its bytes.
         f->reader->open(f->descs, f->streamed);
         for (size_t i = 0; i < f->descs.size(); ++i) {
             const vdb::io::GridDescriptor &gd = f->descs[i];
@@ -336,6 +452,10 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
             vdb::GridBase::ConstPtr meta = f->streamed.empty() ? f->reader->read(gd, false) : f->streamed[i];
             meta_to_info(*meta, name, &info);
             f->infos.push_back(info);
+            uint64_t bytes = uint64_t(gd.getEndPos() - gd.getGridPos()) * (gd.saveFloatAsHalf() ? 2 : 1);
+            if (auto m = meta->getMetadata<vdb::Int64Metadata>(vdb::GridBase::META_FILE_MEM_BYTES))
+                if (m->value() > 0) bytes = uint64_t(m->value());
+            f->memory.push_back(bytes);
         }
         if (f->names.empty())
             return leap_fail(err, LEAP_ERR_FORMAT, "%s: no grids (an empty or truncated VDB file)", what.c_str());
@@ -416,6 +536,12 @@ leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_i
     return LEAP_OK;
 }
 
+uint64_t leap_vdb_grid_memory_estimate(const leap_vdb_file *file, int index)
+{
+    if (!file || index < 0 || size_t(index) >= file->memory.size()) return 0;
+    return file->memory[size_t(index)];
+}
+
 int leap_vdb_file_up(const leap_vdb_file *file, double up[3])
 {
     for (size_t i = 0; file && i < file->infos.size(); ++i) {
@@ -440,7 +566,57 @@ int leap_vdb_find_grid(const leap_vdb_file *file, const char *name)
     return -1;
 }
 
-leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+} // extern "C"
+
+namespace {
+
+// Grid `gi` with its leaf buffers left in the file (OpenVDB's delayed loading), after the
+// same checks of every byte of its tree as a full read.
+vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, std::unique_ptr<OnDemand> &od)
+{
+    const vdb::io::GridDescriptor &gd = file->descs[gi];
+    file->reader->check(gd);
+    if (gd.isInstance()) file->reader->check(file->descs[size_t(VdbReader::find_parent(file->descs, gd))]);
+    struct stat st;
+    if (stat(file->path.c_str(), &st) != 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
+    od.reset(new OnDemand(file->path));
+    od->dev = st.st_dev;
+    od->ino = st.st_ino;
+    od->file.setCopyMaxBytes(0); // map the file itself; OpenVDB would first copy a small one to /tmp
+    od->file.open(/*delayLoad=*/true);
+    // OpenVDB touches every page of the grid as it steps over the leaves' values (it reads each
+    // chunk's size): a helper drops those pages while it reads, so the file is never all in memory.
+    vdb::GridBase::Ptr base;
+    {
+        std::atomic<bool> done{false};
+        OnDemand *on = od.get();
+        std::thread trimmer([&done, on] {
+            while (!done.load()) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(5));
+                on->trim();
+            }
+        });
+        struct Join {
+            std::atomic<bool> &done;
+            std::thread &t;
+            ~Join()
+            {
+                done.store(true);
+                t.join();
+            }
+        } join{done, trimmer};
+        base = od->file.readGrid(file->names[gi]);
+    }
+    od->trim();
+    if (const vdb::FloatGrid *fg = dynamic_cast<const vdb::FloatGrid *>(base.get())) {
+        auto leaf = fg->tree().cbeginLeaf();
+        if (leaf && !leaf->buffer().isOutOfCore())
+            OPENVDB_THROW(vdb::IoError, "OpenVDB read the voxels at once (is OPENVDB_DISABLE_DELAYED_LOAD set?)");
+    }
+    return base;
+}
+
+leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, leap_grid **out, leap_error *err)
 {
     if (out) *out = nullptr;
     if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_load_grid: NULL argument");
@@ -454,14 +630,24 @@ leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, 
                          "int32 and int64 grids can be rendered", file->path.c_str(), meta.name, meta.value_type);
 
     const std::string what = "'" + file->path + "', grid '" + file->names[gi] + "'";
+    if (on_demand && (file->in_memory || !file->streamed.empty()))
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "only a .vdb file with grid offsets can be read on demand (this "
+                         "one is %s; `leap convert` writes one)", file->in_memory ? "imported" : "written to a stream");
+    if (on_demand && std::strcmp(meta.value_type, "float") != 0)
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "only float grids can be read on demand (grid '%s' holds %s)",
+                         file->names[gi].c_str(), meta.value_type);
     return guarded(err, LEAP_ERR_FORMAT, what, [&]() -> leap_result {
         vdb::GridBase::Ptr base;
+        std::unique_ptr<OnDemand> od;
         {
             std::lock_guard<std::mutex> lock(file->mutex);
-            if (file->cached_index == index) base = std::move(file->cached_grid);
+            if (on_demand) base = read_on_demand(file, gi, od);
+            else if (file->cached_index == index) base = std::move(file->cached_grid);
             else base = read_full_grid(file, gi);
-            file->cached_index = -1;
-            file->cached_grid.reset();
+            if (!on_demand || file->cached_index == index) {
+                file->cached_index = -1;
+                file->cached_grid.reset();
+            }
         }
         if (!base->constTransform().isLinear())
             return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: non-linear (frustum) transform is not supported",
@@ -487,94 +673,45 @@ leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, 
             g->grid->setTransform(base->constTransform().copy());
         }
         base.reset();
-        FloatTree &tree = g->grid->tree();
-
-        uint64_t nonfinite = 0;
-        float bg = tree.background();
-        if (!std::isfinite(bg)) {
-            // Nothing can stand in for a non-finite background; 0 is the neutral choice.
-            ++nonfinite;
-            bg = 0.0f;
-            tree.root().setBackground(bg, /*updateChildNodes=*/true);
-        }
-
-        std::vector<LeafT *> leaves;
-        leaves.reserve(tree.leafCount());
-        for (auto it = tree.beginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
-
-        using Blocks = tbb::blocked_range<size_t>;
-        Scan scan = tbb::parallel_reduce(
-            Blocks(0, leaves.size(), 64), Scan(),
-            [&](const Blocks &r, Scan s) {
-                for (size_t i = r.begin(); i != r.end(); ++i) {
-                    const LeafT &leaf = *leaves[i];
-                    const float *v = leaf.buffer().data();
-                    const auto &mask = leaf.getValueMask();
-                    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
-                }
-                return s;
-            },
-            [](Scan a, const Scan &b) {
-                a.merge(b);
-                return a;
-            });
-
-        // Tiles at every level (leaf depth excluded), active or not.
-        auto tile_iter = tree.beginValueAll();
-        tile_iter.setMaxDepth(tile_iter.getLeafDepth() - 1);
-        for (auto it = tile_iter; it; ++it) scan.add(*it, it.isValueOn());
-
-        nonfinite += scan.nonfinite;
-        Range finite = scan.all;
-        if (finite.empty()) finite.add(bg);
-        if (scan.nonfinite > 0) {
-            tbb::parallel_for(Blocks(0, leaves.size(), 64), [&](const Blocks &r) {
-                for (size_t i = r.begin(); i != r.end(); ++i) {
-                    float *v = leaves[i]->buffer().data();
-                    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], bg, finite);
-                }
-            });
-            for (auto it = tile_iter; it; ++it)
-                if (!std::isfinite(*it)) it.setValue(sanitize(*it, bg, finite));
-        }
-
-        Range values = scan.active;
-        if (scan.active_nan) values.add(bg);
-        if (scan.active_pinf) values.add(finite.hi);
-        if (scan.active_ninf) values.add(finite.lo);
-
-        leap_grid_info &info = g->info;
-        info.background = bg;
-        info.nonfinite_values = nonfinite;
-        info.leaf_count = leaves.size();
-        auto on_tiles = tree.cbeginValueOn();
-        on_tiles.setMaxDepth(on_tiles.getLeafDepth() - 1);
-        for (auto it = on_tiles; it; ++it) {
-            vdb::CoordBBox bb;
-            it.getBoundingBox(bb);
-            const int level = int(it.getLevel()) - 1;
-            if (level < 0 || level >= LEAP_TILE_LEVELS) continue;
-            ++info.active_tiles[level];
-            g->tiles.push_back(TileRec{bb.min(), level, *it});
-        }
-        info.active_voxels = tree.activeVoxelCount();
-        if (info.active_voxels > 0) {
-            vdb::CoordBBox bb;
-            tree.evalActiveVoxelBoundingBox(bb);
-            for (int a = 0; a < 3; ++a) {
-                info.bbox_min[a] = bb.min()[a];
-                info.bbox_max[a] = bb.max()[a];
-            }
-        } else {
-            info.bbox_min[0] = info.bbox_min[1] = info.bbox_min[2] = 0;
-            info.bbox_max[0] = info.bbox_max[1] = info.bbox_max[2] = -1;
-        }
-        info.value_min = values.empty() ? bg : values.lo;
-        info.value_max = values.empty() ? bg : values.hi;
-        info.memory_bytes = tree.memUsage();
+        g->on_demand = std::move(od);
+        scan_grid(*g);
+        leap_result r = leap_grid_read_status(g.get(), err);
+        if (r) return r;
         *out = g.release();
         return LEAP_OK;
     });
+}
+
+} // namespace
+
+extern "C" {
+
+leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+{
+    return load_grid(file, index, false, out, err);
+}
+
+leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+{
+    return load_grid(file, index, true, out, err);
+}
+
+int leap_grid_on_demand(const leap_grid *grid)
+{
+    return grid && grid->on_demand;
+}
+
+uint64_t leap_grid_leaves_read(const leap_grid *grid)
+{
+    return grid && grid->on_demand ? grid->on_demand->leaves_read.load() : 0;
+}
+
+leap_result leap_grid_read_status(const leap_grid *grid, leap_error *err)
+{
+    if (!grid || !grid->on_demand || !grid->on_demand->failed.load()) return LEAP_OK;
+    std::lock_guard<std::mutex> lock(grid->on_demand->mutex);
+    return leap_fail(err, LEAP_ERR_FORMAT, "'%s', grid '%s': %s", grid->on_demand->file.filename().c_str(),
+                     grid->info.name, grid->on_demand->error.c_str());
 }
 
 void leap_grid_destroy(leap_grid *grid)
@@ -607,16 +744,22 @@ void leap_grid_reader_destroy(leap_grid_reader *reader)
     delete reader;
 }
 
-float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int32_t k)
+} // extern "C"
+
+namespace {
+
+template <typename Accessor>
+float reader_value(Accessor &acc, LeafValues &values, const vdb::Coord &c)
 {
-    return reader->acc.getValue(vdb::Coord(i, j, k));
+    if (const LeafT *leaf = acc.probeConstLeaf(c)) return values.get(*leaf)[LeafT::coordToOffset(c)];
+    return acc.getValue(c);
 }
 
-void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], float *out)
+// Rows are read in runs that stay inside one 8-voxel block: one lookup per run, then either the
+// leaf's values or the single value of a block that has no leaf.
+template <typename Accessor>
+void reader_box(Accessor &acc, LeafValues &values, const int32_t min[3], const int32_t dim[3], float *out)
 {
-    // Rows are read in runs that stay inside one 8-voxel block: one lookup per run, then
-    // either the leaf's values or the single value of a block that has no leaf.
-    auto &acc = reader->acc;
     size_t n = 0;
     for (int32_t z = 0; z < dim[2]; ++z)
         for (int32_t y = 0; y < dim[1]; ++y)
@@ -624,7 +767,7 @@ void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const 
                 const vdb::Coord c(min[0] + x, min[1] + y, min[2] + z);
                 const int32_t run = std::min(dim[0] - x, int32_t(LeafT::DIM) - (c.x() & int32_t(LeafT::DIM - 1)));
                 if (const LeafT *leaf = acc.probeConstLeaf(c)) {
-                    const float *v = leaf->buffer().data() + LeafT::coordToOffset(c);
+                    const float *v = values.get(*leaf) + LeafT::coordToOffset(c);
                     for (int32_t k = 0; k < run; ++k) out[n++] = v[k << (2 * LeafT::LOG2DIM)];
                 } else {
                     const float v = acc.getValue(c);
@@ -632,6 +775,23 @@ void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const 
                 }
                 x += run;
             }
+}
+
+} // namespace
+
+extern "C" {
+
+float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int32_t k)
+{
+    const vdb::Coord c(i, j, k);
+    if (reader->node_acc) return reader_value(*reader->node_acc, reader->values, c);
+    return reader_value(reader->acc, reader->values, c);
+}
+
+void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], float *out)
+{
+    if (reader->node_acc) reader_box(*reader->node_acc, reader->values, min, dim, out);
+    else reader_box(reader->acc, reader->values, min, dim, out);
 }
 
 } // extern "C"

@@ -8,9 +8,9 @@ namespace {
 // ---- min/max of all stored values (active or not, background where there is no data)
 // inside an index box, descending only into the nodes that the box touches.
 
-void range_in(const LeafT &leaf, const vdb::CoordBBox &b, Range &r)
+void range_in(LeafValues &values, const LeafT &leaf, const vdb::CoordBBox &b, Range &r)
 {
-    const float *data = leaf.buffer().data();
+    const float *data = values.get(leaf);
     const vdb::Coord o = leaf.origin();
     // Offsets inside the leaf, so that a leaf at the end of the index range cannot overflow.
     const vdb::Coord lo = b.min() - o, hi = b.max() - o;
@@ -22,7 +22,7 @@ void range_in(const LeafT &leaf, const vdb::CoordBBox &b, Range &r)
 }
 
 template <typename NodeT>
-void range_in(const NodeT &node, const vdb::CoordBBox &b, Range &r)
+void range_in(LeafValues &values, const NodeT &node, const vdb::CoordBBox &b, Range &r)
 {
     using ChildT = typename NodeT::ChildNodeType;
     const vdb::Coord o = node.origin();
@@ -36,7 +36,7 @@ void range_in(const NodeT &node, const vdb::CoordBBox &b, Range &r)
                     const ChildT &child = *table[n].getChild();
                     vdb::CoordBBox cb = child.getNodeBoundingBox();
                     cb.intersect(b);
-                    range_in(child, cb, r);
+                    range_in(values, child, cb, r);
                 } else {
                     r.add(table[n].getValue());
                 }
@@ -45,7 +45,7 @@ void range_in(const NodeT &node, const vdb::CoordBBox &b, Range &r)
 
 // Box given in 64-bit so that callers may pass a box reaching past the int32 index range;
 // the part outside holds no voxels and is dropped.
-void range_in_box(const RootT &root, const int64_t lo[3], const int64_t hi[3], Range &r)
+void range_in_box(LeafValues &values, const RootT &root, const int64_t lo[3], const int64_t hi[3], Range &r)
 {
     const int64_t lim_lo = std::numeric_limits<int32_t>::min(), lim_hi = std::numeric_limits<int32_t>::max();
     int64_t a[3], b[3];
@@ -63,7 +63,7 @@ void range_in_box(const RootT &root, const int64_t lo[3], const int64_t hi[3], R
                 if (const Node2T *child = root.probeConstNode<Node2T>(key)) {
                     vdb::CoordBBox cb = child->getNodeBoundingBox();
                     cb.intersect(vdb::CoordBBox(int(a[0]), int(a[1]), int(a[2]), int(b[0]), int(b[1]), int(b[2])));
-                    range_in(*child, cb, r);
+                    range_in(values, *child, cb, r);
                 } else {
                     r.add(root.getValue(key)); // root tile, or background where there is none
                 }
@@ -72,13 +72,14 @@ void range_in_box(const RootT &root, const int64_t lo[3], const int64_t hi[3], R
 
 // Value range of a brick: the box [o, o+size) plus a one-voxel apron. For a tile the
 // interior is the tile value, so only the six faces of the apron shell are visited.
-Range brick_range(const RootT &root, const vdb::Coord &o, int size, bool is_tile, float tile_value)
+Range brick_range(LeafValues &values, const RootT &root, const vdb::Coord &o, int size, bool is_tile,
+                  float tile_value)
 {
     Range r;
     const int64_t lo[3] = {int64_t(o.x()) - 1, int64_t(o.y()) - 1, int64_t(o.z()) - 1};
     const int64_t hi[3] = {int64_t(o.x()) + size, int64_t(o.y()) + size, int64_t(o.z()) + size};
     if (!is_tile) {
-        range_in_box(root, lo, hi, r);
+        range_in_box(values, root, lo, hi, r);
         return r;
     }
     r.add(tile_value);
@@ -91,7 +92,7 @@ Range brick_range(const RootT &root, const vdb::Coord &o, int size, bool is_tile
                 b[i] = i < axis ? hi[i] - 1 : hi[i];
             }
             a[axis] = b[axis] = side ? hi[axis] : lo[axis];
-            range_in_box(root, a, b, r);
+            range_in_box(values, root, a, b, r);
         }
     return r;
 }
@@ -118,7 +119,10 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
         for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
         const size_t nl = leaves.size(), nt = grid->tiles.size();
 
+        // Each thread keeps the leaves it read last: a brick's apron reads its neighbours.
+        tbb::enumerable_thread_specific<LeafValues> values(grid);
         tbb::parallel_for(tbb::blocked_range<size_t>(0, nl + nt, 16), [&](const tbb::blocked_range<size_t> &r) {
+            LeafValues &mine = values.local();
             for (size_t i = r.begin(); i != r.end(); ++i) {
                 leap_brick &b = out[i];
                 std::memset(&b, 0, sizeof b);
@@ -127,7 +131,7 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
                 if (i < nl) {
                     o = leaves[i]->origin();
                     b.size = int32_t(LeafT::DIM);
-                    v = brick_range(root, o, b.size, false, 0.0f);
+                    v = brick_range(mine, root, o, b.size, false, 0.0f);
                 } else {
                     const TileRec &t = grid->tiles[i - nl];
                     o = t.origin;
@@ -135,13 +139,15 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
                            : t.level == 1 ? int32_t(Node1T::DIM) : int32_t(Node2T::DIM);
                     b.is_tile = 1;
                     b.tile_value = t.value;
-                    v = brick_range(root, o, b.size, true, t.value);
+                    v = brick_range(mine, root, o, b.size, true, t.value);
                 }
                 for (int a = 0; a < 3; ++a) b.origin[a] = o[a];
                 b.value_min = v.lo;
                 b.value_max = v.hi;
             }
         });
+        leap_result status = leap_grid_read_status(grid, err);
+        if (status) return status;
         std::sort(out, out + nl, brick_before);
         std::sort(out + nl, out + nl + nt, brick_before);
         return LEAP_OK;
@@ -155,14 +161,21 @@ leap_result leap_grid_histogram(const leap_grid *grid, double lo, double hi, int
         return leap_fail(err, LEAP_ERR_USAGE, "histogram: needs a grid, at least one bin and a finite range lo < hi");
     std::fill(counts, counts + bins, uint64_t(0));
     return guarded(err, LEAP_ERR_FORMAT, std::string("grid '") + grid->info.name + "'", [&]() -> leap_result {
-        for (auto it = grid->grid->cbeginValueOn(); it; ++it) {
-            const double v = double(*it);
-            if (v < lo || v > hi) continue;
+        auto add = [&](double v, uint64_t n) {
+            if (v < lo || v > hi) return;
             const double t = (v - lo) / (hi - lo) * bins;
-            const int b = t >= bins ? bins - 1 : int(t);
-            counts[b] += it.isVoxelValue() ? 1 : it.getVoxelCount();
+            counts[t >= bins ? bins - 1 : int(t)] += n;
+        };
+        // Leaves through LeafValues (a grid read on demand reads them), then the tiles.
+        LeafValues values(grid);
+        for (auto leaf = grid->grid->constTree().cbeginLeaf(); leaf; ++leaf) {
+            const float *v = values.get(*leaf);
+            for (auto on = leaf->getValueMask().beginOn(); on; ++on) add(double(v[on.pos()]), 1);
         }
-        return LEAP_OK;
+        auto tiles = grid->grid->cbeginValueOn();
+        tiles.setMaxDepth(tiles.getLeafDepth() - 1);
+        for (auto it = tiles; it; ++it) add(double(*it), it.getVoxelCount());
+        return leap_grid_read_status(grid, err);
     });
 }
 

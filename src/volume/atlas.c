@@ -40,6 +40,9 @@ typedef struct builder {
     uint32_t blocks_cap;
     uint16_t *slots;          /* LEAP_SLOT_TEXELS per slot, in allocation order */
     size_t slots_cap;
+    uint64_t *cells;          /* stream_texels: per slot, in allocation order, its cell key */
+    size_t cells_cap;
+    int stream_texels;
     uint32_t *ranges;         /* per slot, in allocation order: smallest texel | largest << 16 */
     size_t ranges_cap;
     int page_overflow;        /* the cell level of the page table did not fit */
@@ -255,9 +258,11 @@ static uint64_t atlas_texels_for(uint64_t n)
 }
 
 /* The most slots whose 16-bit atlas fits one device allocation, and whose texels fit the host
- * memory available now (the host keeps them once: leap_atlas.slot_texels). */
-static uint64_t slot_budget(void)
+ * memory available now (the host keeps them once: leap_atlas.slot_texels); with stream_texels
+ * neither holds them all, only the page entries' slot numbers bound them. */
+static uint64_t slot_budget(int stream_texels)
 {
+    if (stream_texels) return (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
     uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
     long pages = sysconf(_SC_AVPHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     double host = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
@@ -277,7 +282,7 @@ static leap_result slots_too_many(uint64_t slots, const char *how, leap_error *e
                      "%.0f GiB device allocation and the free host memory (each 8^3 cell not of one value, "
                      "tile faces included, needs a brick)",
                      how, (unsigned long long)slots, (double)slots * LEAP_SLOT_TEXELS * 2 / gib,
-                     (unsigned long long)slot_budget(), LEAP_ATLAS_MAX_BYTES / gib);
+                     (unsigned long long)slot_budget(0), LEAP_ATLAS_MAX_BYTES / gib);
 }
 
 /* Reads cell c's footprint: 1 and *entry for a constant cell, else 0 with its texels in q. */
@@ -473,10 +478,13 @@ static leap_result commit_chunk(fill_shared *sh, const fill_worker *w, size_t k)
         uint32_t entry = w->entries[i];
         if (!(entry & LEAP_PAGE_CONST)) {
             if (a->slot_count + 1 > sh->budget) return slots_too_many(a->slot_count + 1, "more than", sh->err);
-            if (!leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * LEAP_SLOT_TEXELS, sizeof(uint16_t)) ||
-                !leap__grow((void **)&b->ranges, &b->ranges_cap, (size_t)a->slot_count + 1, sizeof(uint32_t)))
+            const int kept = b->stream_texels
+                ? leap__grow((void **)&b->cells, &b->cells_cap, (size_t)a->slot_count + 1, sizeof(uint64_t))
+                : leap__grow((void **)&b->slots, &b->slots_cap, ((size_t)a->slot_count + 1) * LEAP_SLOT_TEXELS, sizeof(uint16_t));
+            if (!kept || !leap__grow((void **)&b->ranges, &b->ranges_cap, (size_t)a->slot_count + 1, sizeof(uint32_t)))
                 return leap_fail(sh->err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count + 1);
-            memcpy(b->slots + (size_t)a->slot_count * LEAP_SLOT_TEXELS, w->slots + used * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof(uint16_t));
+            if (b->stream_texels) b->cells[a->slot_count] = sh->keys->keys[first + i];
+            else memcpy(b->slots + (size_t)a->slot_count * LEAP_SLOT_TEXELS, w->slots + used * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof(uint16_t));
             b->ranges[a->slot_count] = w->ranges[used++];
             entry = a->slot_count++;
         }
@@ -530,7 +538,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (i == 0 || l->keys[i] != l->keys[i - 1]) l->keys[unique++] = l->keys[i];
     l->count = unique;
     if (a->labels) return fill_label_cells(b, l, dense, err);
-    fill_shared sh = {.b = b, .keys = l, .dense = dense, .budget = slot_budget(), .err = err,
+    fill_shared sh = {.b = b, .keys = l, .dense = dense, .budget = slot_budget(b->stream_texels), .err = err,
                       .chunk_count = (unique + FILL_CHUNK_KEYS - 1) / FILL_CHUNK_KEYS};
     leap_result r = check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
     if (r) return r;
@@ -559,6 +567,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         pthread_cond_destroy(&sh.turn);
         pthread_mutex_destroy(&sh.lock);
         r = sh.r;
+        if (!r) r = leap_grid_read_status(grid, err);
     }
     for (size_t i = 0; i < threads; ++i) leap_grid_reader_destroy(workers[i].reader);
     free(workers);
@@ -676,20 +685,27 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
     /* The slots keep their build order: unshuffled, the build's buffer is the atlas's. */
     a->slot_ranges = calloc((size_t)sx * sy * sz, sizeof(uint32_t));
     const size_t slot_bytes = (size_t)(a->slot_count ? a->slot_count : 1) * LEAP_SLOT_TEXELS * sizeof(uint16_t);
-    if (a->slot_ranges && !seed) {
+    if (b->stream_texels && a->slot_count) {
+        a->slot_cells = malloc((size_t)(a->slot_count ? a->slot_count : 1) * sizeof *a->slot_cells);
+        if (!a->slot_cells || !a->slot_ranges) {
+            free(perm);
+            return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count);
+        }
+    } else if (a->slot_ranges && !seed) {
         a->slot_texels = a->slot_count ? realloc(b->slots, slot_bytes) : malloc(slot_bytes);
         if (a->slot_texels && a->slot_count) b->slots = NULL;
     } else if (a->slot_ranges) {
         a->slot_texels = malloc(slot_bytes);
     }
-    if (!a->slot_texels || !a->slot_ranges) {
+    if (!a->slot_cells && (!a->slot_texels || !a->slot_ranges)) {
         free(perm);
         return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count);
     }
     for (uint32_t s = 0; s < a->slot_count; ++s) {
         const uint32_t d = perm[s];
         a->slot_ranges[d] = b->ranges[s];
-        if (seed) memcpy(a->slot_texels + (size_t)d * LEAP_SLOT_TEXELS, b->slots + (size_t)s * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof(uint16_t));
+        if (a->slot_cells) a->slot_cells[d] = b->cells[s];
+        else if (seed) memcpy(a->slot_texels + (size_t)d * LEAP_SLOT_TEXELS, b->slots + (size_t)s * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof(uint16_t));
     }
 
     for (uint32_t k = 0; k < a->block_count; ++k) {
@@ -809,6 +825,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     b->labels = desc->labels;
     a->labels = desc->labels != NULL;
     a->wide = desc->wide && !a->labels;
+    b->stream_texels = desc->stream_texels && !a->labels;
     if (a->labels && !leap_grid_has_labels(desc->grid)) {
         free(b);
         free(a);
@@ -824,11 +841,13 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         for (uint32_t i = 0; i < a->block_count; ++i) free(b->blocks[i]);
         free(b->blocks);
         free(b->slots);
+        free(b->cells);
         free(b->ranges);
         free(b->dir.keys);
         free(b->dir.entries);
         b->blocks = NULL;
         b->slots = NULL;
+        b->cells = NULL;
         b->ranges = NULL;
         if (!r) break;
         if (b->page_overflow && shift > LEAP_BLOCK_SHIFT_MIN)
@@ -837,6 +856,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
             break;
         free(a->pages); /* start over */
         free(a->slot_texels);
+        free(a->slot_cells);
         free(a->slot_ranges);
         free(a->label_words);
         free(a->record_offsets);
@@ -848,6 +868,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         b->labels = desc->labels;
         a->labels = desc->labels != NULL;
         a->wide = desc->wide && !a->labels;
+        b->stream_texels = desc->stream_texels && !a->labels;
     }
     free(b);
     if (r) {
@@ -855,6 +876,14 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         return r;
     }
     if (a->labels) a->object_count = (uint32_t)leap_labels_count(desc->labels);
+    if (a->slot_cells) {
+        a->grid = desc->grid;
+        r = leap_grid_reader_create(desc->grid, &a->slot_reader, err);
+        if (r) {
+            leap_atlas_destroy(a);
+            return r;
+        }
+    }
     a->build_ms = leap__now_ms() - t0;
     *out = a;
     return LEAP_OK;
@@ -865,10 +894,25 @@ void leap_atlas_destroy(leap_atlas *atlas)
     if (!atlas) return;
     free(atlas->pages);
     free(atlas->slot_texels);
+    free(atlas->slot_cells);
+    leap_grid_reader_destroy(atlas->slot_reader);
     free(atlas->slot_ranges);
     free(atlas->label_words);
     free(atlas->record_offsets);
     free(atlas);
+}
+
+leap_result leap_atlas_read_slot(const leap_atlas *a, uint32_t slot, uint16_t *out, leap_error *err)
+{
+    if (slot >= a->slot_count) return leap_fail(err, LEAP_ERR_USAGE, "atlas: slot %u of %u", slot, a->slot_count);
+    if (a->slot_texels) {
+        memcpy(out, a->slot_texels + (size_t)slot * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof *out);
+        return LEAP_OK;
+    }
+    uint32_t c[3], entry, range;
+    key_cell(a, a->slot_cells[slot], c);
+    read_cell(a, a->slot_reader, c, 1, out, &entry, &range);
+    return leap_grid_read_status(a->grid, err);
 }
 
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march)

@@ -1,0 +1,202 @@
+/* Grids read on demand under a memory budget (leap_scene_desc.memory_budget, --memory-budget):
+ * a generated fog whose values need more memory than the budget is read leaf by leaf from its
+ * file; its atlas keeps no texels and reads a slot again when a ray misses it. The atlas is the
+ * in-memory grid's (pages, slot ranges, every slot's texels); every mode, plain and MIP, gives
+ * the in-memory grid's image through the same GPU cache bit for bit, also with a cache of a few
+ * dozen bricks; what the budget leaves gives the whole atlas's image within address rounding.
+ * Shading and budgets too small are refused with the reason; LEAP_MEMORY_BUDGET is read. The
+ * program `leap render` renders a fog of 4x the budget's bytes with a peak resident memory
+ * within the budget above what a tiny volume's render takes (the fixed overhead: libraries,
+ * pipelines, image buffers), to the same image as in memory. */
+#define W 96 /* the frames' size (gpu_fixture.h's frame_out) */
+#define H 96
+#include "cli_harness.h"
+#include "gpu_fixture.h"
+#include "leap/image.h"
+#include "leap/scene.h"
+
+/* leap_make_volumes --fog PATH --size N; 0 when that fails. */
+static int make_fog(const char *path, int n)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "'%s' --fog '%s' --size %d > /dev/null", LEAP_MAKE_VOLUMES, path, n);
+    const int ok = system(cmd) == 0;
+    CHECK_MSG(ok, "%s failed", cmd);
+    return ok;
+}
+
+static leap_scene *load(const char *path, uint64_t budget, int mip, leap_error *err)
+{
+    leap_scene_desc d = {.path = path, .step = 0.5, .mip = mip, .memory_budget = budget};
+    leap_scene *s = NULL;
+    return leap_scene_create(&d, &s, err) ? NULL : s;
+}
+
+static int render(leap_renderer *r, leap_scene *s, leap_mode mode, frame_out *out)
+{
+    leap_error err = {{0}};
+    leap_camera cam;
+    leap_rays view;
+    if (leap_renderer_bind_scene(r, s, &err) || leap_camera_orbit(s->center, s->radius, 35, 25, 0, 40, 0, &cam, &err) ||
+        leap_scene_rays(s, &cam, W, H, &view, &err) ||
+        leap_renderer_render(r, &view, &s->march, mode, out->rgba, out->depth, out->samples, &out->st, &err)) {
+        printf("FAIL: %s\n", err.msg);
+        return 0;
+    }
+    return 1;
+}
+
+/* The atlas read on demand is the in-memory one, texels included. */
+static void check_atlas(const leap_atlas *whole, const leap_atlas *lazy)
+{
+    CHECK(whole->slot_texels && !lazy->slot_texels && lazy->slot_cells);
+    CHECK(whole->slot_count == lazy->slot_count && whole->page_words == lazy->page_words);
+    if (whole->slot_count != lazy->slot_count || whole->page_words != lazy->page_words) return;
+    CHECK(!memcmp(whole->pages, lazy->pages, whole->page_words * 4));
+    const size_t ranges = (size_t)whole->slot_dims[0] * whole->slot_dims[1] * whole->slot_dims[2];
+    CHECK(!memcmp(whole->slot_ranges, lazy->slot_ranges, ranges * 4));
+    static uint16_t a[LEAP_SLOT_TEXELS], b[LEAP_SLOT_TEXELS];
+    uint32_t differ = 0;
+    leap_error err = {{0}};
+    for (uint32_t h = 0; h < whole->slot_count; ++h) {
+        CHECK_OK(leap_atlas_read_slot(whole, h, a, &err), &err);
+        CHECK_OK(leap_atlas_read_slot(lazy, h, b, &err), &err);
+        differ += memcmp(a, b, sizeof a) != 0;
+    }
+    CHECK_MSG(differ == 0, "%u of %u slots read on demand differ", differ, whole->slot_count);
+}
+
+/* Every mode through the same cache: the grid read on demand gives the in-memory image. */
+static void check_frames(leap_renderer *cache, leap_scene *whole, leap_scene *lazy, const char *what)
+{
+    static frame_out a, b;
+    for (size_t m = 0; m < sizeof modes / sizeof *modes; ++m) {
+        if (!render(cache, whole, modes[m], &a) || !render(cache, lazy, modes[m], &b)) continue;
+        const int same = !memcmp(a.rgba, b.rgba, sizeof a.rgba) && !memcmp(a.depth, b.depth, sizeof a.depth);
+        printf("%-5s %-10s cache %5u of %6u bricks: %3u passes, %6llu loaded; on demand %s in memory\n", what,
+               mode_names[m], b.st.cache_slots, lazy->atlas->slot_count, b.st.cache_passes,
+               (unsigned long long)b.st.cache_loaded, same ? "equals" : "DIFFERS FROM");
+        CHECK_MSG(same, "%s %s: the grid read on demand renders another image", what, mode_names[m]);
+        CHECK(a.st.cache_slots == b.st.cache_slots && b.st.cache_passes > 1);
+    }
+}
+
+static void test_scenes(const char *fog)
+{
+    leap_error err = {{0}};
+    const uint64_t budget = 32u << 20; /* the fog needs about 2 x 31 MiB */
+    leap_scene *whole = load(fog, 0, 0, &err), *lazy = load(fog, budget, 0, &err);
+    CHECK_MSG(whole && lazy, "%s", err.msg);
+    if (!whole || !lazy) goto done;
+    CHECK(!leap_grid_on_demand(whole->grid) && leap_grid_on_demand(lazy->grid));
+    CHECK(whole->gpu_cache_bytes == 0 && lazy->gpu_cache_bytes > 0 && lazy->gpu_cache_bytes < budget);
+    printf("fog: %u bricks; on demand: %.1f MiB of the %.0f MiB budget left for the GPU cache\n",
+           lazy->atlas->slot_count, (double)lazy->gpu_cache_bytes / (1 << 20), (double)budget / (1 << 20));
+    check_atlas(whole->atlas, lazy->atlas);
+
+    /* A few hundred bricks, and a few dozen (thrashing): the same cache for both grids. */
+    const leap_renderer_desc some = {.cache_bytes = 1u << 20}, few = {.cache_bytes = 40 * LEAP_SLOT_TEXELS * 4};
+    leap_renderer *r_some = make_renderer_with(&some), *r_few = make_renderer_with(&few), *r_room = make_renderer();
+    if (r_some && r_few && r_room) {
+        check_frames(r_some, whole, lazy, "plain");
+        check_frames(r_few, whole, lazy, "plain");
+        leap_scene *whole_mip = load(fog, 0, LEAP_MIP_MAX, &err), *lazy_mip = load(fog, budget, LEAP_MIP_MAX, &err);
+        if (whole_mip && lazy_mip) check_frames(r_some, whole_mip, lazy_mip, "mip");
+        leap_scene_destroy(whole_mip);
+        leap_scene_destroy(lazy_mip);
+        /* What the budget leaves: the whole atlas's image within the rounding of texel addresses. */
+        static frame_out a, b;
+        if (render(r_room, whole, LEAP_RENDER_SPARSELEAP, &a) && render(r_room, lazy, LEAP_RENDER_SPARSELEAP, &b)) {
+            const image_diff d = compare_rgba(a.rgba, b.rgba, W * H);
+            printf("budget's cache: %u slots, %u passes; against the whole atlas max abs %.1e, rmse %.1e\n",
+                   b.st.cache_slots, b.st.cache_passes, d.max_abs, d.rmse);
+            CHECK(a.st.cache_slots == 0 && b.st.cache_slots > 0);
+            CHECK_MSG(d.nonfinite == 0 && d.max_abs <= 1e-3 && d.rmse <= 1e-5, "max abs %g, rmse %g", d.max_abs, d.rmse);
+        }
+    }
+    leap_renderer_destroy(r_some);
+    leap_renderer_destroy(r_few);
+    leap_renderer_destroy(r_room);
+
+    /* Shading needs the whole volume; a budget below the grid's bookkeeping is refused. */
+    leap_shading shade = leap_shading_default();
+    leap_result r = leap_scene_set_shading(lazy, &shade, &err);
+    CHECK_MSG(r == LEAP_ERR_UNSUPPORTED && strstr(err.msg, "on demand"), "%d %s", r, err.msg);
+    leap_scene *tiny = load(fog, 4u << 20, 0, &err);
+    CHECK_MSG(!tiny && strstr(err.msg, "too small"), "%s", err.msg);
+    leap_scene_destroy(tiny);
+    /* LEAP_MEMORY_BUDGET when none is given. */
+    setenv("LEAP_MEMORY_BUDGET", "lots", 1);
+    tiny = load(fog, 0, 0, &err);
+    CHECK_MSG(!tiny && strstr(err.msg, "LEAP_MEMORY_BUDGET"), "%s", err.msg);
+    leap_scene_destroy(tiny);
+    setenv("LEAP_MEMORY_BUDGET", "32MiB", 1);
+    tiny = load(fog, 0, 0, &err);
+    CHECK_MSG(tiny && leap_grid_on_demand(tiny->grid), "%s", err.msg);
+    leap_scene_destroy(tiny);
+    unsetenv("LEAP_MEMORY_BUDGET");
+done:
+    leap_scene_destroy(whole);
+    leap_scene_destroy(lazy);
+}
+
+static int same_pixels(const char *a, const char *b)
+{
+    leap_error err = {{0}};
+    int wa, ha, ca, wb, hb, cb;
+    float *pa = NULL, *pb = NULL;
+    int same = !leap_image_read(a, &wa, &ha, &ca, &pa, &err) && !leap_image_read(b, &wb, &hb, &cb, &pb, &err) &&
+               wa == wb && ha == hb && ca == cb && !memcmp(pa, pb, (size_t)wa * ha * ca * sizeof *pa);
+    free(pa);
+    free(pb);
+    return same;
+}
+
+/* The program: a fog of 4x the budget's bytes of values, rendered within the budget. */
+static void test_program(void)
+{
+    char fog[700], base[700], lazy[700], whole[700], stats[700];
+    snprintf(fog, sizeof fog, "%s/fog440.vdb", tmp_dir);
+    snprintf(base, sizeof base, "%s/tiny.png", tmp_dir);
+    snprintf(lazy, sizeof lazy, "%s/on_demand.png", tmp_dir);
+    snprintf(whole, sizeof whole, "%s/in_memory.png", tmp_dir);
+    snprintf(stats, sizeof stats, "%s/on_demand.json", tmp_dir);
+    if (!make_fog(fog, 440)) return; /* 325 MiB of values */
+    const char *const tiny_args[] = {"render", sphere, "--size", "128x128", "-o", base, NULL};
+    const char *const lazy_args[] = {"render", fog, "--size", "128x128", "--memory-budget", "80M", "--gpu-cache", "1M",
+                                     "--stats", stats, "-o", lazy, NULL};
+    const char *const whole_args[] = {"render", fog, "--size", "128x128", "--gpu-cache", "1M", "-o", whole, NULL};
+    CHECK_MSG(run_leap(tiny_args) == 0, "%s", res.err);
+    const long tiny_kb = res.max_rss_kb;
+    CHECK_MSG(run_leap_limit("300", lazy_args) == 0, "%s", res.err);
+    const long lazy_kb = res.max_rss_kb;
+    const double lazy_s = res.seconds;
+    CHECK_MSG(run_leap_limit("300", whole_args) == 0, "%s", res.err);
+    char json[16384];
+    read_text(stats, json, sizeof json);
+    const char *read = strstr(json, "\"leaves_read\"");
+    printf("fog 440^3 (325 MiB of values), budget 80 MiB: peak %.0f MiB on demand (%.1f s), %.0f MiB in memory, "
+           "%.0f MiB for a tiny volume; %.40s\n", lazy_kb / 1024.0, lazy_s, res.max_rss_kb / 1024.0,
+           tiny_kb / 1024.0, read ? read : "no leaves_read in --stats");
+    CHECK(read != NULL);
+    CHECK_MSG(same_pixels(lazy, whole), "the image read on demand differs from the in-memory one");
+#if defined(__SANITIZE_ADDRESS__)
+    printf("(AddressSanitizer build: its shadow memory makes peaks meaningless; not checked)\n");
+#else
+    CHECK_MSG(lazy_kb <= tiny_kb + 80 * 1024 + 8 * 1024, "peak %ld KiB, more than %ld KiB above a tiny volume's %ld",
+              lazy_kb, 80L * 1024 + 8 * 1024, tiny_kb);
+#endif
+    remove(fog);
+}
+
+int main(void)
+{
+    snprintf(tmp_dir, sizeof tmp_dir, "%s", LEAP_TEST_TMP);
+    if (mkdir(tmp_dir, 0755) != 0 && errno != EEXIST) return 1;
+    snprintf(sphere, sizeof sphere, "%s/sphere.vdb", LEAP_VOLUMES);
+    char fog[700];
+    snprintf(fog, sizeof fog, "%s/fog192.vdb", tmp_dir);
+    if (make_fog(fog, 192)) test_scenes(fog);
+    test_program();
+    return check_exit_code();
+}
