@@ -173,8 +173,8 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.show = o->scene.hide = o->scene.objects = NULL;
         return 1;
     }
-    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, MEMORY_BUDGET, ORBIT, EYE, TARGET, UP, SHOW, HIDE, OBJECTS, OPACITY,
-           FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
+    enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, MEMORY_BUDGET, ORBIT, EYE, TARGET, UP, SHOW,
+           HIDE, OBJECTS, OPACITY, FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [GPU_CACHE] = "--gpu-cache",
