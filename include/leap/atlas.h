@@ -31,6 +31,9 @@ typedef struct leap_atlas_desc {
                              constant cell's gradient is 0; the others get slots (scalar grids) */
     int stream_texels;    /* 1 = keep no texels: a slot's texels are read from the grid again
                              when needed (leap_atlas_read_slot); the grid must outlive the atlas */
+    const leap_brick *bricks; /* the grid's bricks (leap_grid_bricks), if the caller has them;
+                                 NULL: listed here */
+    size_t brick_count;
 } leap_atlas_desc;
 
 /* Read-only for other modules. */

@@ -96,13 +96,21 @@ int leap_scene_label_count(double lo, double hi)
     return (int)fmin(fmax(hi - lo + 1, 1), 65536);
 }
 
-static leap_result build_occupancy(leap_scene *s, leap_error *err)
+/* The bricks and their value ranges, listed once for the atlas and the occupancy (a grid read
+ * on demand reads its leaves for them). */
+static leap_result list_bricks(leap_scene *s, leap_brick **out, size_t *count, leap_error *err)
 {
     double t = leap__now_ms();
-    size_t n = leap_grid_brick_count(s->grid);
-    leap_brick *bricks = malloc((n ? n : 1) * sizeof *bricks);
-    if (!bricks) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", n);
-    leap_result r = leap_grid_bricks(s->grid, bricks, err);
+    *count = leap_grid_brick_count(s->grid);
+    *out = malloc((*count ? *count : 1) * sizeof **out);
+    if (!*out) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", *count);
+    leap_result r = leap_grid_bricks(s->grid, *out, err);
+    s->bricks_ms = leap__now_ms() - t;
+    return r;
+}
+
+static leap_result build_occupancy(leap_scene *s, const leap_brick *bricks, size_t n, leap_error *err)
+{
     leap_occupancy_desc od = {
         .bricks = bricks,
         .brick_count = n,
@@ -115,9 +123,7 @@ static leap_result build_occupancy(leap_scene *s, leap_error *err)
         od.origin[i] = s->atlas->origin[i];
         od.cells[i] = s->atlas->cells[i];
     }
-    s->bricks_ms = leap__now_ms() - t;
-    if (!r) r = leap_occupancy_create(&od, &s->occupancy, err);
-    free(bricks);
+    leap_result r = leap_occupancy_create(&od, &s->occupancy, err);
     if (!r) {
         leap_occupancy_stats os;
         leap_occupancy_get_stats(s->occupancy, &os);
@@ -455,9 +461,13 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
         if (!r) r = leap_labels_create(s->grid, desc->label_opacity, &s->labels, err);
     }
     if (!r) r = choose_objects(s, desc, err);
+    leap_brick *bricks = NULL;
+    size_t brick_count = 0;
+    if (!r) r = list_bricks(s, &bricks, &brick_count, err);
     if (!r) {
         leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on,
-                              .stream_texels = leap_grid_on_demand(s->grid)};
+                              .stream_texels = leap_grid_on_demand(s->grid), .bricks = bricks,
+                              .brick_count = brick_count};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
         if (!r && ad.stream_texels) r = share_budget(s, err);
@@ -465,8 +475,9 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);
         clip_to_index_space(s, desc);
-        r = build_occupancy(s, err);
+        r = build_occupancy(s, bricks, brick_count, err);
     }
+    free(bricks);
     if (!r && s->labels) {
         s->set_classes = malloc(((size_t)s->atlas->object_count + s->atlas->record_count) * sizeof *s->set_classes + 1);
         if (!s->set_classes) r = leap_fail(err, LEAP_ERR_OOM, "out of memory for the label sets");

@@ -765,10 +765,14 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         return finish(b, desc->shuffle_seed, err);
     }
 
-    size_t nbricks = leap_grid_brick_count(desc->grid);
-    leap_brick *bricks = malloc((nbricks ? nbricks : 1) * sizeof *bricks);
-    if (!bricks) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %zu bricks", nbricks);
-    r = leap_grid_bricks(desc->grid, bricks, err);
+    size_t nbricks = desc->bricks ? desc->brick_count : leap_grid_brick_count(desc->grid);
+    leap_brick *listed = NULL;
+    if (!desc->bricks) {
+        listed = malloc((nbricks ? nbricks : 1) * sizeof *listed);
+        if (!listed) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %zu bricks", nbricks);
+        r = leap_grid_bricks(desc->grid, listed, err);
+    }
+    const leap_brick *bricks = desc->bricks ? desc->bricks : listed;
     key_list keys = {0};
     for (size_t i = 0; i < nbricks && !r; ++i)
         if (bricks[i].is_tile) r = fill_tile_interior(b, &bricks[i], err);
@@ -798,7 +802,7 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
                 if (!add_cells(&keys, a, sl, sh)) r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
             }
     }
-    free(bricks);
+    free(listed);
     if (!r) r = fill_candidates(b, &keys, desc->grid, desc->dense, err);
     leap_grid_reader_destroy(b->label_reader);
     b->label_reader = NULL;
