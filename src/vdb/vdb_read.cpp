@@ -748,13 +748,6 @@ void leap_grid_reader_destroy(leap_grid_reader *reader)
 
 namespace {
 
-template <typename Accessor>
-float reader_value(Accessor &acc, LeafValues &values, const vdb::Coord &c)
-{
-    if (const LeafT *leaf = acc.probeConstLeaf(c)) return values.get(*leaf)[LeafT::coordToOffset(c)];
-    return acc.getValue(c);
-}
-
 // Rows are read in runs that stay inside one 8-voxel block: one lookup per run, then either the
 // leaf's values or the single value of a block that has no leaf.
 template <typename Accessor>
@@ -784,8 +777,10 @@ extern "C" {
 float leap_grid_reader_value(leap_grid_reader *reader, int32_t i, int32_t j, int32_t k)
 {
     const vdb::Coord c(i, j, k);
-    if (reader->node_acc) return reader_value(*reader->node_acc, reader->values, c);
-    return reader_value(reader->acc, reader->values, c);
+    if (!reader->node_acc) return reader->acc.getValue(c); // every value in memory: one lookup
+    if (const LeafT *leaf = reader->node_acc->probeConstLeaf(c))
+        return reader->values.get(*leaf)[LeafT::coordToOffset(c)];
+    return reader->node_acc->getValue(c);
 }
 
 void leap_grid_reader_box(leap_grid_reader *reader, const int32_t min[3], const int32_t dim[3], float *out)
