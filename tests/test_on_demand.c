@@ -13,7 +13,12 @@
 #include "cli_harness.h"
 #include "gpu_fixture.h"
 #include "leap/image.h"
+#include "leap/grid_index.h"
 #include "leap/scene.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 /* leap_make_volumes --fog PATH --size N; 0 when that fails. */
 static int make_fog(const char *path, int n)
@@ -32,18 +37,24 @@ static leap_scene *load(const char *path, uint64_t budget, int mip, leap_error *
     return leap_scene_create(&d, &s, err) ? NULL : s;
 }
 
-static int render(leap_renderer *r, leap_scene *s, leap_mode mode, frame_out *out)
+/* A view from `dist` bounding radii (0: the whole volume in view) with a vertical field of `fov` degrees. */
+static int render_view(leap_renderer *r, leap_scene *s, leap_mode mode, double dist, double fov, frame_out *out)
 {
     leap_error err = {{0}};
     leap_camera cam;
     leap_rays view;
-    if (leap_renderer_bind_scene(r, s, &err) || leap_camera_orbit(s->center, s->radius, 35, 25, 0, 40, 0, &cam, &err) ||
+    if (leap_renderer_bind_scene(r, s, &err) || leap_camera_orbit(s->center, s->radius, 35, 25, dist, fov, 0, &cam, &err) ||
         leap_scene_rays(s, &cam, W, H, &view, &err) ||
         leap_renderer_render(r, &view, &s->march, mode, out->rgba, out->depth, out->samples, &out->st, &err)) {
         printf("FAIL: %s\n", err.msg);
         return 0;
     }
     return 1;
+}
+
+static int render(leap_renderer *r, leap_scene *s, leap_mode mode, frame_out *out)
+{
+    return render_view(r, s, mode, 0, 40, out);
 }
 
 /* The atlas read on demand is the in-memory one, texels included. */
@@ -66,13 +77,18 @@ static void check_atlas(const leap_atlas *whole, const leap_atlas *lazy)
     CHECK_MSG(differ == 0, "%u of %u slots read on demand differ", differ, whole->slot_count);
 }
 
+static int same_frames(const frame_out *a, const frame_out *b)
+{
+    return !memcmp(a->rgba, b->rgba, sizeof a->rgba) && !memcmp(a->depth, b->depth, sizeof a->depth);
+}
+
 /* Every mode through the same cache: the grid read on demand gives the in-memory image. */
 static void check_frames(leap_renderer *cache, leap_scene *whole, leap_scene *lazy, const char *what)
 {
     static frame_out a, b;
     for (size_t m = 0; m < sizeof modes / sizeof *modes; ++m) {
         if (!render(cache, whole, modes[m], &a) || !render(cache, lazy, modes[m], &b)) continue;
-        const int same = !memcmp(a.rgba, b.rgba, sizeof a.rgba) && !memcmp(a.depth, b.depth, sizeof a.depth);
+        const int same = same_frames(&a, &b);
         printf("%-5s %-10s cache %5u of %6u bricks: %3u passes, %6llu loaded; on demand %s in memory\n", what,
                mode_names[m], b.st.cache_slots, lazy->atlas->slot_count, b.st.cache_passes,
                (unsigned long long)b.st.cache_loaded, same ? "equals" : "DIFFERS FROM");
@@ -140,6 +156,109 @@ done:
     leap_scene_destroy(lazy);
 }
 
+/* Opens the fog on demand and says what became of its index (leap_scene.index.note). */
+static leap_scene *load_noting(const char *fog, uint64_t budget, const char *expect)
+{
+    leap_error err = {{0}};
+    leap_scene *s = load(fog, budget, 0, &err);
+    CHECK_MSG(s, "%s", err.msg);
+    if (s) CHECK_MSG(!strncmp(s->index.note, expect, strlen(expect)), "index '%s', expected '%s'", s->index.note, expect);
+    return s;
+}
+
+/* The grid index: the first open writes it; the next reads no leaf, builds the same atlas and
+ * renders the same images, and a narrow view then reads only the leaves its rays reach. A
+ * corrupt, truncated or stale index is rebuilt, an unwritable directory only noted. */
+static void test_index(const char *fog)
+{
+    char dir[700], path[1400];
+    const uint64_t budget = 32u << 20;
+    leap_error err = {{0}};
+    snprintf(dir, sizeof dir, "%s/index", tmp_dir);
+    setenv("LEAP_INDEX_DIR", dir, 1);
+    CHECK_OK(leap_grid_index_path(dir, fog, "density", path, sizeof path, &err), &err);
+    remove(path);
+    leap_scene *first = load_noting(fog, budget, "written"), *second = load_noting(fog, budget, "used");
+    leap_renderer *r = make_renderer();
+    if (!first || !second || !r) goto done;
+    const uint64_t leaves = first->info->leaf_count;
+    printf("index: the first open read %llu leaves of %llu, the second %llu\n",
+           (unsigned long long)first->leaves_read_to_open, (unsigned long long)leaves,
+           (unsigned long long)second->leaves_read_to_open);
+    CHECK(first->leaves_read_to_open >= leaves && second->leaves_read_to_open == 0);
+    CHECK(first->info->value_min == second->info->value_min && first->info->value_max == second->info->value_max);
+    CHECK(first->atlas->slot_count == second->atlas->slot_count && first->atlas->page_words == second->atlas->page_words);
+    if (first->atlas->slot_count == second->atlas->slot_count && first->atlas->page_words == second->atlas->page_words) {
+        CHECK(!memcmp(first->atlas->pages, second->atlas->pages, first->atlas->page_words * 4));
+        CHECK(!memcmp(first->atlas->slot_cells, second->atlas->slot_cells, first->atlas->slot_count * 8));
+        CHECK(!memcmp(first->atlas->slot_ranges, second->atlas->slot_ranges, first->atlas->slot_count * 4));
+    }
+    static frame_out a, b, ref;
+    /* A narrow view first, on the fresh open: the leaves its rays reach. */
+    const uint64_t before = leap_grid_leaves_read(second->grid);
+    if (render_view(r, second, LEAP_RENDER_SPARSELEAP, 3, 4, &b) && render_view(r, first, LEAP_RENDER_SPARSELEAP, 3, 4, &a)) {
+        const uint64_t read = leap_grid_leaves_read(second->grid) - before;
+        printf("index: a 4-degree view read %llu leaves of %llu (%.2f %%)\n", (unsigned long long)read,
+               (unsigned long long)leaves, 100.0 * (double)read / (double)leaves);
+        CHECK_MSG(read > 0 && read * 50 < leaves, "the narrow view read %llu leaves", (unsigned long long)read);
+        CHECK_MSG(same_frames(&a, &b), "the narrow view differs with the index");
+    }
+    for (size_t m = 0; m < sizeof modes / sizeof *modes; ++m)
+        if (render(r, first, modes[m], &a) && render(r, second, modes[m], &b))
+            CHECK_MSG(same_frames(&a, &b), "%s differs with the index", mode_names[m]);
+    const int have_ref = render(r, first, LEAP_RENDER_SPARSELEAP, &ref);
+    leap_scene_destroy(second);
+    leap_scene_destroy(first); /* before the file is touched below, which OpenVDB would warn of */
+    first = NULL;
+
+    /* A byte flipped, the file cut short, the grid's file changed: rebuilt, and used again. */
+    FILE *f = fopen(path, "r+b");
+    CHECK(f && fseek(f, -5, SEEK_END) == 0);
+    if (f) {
+        const int c = fgetc(f);
+        fseek(f, -5, SEEK_END);
+        fputc(c ^ 0x40, f);
+        fclose(f);
+    }
+    leap_scene_destroy(load_noting(fog, budget, "rebuilt: its checksum"));
+    CHECK(truncate(path, 100) == 0);
+    leap_scene_destroy(load_noting(fog, budget, "rebuilt: it is truncated"));
+    CHECK(utimensat(AT_FDCWD, fog, NULL, 0) == 0);
+    second = load_noting(fog, budget, "rebuilt: the file changed");
+    if (second && have_ref && render(r, second, LEAP_RENDER_SPARSELEAP, &b))
+        CHECK_MSG(same_frames(&ref, &b), "the rebuilt index renders another image");
+    leap_scene_destroy(second);
+    /* An index that passes its checks but does not fit the grid (a cell missing): set aside. */
+    leap_file_stamp stamp;
+    leap_grid_index *x = NULL;
+    char why[160];
+    CHECK_OK(leap_file_stamp_get(fog, &stamp, &err), &err);
+    CHECK_OK(leap_grid_index_read(path, &stamp, "density", &x, why, sizeof why, &err), &err);
+    CHECK_MSG(x && x->cells.count > 1, "%s", why);
+    if (x && x->cells.count > 1) {
+        x->cells.count--;
+        CHECK_OK(leap_grid_index_write(path, fog, &stamp, "density", x, &err), &err);
+        second = load_noting(fog, budget, "rebuilt: atlas:");
+        if (second && have_ref && render(r, second, LEAP_RENDER_SPARSELEAP, &b))
+            CHECK_MSG(same_frames(&ref, &b), "the scene built past an index that did not fit renders another image");
+        leap_scene_destroy(second);
+    }
+    leap_grid_index_destroy(x);
+    second = load_noting(fog, budget, "used");
+    leap_scene_destroy(second);
+    second = NULL;
+    /* No directory, or one that cannot be made: the grid is read as without an index. */
+    setenv("LEAP_INDEX_DIR", "", 1);
+    leap_scene_destroy(load_noting(fog, budget, "off"));
+    setenv("LEAP_INDEX_DIR", fog, 1); /* a file where the directory would be */
+    leap_scene_destroy(load_noting(fog, budget, "not written"));
+done:
+    setenv("LEAP_INDEX_DIR", dir, 1);
+    leap_renderer_destroy(r);
+    leap_scene_destroy(first);
+    leap_scene_destroy(second);
+}
+
 static int same_pixels(const char *a, const char *b)
 {
     leap_error err = {{0}};
@@ -169,6 +288,7 @@ static void test_program(void)
     CHECK_MSG(run_leap(tiny_args) == 0, "%s", res.err);
     const long tiny_kb = res.max_rss_kb;
     CHECK_MSG(run_leap_limit("300", lazy_args) == 0, "%s", res.err);
+    CHECK_MSG(!strstr(res.err, "building the atlas"), "a progress bar went to a stderr that is not a terminal");
     const long lazy_kb = res.max_rss_kb;
     const double lazy_s = res.seconds;
     CHECK_MSG(run_leap_limit("300", whole_args) == 0, "%s", res.err);
@@ -179,6 +299,28 @@ static void test_program(void)
            "%.0f MiB for a tiny volume; %.40s\n", lazy_kb / 1024.0, lazy_s, res.max_rss_kb / 1024.0,
            tiny_kb / 1024.0, read ? read : "no leaves_read in --stats");
     CHECK(read != NULL);
+    /* "rebuilt": the index of an earlier run's fog, made again since */
+    CHECK_MSG(strstr(json, "\"written\"") || strstr(json, "\"rebuilt: the file changed"),
+              "the first open of the fog wrote no grid index");
+    /* leap info over the budget: read on demand, its value range from the index just written. */
+    const char *const info_args[] = {"info", fog, "--memory-budget", "80M", NULL};
+    CHECK_MSG(run_leap_limit("300", info_args) == 0, "%s", res.err);
+    printf("leap info on demand: peak %.0f MiB, %.2f s\n", res.max_rss_kb / 1024.0, res.seconds);
+    CHECK_MSG(strstr(res.out, "0 leaves read (grid index: used)") && strstr(res.out, "values         0.05"), "%s", res.out);
+
+    /* On a terminal (script(1) gives it one) the first open and the frame show a progress bar,
+     * cleared before the summary line. */
+    char index[1400], cmd[4096], bar[700];
+    leap_error err = {{0}};
+    CHECK_OK(leap_grid_index_path(getenv("LEAP_INDEX_DIR"), fog, "density", index, sizeof index, &err), &err);
+    remove(index);
+    snprintf(bar, sizeof bar, "%s/bar.txt", tmp_dir);
+    snprintf(cmd, sizeof cmd, "script -qec \"'%s' render '%s' --size 64x64 --memory-budget 80M -o '%s/bar.png'\" /dev/null > '%s' 2>&1",
+             LEAP_EXE, fog, tmp_dir, bar);
+    CHECK_MSG(system(cmd) == 0, "%s failed", cmd);
+    char shown[16384];
+    read_text(bar, shown, sizeof shown);
+    CHECK_MSG(strstr(shown, "% building the atlas") && strstr(shown, "\r\033[Kleap: wrote"), "%.300s", shown);
     CHECK_MSG(same_pixels(lazy, whole), "the image read on demand differs from the in-memory one");
 #if defined(__SANITIZE_ADDRESS__)
     printf("(AddressSanitizer build: its shadow memory makes peaks meaningless; not checked)\n");
@@ -196,7 +338,13 @@ int main(void)
     snprintf(sphere, sizeof sphere, "%s/sphere.vdb", LEAP_VOLUMES);
     char fog[700];
     snprintf(fog, sizeof fog, "%s/fog192.vdb", tmp_dir);
-    if (make_fog(fog, 192)) test_scenes(fog);
+    char index_dir[700];
+    snprintf(index_dir, sizeof index_dir, "%s/index", tmp_dir);
+    setenv("LEAP_INDEX_DIR", index_dir, 1); /* not the user's cache */
+    if (make_fog(fog, 192)) {
+        test_scenes(fog);
+        test_index(fog);
+    }
     test_program();
     return check_exit_code();
 }

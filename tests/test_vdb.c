@@ -1061,7 +1061,7 @@ static void check_on_demand(const char *path, const char *name)
     leap_grid *whole = load(path, name), *lazy = NULL;
     leap_vdb_file *f = open_file(path, &err);
     if (f) {
-        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &lazy, &err), &err);
+        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), NULL, &lazy, &err), &err);
         leap_vdb_close(f); /* the grid outlives its file here too */
     }
     if (!whole || !lazy) {
@@ -1108,6 +1108,48 @@ static void check_on_demand(const char *path, const char *name)
     CHECK_OK(leap_grid_read_status(lazy, &err), &err);
     printf("on demand %-40s %llu leaves, %zu bricks, %llu leaf reads: same info, bricks, histogram, values\n", path,
            (unsigned long long)b->leaf_count, nb, (unsigned long long)leap_grid_leaves_read(lazy));
+
+    /* Loaded again with what the first load found (a grid index): no leaf read, the same info,
+     * the same bricks from the ranges given, the same values; a scan of another grid is refused. */
+    leap_grid_scan scan;
+    leap_grid_get_scan(lazy, &scan);
+    CHECK(scan.leaf_count == b->leaf_count);
+    float *ranges = malloc((nb ? nb : 1) * 2 * sizeof *ranges);
+    for (size_t k = 0; ranges && k < nb; ++k) ranges[2 * k] = bb[k].value_min, ranges[2 * k + 1] = bb[k].value_max;
+    leap_grid *known = NULL;
+    if ((f = open_file(path, &err)) != NULL) {
+        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &scan, &known, &err), &err);
+        leap_grid_scan wrong = scan;
+        wrong.leaf_count++;
+        leap_grid *refused = NULL;
+        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &wrong, &refused, &err) == LEAP_ERR_FORMAT &&
+              !refused && strstr(err.msg, "index"));
+        leap_vdb_close(f);
+    }
+    if (known && ranges) {
+        const leap_grid_info *c = leap_grid_get_info(known);
+        CHECK_MSG(leap_grid_leaves_read(known) == 0, "%s: a load with a known scan read %llu leaves", path,
+                  (unsigned long long)leap_grid_leaves_read(known));
+        CHECK_MSG(c->value_min == b->value_min && c->value_max == b->value_max && c->nonfinite_values == b->nonfinite_values &&
+                      c->leaf_count == b->leaf_count && c->active_voxels == b->active_voxels,
+                  "%s: the info differs with a known scan", path);
+        leap_brick *bk = calloc(nb ? nb : 1, sizeof *bk);
+        CHECK_OK(leap_grid_bricks_known(known, ranges, bk, &err), &err);
+        CHECK_MSG(leap_grid_leaves_read(known) == 0 && !memcmp(bk, bb, nb * sizeof *bk), "%s: known bricks differ", path);
+        leap_grid_reader *rk = NULL;
+        CHECK_OK(leap_grid_reader_create(known, &rk, &err), &err);
+        for (size_t k = 0; rk && ra && k < na; k += 1 + na / 64) {
+            const int32_t min[3] = {ba[k].origin[0] - 1, ba[k].origin[1] - 1, ba[k].origin[2] - 1}, dim[3] = {E, E, E};
+            leap_grid_reader_box(ra, min, dim, va);
+            leap_grid_reader_box(rk, min, dim, vb);
+            differ += memcmp(va, vb, sizeof va) != 0;
+        }
+        CHECK_MSG(differ == 0, "%s: %zu boxes read differently after a load with a known scan", path, differ);
+        leap_grid_reader_destroy(rk);
+        free(bk);
+    }
+    free(ranges);
+    leap_grid_destroy(known);
     leap_grid_reader_destroy(ra);
     leap_grid_reader_destroy(rb);
     free(ba);
@@ -1140,14 +1182,14 @@ static void test_on_demand(void)
     leap_vdb_file *f = open_file(nf, &err);
     leap_grid *g = NULL;
     if (f) {
-        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, "d"), &g, &err) == LEAP_ERR_UNSUPPORTED &&
+        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, "d"), NULL, &g, &err) == LEAP_ERR_UNSUPPORTED &&
               strstr(err.msg, "only float grids"));
         leap_vdb_close(f);
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/labels.vdb", LEAP_VOLUMES);
     if ((f = open_file(path, &err))) {
-        CHECK(leap_vdb_load_grid_on_demand(f, 0, &g, &err) == LEAP_ERR_UNSUPPORTED && g == NULL);
+        CHECK(leap_vdb_load_grid_on_demand(f, 0, NULL, &g, &err) == LEAP_ERR_UNSUPPORTED && g == NULL);
         leap_vdb_close(f);
     }
 }

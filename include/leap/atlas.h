@@ -19,6 +19,16 @@
 extern "C" {
 #endif
 
+/* What a build found in the cells it read (the candidates: the cells next to data, in key
+ * order): a constant page entry, or a slot and its range. A grid index keeps it, so that a later
+ * build of the same grid reads no voxel (leap/grid_index.h). */
+typedef struct leap_atlas_cells {
+    size_t count;
+    uint32_t *entries; /* a constant entry (LEAP_PAGE_CONST set), or 0: a slot */
+    uint32_t *ranges;  /* a slot's smallest texel | largest << 16; 0 for a constant */
+} leap_atlas_cells;
+void leap_atlas_cells_free(leap_atlas_cells *cells); /* frees the arrays, accepts NULL */
+
 typedef struct leap_atlas_desc {
     const leap_grid *grid;
     int dense;            /* 1 = every cell next to data gets a slot, even where its footprint
@@ -34,6 +44,13 @@ typedef struct leap_atlas_desc {
     const leap_brick *bricks; /* the grid's bricks (leap_grid_bricks), if the caller has them;
                                  NULL: listed here */
     size_t brick_count;
+    const leap_atlas_cells *known_cells; /* scalar grids: the cells as an earlier build of this grid
+                                            found them (with the same wide and dense): none is read.
+                                            LEAP_ERR_FORMAT when their count is not the candidates' */
+    leap_atlas_cells *record_cells;      /* scalar grids: filled with what this build found (the
+                                            caller frees it with leap_atlas_cells_free) */
+    leap_progress_fn progress;           /* optional: the cells read so far */
+    void *progress_user;
 } leap_atlas_desc;
 
 /* Read-only for other modules. */

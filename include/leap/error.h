@@ -29,6 +29,10 @@ leap_result leap_fail(leap_error *err, leap_result code, const char *fmt, ...)
 #endif
     ;
 
+/* Long work says how far it got: what it does now, and the part of that done (0..1). Called
+ * from the thread that does the work, one call at a time. */
+typedef void (*leap_progress_fn)(void *user, const char *what, double done);
+
 /* Short name of a result code, e.g. "LEAP_ERR_IO". */
 const char *leap_result_name(leap_result code);
 

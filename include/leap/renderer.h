@@ -177,6 +177,9 @@ const leap_box_gpu *leap_renderer_boxes(const leap_renderer *r, uint32_t *count)
  * naive_samples = 0. */
 void leap_renderer_count_naive(leap_renderer *r, int on);
 
+/* Frames through the brick cache report, after each pass, the share of rays done (NULL: off). */
+void leap_renderer_set_progress(leap_renderer *r, leap_progress_fn progress, void *user);
+
 /* Renders one frame. march: step and value range (the index origin and marching box are the
  * uploaded atlas's; rays made for another index origin are refused with LEAP_ERR_USAGE). Outputs are caller-owned, view->width * view->height pixels, any
  * may be NULL: rgba 4 floats per pixel (premultiplied), depth and samples 1 float each.

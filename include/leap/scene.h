@@ -7,6 +7,7 @@
 #include "leap/atlas.h"
 #include "leap/camera.h"
 #include "leap/error.h"
+#include "leap/grid_index.h"
 #include "leap/march.h"
 #include "leap/boxes.h"
 #include "leap/labels.h"
@@ -40,10 +41,23 @@ typedef struct leap_scene_desc {
     int clip_count;        /* clipping planes in world units: keep a x + b y + c z + d >= 0 */
     double clip[LEAP_MAX_CLIPS][4];
     leap_shading shade;    /* gradient shading (shade.on; leap_shading_default for --shade) */
+    leap_progress_fn progress; /* optional: the stages of the build, and the atlas's part done */
+    void *progress_user;
     uint64_t memory_budget; /* bytes; 0 = leap_scene_default_memory_budget(). A .vdb grid that
                               would take more in memory is read on demand: its atlas keeps no
                               texels and the GPU brick cache gets what the budget leaves */
 } leap_scene_desc;
+
+/* The grid index (leap/grid_index.h) of a grid read on demand. */
+typedef struct leap_scene_index {
+    int use;                 /* 1 = look for one (the scene writes it when none serves); 2 = only
+                                find its path (the scene writes it anew) */
+    leap_grid_index *index;  /* the index that serves, until the scene is built */
+    char path[4096];         /* its file; "" when indexes are off */
+    leap_file_stamp stamp;   /* the .vdb's identity before it was read */
+    char note[256];          /* what became of it: "used", "written", "rebuilt: why", "not written:
+                                why", "off"; "" for a grid in memory */
+} leap_scene_index;
 
 typedef struct leap_scene {
     leap_grid *grid;           /* NULL once the voxels are released (leap_scene_release_voxels) */
@@ -66,6 +80,9 @@ typedef struct leap_scene {
     uint64_t memory_budget;    /* as given, or the default */
     uint64_t gpu_cache_bytes;  /* a grid read on demand: the room its GPU brick cache may take
                                   (leap_renderer_bind_scene); 0 otherwise */
+    leap_scene_index index;    /* a grid read on demand: its grid index */
+    char path[4096];           /* the file opened */
+    uint64_t leaves_read_to_open; /* a grid read on demand: leaves read until the scene was ready */
     double load_ms;            /* opening the file and reading the grid */
     double bricks_ms;          /* listing the brick ranges for the occupancy */
     double atlas_ms, occupancy_ms, classify_ms, boxes_ms; /* the modules' own build times */
@@ -73,6 +90,18 @@ typedef struct leap_scene {
 
 /* Half of the machine's physical memory. */
 uint64_t leap_scene_default_memory_budget(void);
+
+/* The budget a scene gets: `given` if not 0, else LEAP_MEMORY_BUDGET, else the default.
+ * LEAP_ERR_USAGE when the variable is not a size. */
+leap_result leap_scene_memory_budget(uint64_t given, uint64_t *out, leap_error *err);
+
+/* Reads grid `grid` of an open file as a scene does: whole when twice the file's estimate of
+ * its tree fits the budget, else on demand (leap_vdb_load_grid_on_demand; `path` is the file's),
+ * taking the leaves' scan from its grid index when index->use and one serves (index->index then
+ * holds it; the caller frees it with leap_grid_index_destroy). Errors as the loads', and
+ * LEAP_ERR_UNSUPPORTED naming the budget for a grid over it that cannot be read on demand. */
+leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path, uint64_t budget,
+                                 leap_scene_index *index, leap_grid **out, leap_error *err);
 
 /* Loads and prepares everything. Errors name the file and the problem: LEAP_ERR_IO,
  * LEAP_ERR_FORMAT (including "no grid named X (grids: ...)"), LEAP_ERR_USAGE (bad TF),

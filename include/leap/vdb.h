@@ -71,6 +71,10 @@ int leap_vdb_grid_count(const leap_vdb_file *file);
 leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out,
                                leap_error *err);
 
+/* The name of grid `index` as leap_grid_info.name gives it, without reading the grid (NULL when
+ * there is no such grid; valid while the file is open). */
+const char *leap_vdb_grid_name(const leap_vdb_file *file, int index);
+
 /* The up direction the first grid that has one stores (leap_grid_info.up), read from the
  * metadata alone; returns 0 (up untouched) when no grid has one. */
 int leap_vdb_file_up(const leap_vdb_file *file, double up[3]);
@@ -90,15 +94,32 @@ void leap_grid_destroy(leap_grid *grid); /* accepts NULL */
  * file (twice those of a grid saved as half). 0 for an imported grid, already in memory. */
 uint64_t leap_vdb_grid_memory_estimate(const leap_vdb_file *file, int index);
 
+/* What the load of a grid read on demand learns from its leaves' values (every leaf read
+ * once): the info's value range and the mapping of non-finite values depend on it. */
+typedef struct leap_grid_scan {
+    uint64_t leaf_count;
+    uint64_t nonfinite;             /* non-finite values stored in the leaves */
+    float stored_min, stored_max;   /* finite values stored in the leaves (min > max: none) */
+    float active_min, active_max;   /* finite active values in the leaves */
+    int32_t active_nan, active_pinf, active_ninf; /* 1: an active leaf voxel holds NaN, +Inf, -Inf */
+    int32_t unused;                 /* 0 (the size is a multiple of 8 bytes) */
+} leap_grid_scan;
+
 /* Like leap_vdb_load_grid, but the leaves' voxel values stay in the file (OpenVDB's delayed
  * loading, after the same checks of every byte of the grid's tree): memory holds the tree's
  * topology and tiles; readers, leap_grid_bricks and leap_grid_histogram read each leaf they
  * need into a short-lived copy (a reader keeps the last few hundred). The load itself reads
- * every leaf once, for the info's value range. Values read are those leap_vdb_load_grid
- * gives. Float grids in .vdb files with grid offsets only (LEAP_ERR_UNSUPPORTED otherwise).
- * The file must not change while the grid is open: a leaf that cannot be read then reads as
- * the background and is reported by leap_grid_read_status. */
-leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, leap_grid **out, leap_error *err);
+ * every leaf once, for the info's value range, unless `known` gives what that read found
+ * (leap_grid_get_scan of an earlier load of the same, unchanged file: a grid index): then it
+ * reads the topology alone, and the file's checks are taken as passed. Values read are those
+ * leap_vdb_load_grid gives. Float grids in .vdb files with grid offsets only
+ * (LEAP_ERR_UNSUPPORTED otherwise). The file must not change while the grid is open: a leaf
+ * that cannot be read then reads as the background and is reported by leap_grid_read_status. */
+leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
+                                         leap_grid **out, leap_error *err);
+
+/* What the load of a grid read on demand found in its leaves (zero for other grids). */
+void leap_grid_get_scan(const leap_grid *grid, leap_grid_scan *out);
 
 /* 1 for a grid read on demand. */
 int leap_grid_on_demand(const leap_grid *grid);
@@ -130,6 +151,11 @@ size_t leap_grid_brick_count(const leap_grid *grid);
 /* Writes all bricks into out[0 .. leap_grid_brick_count()-1], leaves first, each group
  * sorted by origin (z, then y, then x). */
 leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err);
+
+/* Like leap_grid_bricks, with the value ranges given instead of read (ranges[2i], ranges[2i+1]:
+ * brick i's value_min, value_max, from an earlier leap_grid_bricks of the same grid): reads no
+ * voxel. */
+leap_result leap_grid_bricks_known(const leap_grid *grid, const float *ranges, leap_brick *out, leap_error *err);
 
 /* Histogram of the active values (an active tile counts once per voxel it covers): value v
  * in [lo, hi] falls in bin floor((v - lo) / (hi - lo) * bins), in double, hi in the last bin;

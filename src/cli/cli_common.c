@@ -193,13 +193,44 @@ void cli_print_help(const char *head, const char *tail)
     fputs(tail, stdout);
 }
 
-void cli_progress(int done, int total, const char *what)
+static void draw_bar(double done, const char *text)
 {
-    const int width = 30, filled = total ? done * width / total : width;
+    const int width = 30, filled = (int)(done * width);
     fprintf(stderr, "\r[");
     for (int i = 0; i < width; ++i) fputc(i < filled ? '#' : ' ', stderr);
-    fprintf(stderr, "] %d/%d %-50.50s", done, total, what);
-    if (done == total) fputc('\n', stderr);
+    fprintf(stderr, "] %s", text);
     fflush(stderr);
+}
+
+void cli_progress(int done, int total, const char *what)
+{
+    char text[80];
+    snprintf(text, sizeof text, "%d/%d %-50.50s", done, total, what);
+    draw_bar(total ? (double)done / total : 1.0, text);
+    if (done == total) fputc('\n', stderr);
+}
+
+void cli_progress_bar_start(cli_progress_bar *bar)
+{
+    bar->start_ms = bar->drawn_ms = leap__now_ms();
+    bar->shown = 0;
+}
+
+void cli_progress_bar_report(void *user, const char *what, double done)
+{
+    cli_progress_bar *bar = user;
+    const double now = leap__now_ms();
+    if (now - bar->start_ms < 1000 || now - bar->drawn_ms < 100 || !isatty(2)) return;
+    char text[80];
+    snprintf(text, sizeof text, "%3.0f %% %-44.44s", 100.0 * done, what);
+    draw_bar(done, text);
+    bar->drawn_ms = now;
+    bar->shown = 1;
+}
+
+void cli_progress_bar_end(cli_progress_bar *bar)
+{
+    if (bar->shown) fputs("\r\033[K", stderr);
+    bar->shown = 0;
 }
 

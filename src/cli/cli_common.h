@@ -105,4 +105,15 @@ leap_result cli_camera(const cli_camera_options *o, const leap_scene *scene, lea
  * when done == total. Callers show it on a terminal only. */
 void cli_progress(int done, int total, const char *what);
 
+/* A progress bar for long work of unknown length (a leap_progress_fn: user is the bar): drawn on
+ * a terminal's stderr once the work has taken a second, at most ten times a second;
+ * cli_progress_bar_end clears it. */
+typedef struct cli_progress_bar {
+    double start_ms, drawn_ms;
+    int shown;
+} cli_progress_bar;
+void cli_progress_bar_start(cli_progress_bar *bar);
+void cli_progress_bar_report(void *bar, const char *what, double done);
+void cli_progress_bar_end(cli_progress_bar *bar);
+
 #endif

@@ -9,9 +9,12 @@
 
 static const char *info_help =
     "usage: leap info VOLUME [--json] [--objects] [--histogram N] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
+    "                 [--memory-budget SIZE]\n"
     "\n"
     "Lists every grid: value type, class, transform, active bounding box, voxel, leaf and\n"
-    "tile counts, value range, memory. Scalar grids are loaded to count their contents.\n"
+    "tile counts, value range, memory. Scalar grids are loaded to count their contents; a\n"
+    "float grid over the memory budget is read on demand, as leap render reads it (its value\n"
+    "range from its grid index when an earlier open wrote one, else from each leaf once).\n"
     "  --json         machine-readable output on stdout\n"
     "  --objects      segmentations (int32/int64 grids): every object's ID, active voxel\n"
     "                 count and index bounding box, background included\n"
@@ -21,6 +24,8 @@ static const char *info_help =
     "  --histogram N  N bins (1..100000) of the active values over the range (tiles count\n"
     "                 once per voxel): value v goes to bin floor((v - LO) / (HI - LO) * N)\n"
     "  --range LO,HI  value range for --tf and --histogram (default: each grid's range)\n"
+    "  --memory-budget SIZE  as for leap render (env LEAP_MEMORY_BUDGET; default: half of\n"
+    "                 physical memory)\n"
     "  --threshold V, --raw WxHxD:TYPE[:le|be], --voxel X,Y,Z   as for leap render\n";
 
 /* The active box in world space and its bounding sphere. */
@@ -109,11 +114,12 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
 
 /* Occupancy under each transfer function in turn: the first is a fresh build, each later
  * one a switch (re-classify the stored brick ranges, rebuild the boxes). */
-static int info_tfs(const char *path, const leap_input_options *io, const char *grid_name, const char *const *tfs,
-                    int ntf, const double *range, cJSON *json_grid)
+static int info_tfs(const char *path, const leap_input_options *io, const char *grid_name, uint64_t budget,
+                    const char *const *tfs, int ntf, const double *range, cJSON *json_grid)
 {
     leap_error err = {{0}};
-    leap_scene_desc sd = {.path = path, .input = *io, .grid = grid_name, .tf = tfs[0], .has_range = range != NULL};
+    leap_scene_desc sd = {.path = path, .input = *io, .grid = grid_name, .tf = tfs[0], .has_range = range != NULL,
+                          .memory_budget = budget};
     if (range) sd.range[0] = range[0], sd.range[1] = range[1];
     double t = leap__now_ms();
     leap_scene *s = NULL;
@@ -235,6 +241,7 @@ int cli_info(int argc, char **argv)
 {
     const char *input = NULL;
     int json = 0, ntf = 0, has_range = 0, objects = 0, bins = 0, c;
+    uint64_t budget = 0;
     leap_input_options io = {0};
     const char *tfs[16];
     double range[2];
@@ -259,6 +266,9 @@ int cli_info(int argc, char **argv)
             if (missing || leap__parse_numbers(v, &n, 1, 1) != 1 || n != (int)n || n < 1 || n > 100000)
                 return cli_usage_error("info", "--histogram needs a bin count in 1..100000");
             bins = (int)n;
+        } else if ((v = cli_option_value(argc, argv, &i, "--memory-budget", &missing)) || missing) {
+            if (missing || !(budget = leap__parse_bytes(v)))
+                return cli_usage_error("info", "--memory-budget needs a size such as 512M or 2GiB");
         } else if (!strcmp(argv[i], "--json")) {
             json = 1;
         } else if (!strcmp(argv[i], "--objects")) {
@@ -276,6 +286,7 @@ int cli_info(int argc, char **argv)
     leap_vdb_file *file = NULL;
     leap_input_info source;
     if (cli_input_options_check("info", &io)) return EXIT_USAGE;
+    if (leap_scene_memory_budget(budget, &budget, &err)) return cli_usage_error("info", "%s", err.msg);
     leap_result r = leap_input_open(input, &io, &file, &source, &err);
     if (r) return cli_input_error(input, NULL, r, err.msg);
     cJSON *root = json ? cJSON_CreateObject() : NULL;
@@ -299,11 +310,23 @@ int cli_info(int argc, char **argv)
         leap_grid_info gi;
         leap_grid *grid = NULL;
         int loaded = 0;
-        if (leap_vdb_grid_info(file, i, &gi, &err)) {
+        /* Over the budget, a float grid is read on demand (others as they always are). */
+        leap_scene_index index = {.use = 1};
+        if (2 * leap_vdb_grid_memory_estimate(file, i) > budget) {
+            r = leap_scene_load_grid(file, i, input, budget, &index, &grid, &err);
+            leap_grid_index_destroy(index.index);
+            if (r && r != LEAP_ERR_UNSUPPORTED) {
+                rc = cli_runtime_error("%s", err.msg);
+                break;
+            }
+            if (!r) gi = *leap_grid_get_info(grid);
+            loaded = grid != NULL;
+        }
+        if (!loaded && leap_vdb_grid_info(file, i, &gi, &err)) {
             rc = cli_runtime_error("%s", err.msg);
             break;
         }
-        if (gi.scalar) {
+        if (gi.scalar && !loaded) {
             if (leap_vdb_load_grid(file, i, &grid, &err)) {
                 rc = cli_runtime_error("%s", err.msg);
                 break;
@@ -314,9 +337,21 @@ int cli_info(int argc, char **argv)
         cJSON *jg = json ? info_json(&gi, loaded) : NULL;
         if (jg) cJSON_AddItemToArray(grids, jg);
         else print_info_text(&gi, loaded);
+        if (grid && leap_grid_on_demand(grid)) {
+            const char *note = index.note[0] ? index.note : "none";
+            if (jg) {
+                cJSON *od = cJSON_AddObjectToObject(jg, "on_demand");
+                cJSON_AddNumberToObject(od, "budget", (double)budget);
+                cJSON_AddNumberToObject(od, "leaves_read", (double)leap_grid_leaves_read(grid));
+                cJSON_AddStringToObject(od, "index", note);
+            } else {
+                printf("  on demand      over the memory budget of %.0f MiB: %llu leaves read (grid index: %s)\n",
+                       (double)budget / (1 << 20), (unsigned long long)leap_grid_leaves_read(grid), note);
+            }
+        }
         if (grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
         if (!rc && grid && bins) rc = info_histogram(grid, bins, has_range ? range : NULL, jg);
-        if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, tfs, ntf, has_range ? range : NULL, jg);
+        if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, budget, tfs, ntf, has_range ? range : NULL, jg);
         leap_grid_destroy(grid);
     }
     leap_vdb_close(file);

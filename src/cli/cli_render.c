@@ -258,6 +258,9 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
         cJSON *od = cJSON_AddObjectToObject(root, "on_demand");
         cJSON_AddNumberToObject(od, "leaves", (double)s->info->leaf_count);
         cJSON_AddNumberToObject(od, "leaves_read", (double)leap_grid_leaves_read(s->grid));
+        cJSON_AddNumberToObject(od, "leaves_read_to_open", (double)s->leaves_read_to_open);
+        cJSON_AddStringToObject(od, "index", s->index.note);
+        if (s->index.path[0]) cJSON_AddStringToObject(od, "index_file", s->index.path);
         cJSON_AddNumberToObject(od, "gpu_cache_room", (double)s->gpu_cache_bytes);
     }
     struct rusage usage; /* this process's peak so far (the image writer's process is not counted) */
@@ -393,7 +396,11 @@ int cli_render(int argc, char **argv)
     device_start device = {.desc = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments,
                                     .float_atlas_max_bytes = 1, .cache_bytes = o.gpu_cache_bytes}};
     if (mode >= 0) device_start_begin(&device);
+    cli_progress_bar bar;
+    cli_progress_bar_start(&bar);
+    if (!quiet) o.scene.progress = cli_progress_bar_report, o.scene.progress_user = &bar;
     leap_result r = leap_scene_create(&o.scene, &scene, &err);
+    cli_progress_bar_end(&bar);
     if (r) {
         rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
@@ -450,7 +457,10 @@ int cli_render(int argc, char **argv)
         }
         times.upload = leap__now_ms() - t;
         leap_renderer_count_naive(renderer, stats || stats_to_stdout);
-        if ((r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err))) {
+        if (!quiet) leap_renderer_set_progress(renderer, cli_progress_bar_report, &bar);
+        r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err);
+        cli_progress_bar_end(&bar);
+        if (r) {
             rc = cli_exit_code(r);
             cli_input_error(o.input, o.scene.tf, r, err.msg);
             goto done;

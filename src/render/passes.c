@@ -391,6 +391,13 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     st.cache_slots = r->cache.capacity;
     st.cache_passes = 1;
     while (!lr && renderer_cache_missed(r)) {
+        if (r->progress) { /* a waiting ray keeps 1 + where it goes on in out_aux.w */
+            const float *aux = r->out_aux.mapped;
+            size_t waiting = 0;
+            for (size_t i = 0; i < pixels; ++i) waiting += aux[4 * i + 3] >= 1.0f;
+            r->progress(r->progress_user, "rendering: loading the bricks rays reach",
+                        1.0 - (double)waiting / (double)(pixels ? pixels : 1));
+        }
         if (!(lr = renderer_cache_service(r, &st, err)) && !(lr = leap_gpu_begin(gpu, err))) {
             record_composite(r, &plan, LEAP_PUSH_RESUME);
             lr = leap_gpu_submit_wait(gpu, err);

@@ -385,6 +385,12 @@ void leap_renderer_count_naive(leap_renderer *r, int on)
     r->count_naive = on != 0;
 }
 
+void leap_renderer_set_progress(leap_renderer *r, leap_progress_fn progress, void *user)
+{
+    r->progress = progress;
+    r->progress_user = user;
+}
+
 uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
 {
     uint32_t n = max_segments && max_segments < LEAP_MAX_SEGMENTS ? max_segments : LEAP_MAX_SEGMENTS;

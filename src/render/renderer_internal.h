@@ -66,6 +66,8 @@ struct leap_renderer {
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     int count_naive; /* leap_renderer_count_naive */
+    leap_progress_fn progress; /* leap_renderer_set_progress */
+    void *progress_user;
     VkPipeline events;
     /* The resolve pass's two stages (resolve.comp), with and without the naive count; created
      * on first use from resolve_module. */

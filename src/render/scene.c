@@ -1,5 +1,6 @@
 /* Scene set-up shared by every command: grid, atlas, transfer function, occupancy, boxes. */
 #include "leap/scene.h"
+#include "leap/grid_index.h"
 #include "util.h"
 
 #include <stdio.h>
@@ -19,13 +20,64 @@ uint64_t leap_scene_default_memory_budget(void)
     return pages > 0 && page > 0 ? (uint64_t)pages * (uint64_t)page / 2 : (uint64_t)4 << 30;
 }
 
+leap_result leap_scene_memory_budget(uint64_t given, uint64_t *out, leap_error *err)
+{
+    const char *env = getenv("LEAP_MEMORY_BUDGET");
+    *out = given;
+    if (!*out && env && *env && !(*out = leap__parse_bytes(env)))
+        return leap_fail(err, LEAP_ERR_USAGE, "LEAP_MEMORY_BUDGET '%.40s' must be a size such as 512M or 2GiB", env);
+    if (!*out) *out = leap_scene_default_memory_budget();
+    return LEAP_OK;
+}
+
+/* A grid read on demand: its index from the cache directory, if one serves (x->index). */
+static leap_result find_index(leap_scene_index *x, const char *path, const char *grid, leap_error *err)
+{
+    char dir[4096];
+    if (!leap_grid_index_dir(dir, sizeof dir)) {
+        snprintf(x->note, sizeof x->note, "off (LEAP_INDEX_DIR is empty, or no home directory)");
+        return LEAP_OK;
+    }
+    leap_result r = leap_grid_index_path(dir, path, grid, x->path, sizeof x->path, err);
+    if (!r) r = leap_file_stamp_get(path, &x->stamp, err);
+    char why[160] = "";
+    if (!r && x->use == 1) r = leap_grid_index_read(x->path, &x->stamp, grid, &x->index, why, sizeof why, err);
+    if (!r && why[0]) snprintf(x->note, sizeof x->note, "rebuilt: %s", why);
+    return r;
+}
+
+leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path, uint64_t budget,
+                                 leap_scene_index *x, leap_grid **out, leap_error *err)
+{
+    const uint64_t need = 2 * leap_vdb_grid_memory_estimate(file, grid);
+    if (need <= budget) return leap_vdb_load_grid(file, grid, out, err);
+    leap_result r = x->use ? find_index(x, path, leap_vdb_grid_name(file, grid), err) : LEAP_OK;
+    if (!r) r = leap_vdb_load_grid_on_demand(file, grid, x->index ? &x->index->scan : NULL, out, err);
+    if (r && x->index) { /* an index that does not serve: the leaves are read */
+        snprintf(x->note, sizeof x->note, "rebuilt: %.200s", err->msg);
+        leap_grid_index_destroy(x->index);
+        x->index = NULL;
+        r = leap_vdb_load_grid_on_demand(file, grid, NULL, out, err);
+    } else if (!r && x->index) {
+        snprintf(x->note, sizeof x->note, "used");
+    }
+    if (r == LEAP_ERR_UNSUPPORTED) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        r = leap_fail(err, r, "the grid needs about %.0f MiB in memory, more than the budget of %.0f MiB "
+                      "(--memory-budget, LEAP_MEMORY_BUDGET), and %s", (double)need / (1 << 20),
+                      (double)budget / (1 << 20), why);
+    }
+    return r;
+}
+
 /* Reads the grid into memory, or on demand when it would not fit the budget: in memory a grid
  * takes its tree, and its atlas about as much again (the host's texels and the GPU image). */
-static leap_result open_grid(const char *path, const char *name, const leap_input_options *input, uint64_t budget,
-                             leap_input_info *info, leap_grid **grid, leap_error *err)
+static leap_result open_grid(leap_scene *s, const char *path, const char *name, const leap_input_options *input,
+                             leap_error *err)
 {
     leap_vdb_file *file = NULL;
-    leap_result r = leap_input_open(path, input, &file, info, err);
+    leap_result r = leap_input_open(path, input, &file, &s->input, err);
     if (r) return r;
     int index = leap_vdb_find_grid(file, name);
     if (index < 0) {
@@ -47,16 +99,7 @@ static leap_result open_grid(const char *path, const char *name, const leap_inpu
         return leap_fail(err, LEAP_ERR_FORMAT, "%s: no scalar grid to render (grids: %s)", path,
                          names[0] ? names : "none");
     }
-    const uint64_t need = 2 * leap_vdb_grid_memory_estimate(file, index);
-    if (need <= budget) {
-        r = leap_vdb_load_grid(file, index, grid, err);
-    } else if ((r = leap_vdb_load_grid_on_demand(file, index, grid, err)) == LEAP_ERR_UNSUPPORTED) {
-        char why[sizeof err->msg];
-        snprintf(why, sizeof why, "%s", err->msg);
-        r = leap_fail(err, r, "the grid needs about %.0f MiB in memory, more than the budget of %.0f MiB "
-                      "(--memory-budget, LEAP_MEMORY_BUDGET), and %s", (double)need / (1 << 20),
-                      (double)budget / (1 << 20), why);
-    }
+    r = leap_scene_load_grid(file, index, path, s->memory_budget, &s->index, &s->grid, err);
     leap_vdb_close(file);
     return r;
 }
@@ -97,16 +140,40 @@ int leap_scene_label_count(double lo, double hi)
 }
 
 /* The bricks and their value ranges, listed once for the atlas and the occupancy (a grid read
- * on demand reads its leaves for them). */
+ * on demand reads its leaves for them, unless its index has them). */
 static leap_result list_bricks(leap_scene *s, leap_brick **out, size_t *count, leap_error *err)
 {
     double t = leap__now_ms();
     *count = leap_grid_brick_count(s->grid);
+    if (s->index.index && s->index.index->brick_count != *count)
+        return leap_fail(err, LEAP_ERR_FORMAT, "the grid index %s lists %zu bricks, the grid has %zu",
+                         s->index.path, s->index.index->brick_count, *count);
     *out = malloc((*count ? *count : 1) * sizeof **out);
     if (!*out) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", *count);
-    leap_result r = leap_grid_bricks(s->grid, *out, err);
+    leap_result r = s->index.index ? leap_grid_bricks_known(s->grid, s->index.index->brick_ranges, *out, err)
+                             : leap_grid_bricks(s->grid, *out, err);
     s->bricks_ms = leap__now_ms() - t;
     return r;
+}
+
+/* Keeps what this open read from every leaf in the grid's index, for the next open. A failure
+ * only goes into the note. */
+static void save_index(leap_scene *s, const leap_brick *bricks, size_t n, leap_atlas_cells *cells)
+{
+    leap_grid_index x = {.brick_count = n, .cells = *cells};
+    leap_grid_get_scan(s->grid, &x.scan);
+    x.brick_ranges = malloc((n ? n : 1) * 2 * sizeof(float));
+    leap_error err = {{0}};
+    leap_result r = x.brick_ranges ? LEAP_OK : leap_fail(&err, LEAP_ERR_OOM, "out of memory");
+    for (size_t i = 0; !r && i < n; ++i) {
+        x.brick_ranges[2 * i] = bricks[i].value_min;
+        x.brick_ranges[2 * i + 1] = bricks[i].value_max;
+    }
+    if (!r) r = leap_grid_index_write(s->index.path, s->path, &s->index.stamp, s->info->name, &x, &err);
+    free(x.brick_ranges);
+    const int rebuilt = strncmp(s->index.note, "rebuilt", 7) == 0;
+    if (r) snprintf(s->index.note, sizeof s->index.note, "not written: %.200s", err.msg);
+    else if (!rebuilt) snprintf(s->index.note, sizeof s->index.note, "written");
 }
 
 static leap_result build_occupancy(leap_scene *s, const leap_brick *bricks, size_t n, leap_error *err)
@@ -420,7 +487,10 @@ static void clip_to_index_space(leap_scene *s, const leap_scene_desc *desc)
     for (int k = 0; k < count; ++k) leap_scene_clip_to_index(s, desc->clip[k], s->march.clip[k]);
 }
 
-leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err)
+/* The scene; with set_aside (why the grid's index did not serve), one built without reading the
+ * index, which is written again. *index_failed: an error that the index used may have caused. */
+static leap_result create(const leap_scene_desc *desc, const char *set_aside, leap_scene **out, int *index_failed,
+                          leap_error *err)
 {
     *out = NULL;
     leap_scene *s = calloc(1, sizeof *s);
@@ -430,14 +500,17 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     double t = leap__now_ms();
     leap_input_options input = desc->input;
     input.labels = desc->labels;
-    s->memory_budget = desc->memory_budget;
-    const char *env = getenv("LEAP_MEMORY_BUDGET");
-    if (!s->memory_budget && env && *env && !(s->memory_budget = leap__parse_bytes(env))) {
+    if (leap_scene_memory_budget(desc->memory_budget, &s->memory_budget, err)) {
         free(s);
-        return leap_fail(err, LEAP_ERR_USAGE, "LEAP_MEMORY_BUDGET '%.40s' must be a size such as 512M or 2GiB", env);
+        return LEAP_ERR_USAGE;
     }
-    if (!s->memory_budget) s->memory_budget = leap_scene_default_memory_budget();
-    leap_result r = open_grid(desc->path, desc->grid, &input, s->memory_budget, &s->input, &s->grid, err);
+    snprintf(s->path, sizeof s->path, "%s", desc->path);
+    /* Segmentations and shading are not read on demand (their atlases differ besides). */
+    const int use_index = !desc->labels && !desc->shade.on;
+    s->index.use = !use_index ? 0 : set_aside ? 2 : 1;
+    if (set_aside) snprintf(s->index.note, sizeof s->index.note, "rebuilt: %.200s", set_aside);
+    if (desc->progress) desc->progress(desc->progress_user, "reading the grid", 0);
+    leap_result r = open_grid(s, desc->path, desc->grid, &input, err);
     s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);
@@ -463,15 +536,25 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     if (!r) r = choose_objects(s, desc, err);
     leap_brick *bricks = NULL;
     size_t brick_count = 0;
+    leap_atlas_cells cells = {0};
+    if (!r && desc->progress) desc->progress(desc->progress_user, "listing the bricks", 0);
     if (!r) r = list_bricks(s, &bricks, &brick_count, err);
     if (!r) {
+        const int streamed = leap_grid_on_demand(s->grid);
         leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on,
-                              .stream_texels = leap_grid_on_demand(s->grid), .bricks = bricks,
-                              .brick_count = brick_count};
+                              .stream_texels = streamed, .bricks = bricks, .brick_count = brick_count,
+                              .known_cells = s->index.index ? &s->index.index->cells : NULL,
+                              .record_cells = streamed && use_index && !s->index.index && s->index.path[0] ? &cells : NULL,
+                              .progress = desc->progress, .progress_user = desc->progress_user};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
         if (!r && ad.stream_texels) r = share_budget(s, err);
     }
+    if (!r && cells.entries) save_index(s, bricks, brick_count, &cells);
+    leap_atlas_cells_free(&cells);
+    leap_grid_index_destroy(s->index.index);
+    s->index.index = NULL;
+    if (!r && desc->progress) desc->progress(desc->progress_user, "building the occupancy", 0);
     if (!r) {
         leap_atlas_march_domain(s->atlas, &s->march);
         clip_to_index_space(s, desc);
@@ -489,11 +572,25 @@ leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, lea
     if (!r) r = leap_scene_set_shading(s, &desc->shade, err);
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
     if (r) {
+        *index_failed = r == LEAP_ERR_FORMAT && !strcmp(s->index.note, "used");
         leap_scene_destroy(s);
         return r;
     }
+    s->leaves_read_to_open = leap_grid_leaves_read(s->grid);
     *out = s;
     return LEAP_OK;
+}
+
+leap_result leap_scene_create(const leap_scene_desc *desc, leap_scene **out, leap_error *err)
+{
+    int index_failed = 0;
+    leap_result r = create(desc, NULL, out, &index_failed, err);
+    if (r && index_failed) { /* a grid index that does not match the grid: built from the leaves */
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        r = create(desc, why, out, &index_failed, err);
+    }
+    return r;
 }
 
 void leap_scene_destroy(leap_scene *s)
@@ -507,6 +604,7 @@ void leap_scene_destroy(leap_scene *s)
     free(s->object_record_start);
     free(s->object_records);
     leap_grid_destroy(s->grid);
+    leap_grid_index_destroy(s->index.index);
     free(s);
 }
 

@@ -339,6 +339,7 @@ struct leap_grid {
     leap_grid_info info;
     std::vector<leap_vdb_detail::TileRec> tiles; // active tiles, in iteration order
     std::unique_ptr<leap_vdb_detail::OnDemand> on_demand; // null: every voxel is in memory
+    leap_grid_scan scan{}; // a grid read on demand: what its load found in the leaves
 };
 
 // Per-thread accessors (exact labels too for a label grid). OpenVDB's accessor reads the

@@ -268,9 +268,20 @@ FloatTree::Ptr convert_tree(const vdb::GridBase &g)
     return FloatTree::Ptr(new FloatTree(src.tree()));
 }
 
+Scan scan_from(const leap_grid_scan &k)
+{
+    Scan s;
+    s.nonfinite = k.nonfinite;
+    s.all.lo = k.stored_min, s.all.hi = k.stored_max;
+    s.active.lo = k.active_min, s.active.hi = k.active_max;
+    s.active_nan = k.active_nan, s.active_pinf = k.active_pinf, s.active_ninf = k.active_ninf;
+    return s;
+}
+
 // Completes a loaded grid: maps non-finite values, finds the value ranges, tiles, counts and
-// bounds. A grid read on demand reads each leaf once here, into a copy.
-void scan_grid(leap_grid &g)
+// bounds. A grid read on demand reads each leaf once here, into a copy, unless `known` says
+// what that finds.
+void scan_grid(leap_grid &g, const leap_grid_scan *known)
 {
     OnDemand *od = g.on_demand.get();
     FloatTree &tree = g.grid->tree();
@@ -301,8 +312,10 @@ void scan_grid(leap_grid &g)
     leaves.reserve(tree.leafCount());
     for (auto it = tree.beginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
 
+    if (known && known->leaf_count != leaves.size())
+        OPENVDB_THROW(vdb::IoError, "its index lists " << known->leaf_count << " leaves, the file " << leaves.size());
     using Blocks = tbb::blocked_range<size_t>;
-    Scan scan = tbb::parallel_reduce(
+    Scan scan = known ? scan_from(*known) : tbb::parallel_reduce(
         Blocks(0, leaves.size(), 64), Scan(),
         [&](const Blocks &r, Scan s) {
             std::unique_ptr<LeafT> copy;
@@ -319,6 +332,15 @@ void scan_grid(leap_grid &g)
             a.merge(b);
             return a;
         });
+
+    if (od) {
+        leap_grid_scan &k = g.scan;
+        k.leaf_count = leaves.size();
+        k.nonfinite = scan.nonfinite;
+        k.stored_min = scan.all.lo, k.stored_max = scan.all.hi;
+        k.active_min = scan.active.lo, k.active_max = scan.active.hi;
+        k.active_nan = scan.active_nan, k.active_pinf = scan.active_pinf, k.active_ninf = scan.active_ninf;
+    }
 
     // Tiles at every level (leaf depth excluded), active or not.
     auto tile_iter = tree.beginValueAll();
@@ -508,6 +530,11 @@ int leap_vdb_grid_count(const leap_vdb_file *file)
     return file ? int(file->names.size()) : 0;
 }
 
+const char *leap_vdb_grid_name(const leap_vdb_file *file, int index)
+{
+    return file && index >= 0 && index < int(file->names.size()) ? file->names[size_t(index)].c_str() : nullptr;
+}
+
 leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out, leap_error *err)
 {
     if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_grid_info: NULL argument");
@@ -572,11 +599,11 @@ namespace {
 
 // Grid `gi` with its leaf buffers left in the file (OpenVDB's delayed loading), after the
 // same checks of every byte of its tree as a full read.
-vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, std::unique_ptr<OnDemand> &od)
+vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, std::unique_ptr<OnDemand> &od)
 {
     const vdb::io::GridDescriptor &gd = file->descs[gi];
-    file->reader->check(gd);
-    if (gd.isInstance()) file->reader->check(file->descs[size_t(VdbReader::find_parent(file->descs, gd))]);
+    if (!checked) file->reader->check(gd);
+    if (!checked && gd.isInstance()) file->reader->check(file->descs[size_t(VdbReader::find_parent(file->descs, gd))]);
     struct stat st;
     if (stat(file->path.c_str(), &st) != 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
     od.reset(new OnDemand(file->path));
@@ -616,7 +643,8 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, std::unique_pt
     return base;
 }
 
-leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, leap_grid **out, leap_error *err)
+leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap_grid_scan *known, leap_grid **out,
+                      leap_error *err)
 {
     if (out) *out = nullptr;
     if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_load_grid: NULL argument");
@@ -641,7 +669,7 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, leap_grid 
         std::unique_ptr<OnDemand> od;
         {
             std::lock_guard<std::mutex> lock(file->mutex);
-            if (on_demand) base = read_on_demand(file, gi, od);
+            if (on_demand) base = read_on_demand(file, gi, known != nullptr, od);
             else if (file->cached_index == index) base = std::move(file->cached_grid);
             else base = read_full_grid(file, gi);
             if (!on_demand || file->cached_index == index) {
@@ -674,7 +702,7 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, leap_grid 
         }
         base.reset();
         g->on_demand = std::move(od);
-        scan_grid(*g);
+        scan_grid(*g, on_demand ? known : nullptr);
         leap_result r = leap_grid_read_status(g.get(), err);
         if (r) return r;
         *out = g.release();
@@ -688,12 +716,18 @@ extern "C" {
 
 leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
 {
-    return load_grid(file, index, false, out, err);
+    return load_grid(file, index, false, nullptr, out, err);
 }
 
-leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
+                                         leap_grid **out, leap_error *err)
 {
-    return load_grid(file, index, true, out, err);
+    return load_grid(file, index, true, known, out, err);
+}
+
+void leap_grid_get_scan(const leap_grid *grid, leap_grid_scan *out)
+{
+    *out = grid ? grid->scan : leap_grid_scan{};
 }
 
 int leap_grid_on_demand(const leap_grid *grid)

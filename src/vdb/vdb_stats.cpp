@@ -104,11 +104,7 @@ bool brick_before(const leap_brick &a, const leap_brick &b)
     return a.origin[0] < b.origin[0];
 }
 
-} // namespace
-
-extern "C" {
-
-leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err)
+leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *out, leap_error *err)
 {
     if (!grid || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_bricks: NULL argument");
     return guarded(err, LEAP_ERR_FORMAT, std::string("grid '") + grid->info.name + "'", [&]() -> leap_result {
@@ -131,7 +127,7 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
                 if (i < nl) {
                     o = leaves[i]->origin();
                     b.size = int32_t(LeafT::DIM);
-                    v = brick_range(mine, root, o, b.size, false, 0.0f);
+                    if (!known) v = brick_range(mine, root, o, b.size, false, 0.0f);
                 } else {
                     const TileRec &t = grid->tiles[i - nl];
                     o = t.origin;
@@ -139,7 +135,7 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
                            : t.level == 1 ? int32_t(Node1T::DIM) : int32_t(Node2T::DIM);
                     b.is_tile = 1;
                     b.tile_value = t.value;
-                    v = brick_range(mine, root, o, b.size, true, t.value);
+                    if (!known) v = brick_range(mine, root, o, b.size, true, t.value);
                 }
                 for (int a = 0; a < 3; ++a) b.origin[a] = o[a];
                 b.value_min = v.lo;
@@ -150,8 +146,27 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
         if (status) return status;
         std::sort(out, out + nl, brick_before);
         std::sort(out + nl, out + nl + nt, brick_before);
+        for (size_t i = 0; known && i < nl + nt; ++i) {
+            out[i].value_min = known[2 * i];
+            out[i].value_max = known[2 * i + 1];
+        }
         return LEAP_OK;
     });
+}
+
+} // namespace
+
+extern "C" {
+
+leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err)
+{
+    return list_bricks(grid, nullptr, out, err);
+}
+
+leap_result leap_grid_bricks_known(const leap_grid *grid, const float *ranges, leap_brick *out, leap_error *err)
+{
+    if (!ranges) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_bricks_known: NULL ranges");
+    return list_bricks(grid, ranges, out, err);
 }
 
 leap_result leap_grid_histogram(const leap_grid *grid, double lo, double hi, int bins, uint64_t *counts,

@@ -43,6 +43,10 @@ typedef struct builder {
     uint64_t *cells;          /* stream_texels: per slot, in allocation order, its cell key */
     size_t cells_cap;
     int stream_texels;
+    const leap_atlas_cells *known; /* the cells' results, not read again */
+    leap_progress_fn progress;
+    void *progress_user;
+    leap_atlas_cells *record;      /* where the cells' results go */
     uint32_t *ranges;         /* per slot, in allocation order: smallest texel | largest << 16 */
     size_t ranges_cap;
     int page_overflow;        /* the cell level of the page table did not fit */
@@ -476,6 +480,10 @@ static leap_result commit_chunk(fill_shared *sh, const fill_worker *w, size_t k)
         uint32_t c[3];
         key_cell(a, sh->keys->keys[first + i], c);
         uint32_t entry = w->entries[i];
+        if (b->record) {
+            b->record->entries[first + i] = entry & LEAP_PAGE_CONST ? entry : 0;
+            b->record->ranges[first + i] = entry & LEAP_PAGE_CONST ? 0 : w->ranges[used];
+        }
         if (!(entry & LEAP_PAGE_CONST)) {
             if (a->slot_count + 1 > sh->budget) return slots_too_many(a->slot_count + 1, "more than", sh->err);
             const int kept = b->stream_texels
@@ -506,8 +514,17 @@ static void *fill_run(void *arg)
         const size_t n = chunk_keys(sh, k, &first);
         for (size_t i = 0; i < n && !atomic_load_explicit(&sh->failed, memory_order_relaxed); ++i) {
             uint32_t c[3], range;
-            key_cell(a, sh->keys->keys[first + i], c);
-            if (!read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS, &w->entries[i], &range)) {
+            const leap_atlas_cells *known = sh->b->known;
+            int constant;
+            if (known) {
+                w->entries[i] = known->entries[first + i];
+                range = known->ranges[first + i];
+                constant = (w->entries[i] & LEAP_PAGE_CONST) != 0;
+            } else {
+                key_cell(a, sh->keys->keys[first + i], c);
+                constant = read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS, &w->entries[i], &range);
+            }
+            if (!constant) {
                 w->entries[i] = 0; /* a slot: numbered when committed */
                 w->ranges[used++] = range;
             }
@@ -519,6 +536,8 @@ static void *fill_run(void *arg)
             atomic_store(&sh->failed, sh->r != LEAP_OK);
         }
         sh->committed++;
+        if (sh->b->progress)
+            sh->b->progress(sh->b->progress_user, "building the atlas", (double)sh->committed / (double)sh->chunk_count);
         pthread_cond_broadcast(&sh->turn);
         pthread_mutex_unlock(&sh->lock);
         if (atomic_load(&sh->failed)) break;
@@ -540,7 +559,17 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
     if (a->labels) return fill_label_cells(b, l, dense, err);
     fill_shared sh = {.b = b, .keys = l, .dense = dense, .budget = slot_budget(b->stream_texels), .err = err,
                       .chunk_count = (unique + FILL_CHUNK_KEYS - 1) / FILL_CHUNK_KEYS};
-    leap_result r = check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
+    if (b->known && b->known->count != unique)
+        return leap_fail(err, LEAP_ERR_FORMAT, "atlas: %zu cells were given for %zu cells next to data", b->known->count,
+                         unique);
+    if (b->record) {
+        leap_atlas_cells_free(b->record);
+        b->record->entries = malloc((unique ? unique : 1) * sizeof *b->record->entries);
+        b->record->ranges = malloc((unique ? unique : 1) * sizeof *b->record->ranges);
+        if (!b->record->entries || !b->record->ranges) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
+        b->record->count = unique;
+    }
+    leap_result r = b->known ? LEAP_OK : check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
     if (r) return r;
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     size_t threads = cpus > 1 ? (size_t)cpus : 1;
@@ -811,6 +840,20 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
     return finish(b, desc->shuffle_seed, err);
 }
 
+/* What the builder and the atlas take from the description, before each try. */
+static void start_build(builder *b, leap_atlas *a, const leap_atlas_desc *desc)
+{
+    b->a = a;
+    b->labels = desc->labels;
+    a->labels = desc->labels != NULL;
+    a->wide = desc->wide && !a->labels;
+    b->stream_texels = desc->stream_texels && !a->labels;
+    b->known = a->labels ? NULL : desc->known_cells;
+    b->record = a->labels ? NULL : desc->record_cells;
+    b->progress = desc->progress;
+    b->progress_user = desc->progress_user;
+}
+
 leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, leap_error *err)
 {
     *out = NULL;
@@ -825,11 +868,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         free(a);
         return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
     }
-    b->a = a;
-    b->labels = desc->labels;
-    a->labels = desc->labels != NULL;
-    a->wide = desc->wide && !a->labels;
-    b->stream_texels = desc->stream_texels && !a->labels;
+    start_build(b, a, desc);
     if (a->labels && !leap_grid_has_labels(desc->grid)) {
         free(b);
         free(a);
@@ -868,11 +907,7 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         memset(a, 0, sizeof *a);
         memset(b, 0, sizeof *b);
         a->serial = serial;
-        b->a = a;
-        b->labels = desc->labels;
-        a->labels = desc->labels != NULL;
-        a->wide = desc->wide && !a->labels;
-        b->stream_texels = desc->stream_texels && !a->labels;
+        start_build(b, a, desc);
     }
     free(b);
     if (r) {
@@ -891,6 +926,14 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     a->build_ms = leap__now_ms() - t0;
     *out = a;
     return LEAP_OK;
+}
+
+void leap_atlas_cells_free(leap_atlas_cells *cells)
+{
+    if (!cells) return;
+    free(cells->entries);
+    free(cells->ranges);
+    memset(cells, 0, sizeof *cells);
 }
 
 void leap_atlas_destroy(leap_atlas *atlas)

@@ -1,0 +1,67 @@
+/* Grid indexes: what opening a grid read on demand learns by reading every leaf (the value
+ * range, each brick's range, what each cell next to data holds), kept in a file of its own so
+ * that a later open of the unchanged .vdb reads the topology alone, and the renderer reads only
+ * the bricks rays reach.
+ *
+ * An index lives in a cache directory, one file per .vdb path and grid. It records the .vdb's
+ * identity (device, inode, size, modification and status-change times) and a checksum of its
+ * own bytes: an index whose file changed since, or whose bytes do not add up, is stale and is
+ * rebuilt by the open that finds it. The numbers are in this machine's byte order (an index
+ * from another machine fails its checks and is rebuilt). */
+#ifndef LEAP_GRID_INDEX_H
+#define LEAP_GRID_INDEX_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "leap/atlas.h"
+#include "leap/error.h"
+#include "leap/vdb.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A file's identity, taken before it is read. */
+typedef struct leap_file_stamp {
+    uint64_t dev, ino, size;
+    int64_t mtime_ns, ctime_ns;
+} leap_file_stamp;
+
+typedef struct leap_grid_index {
+    leap_grid_scan scan;   /* leap_grid_get_scan */
+    size_t brick_count;
+    float *brick_ranges;   /* value_min, value_max of each brick, as leap_grid_bricks lists them */
+    leap_atlas_cells cells; /* the atlas's cells (built without wide and dense) */
+} leap_grid_index;
+
+/* The directory indexes go to: LEAP_INDEX_DIR when set (empty: no indexes), else
+ * $XDG_CACHE_HOME/leap, else $HOME/.cache/leap. Returns 0 when there is none. */
+int leap_grid_index_dir(char *out, size_t cap);
+
+/* The index file of grid `grid` of the .vdb at `vdb_path` (made absolute) in `dir`. */
+leap_result leap_grid_index_path(const char *dir, const char *vdb_path, const char *grid, char *out, size_t cap,
+                                 leap_error *err);
+
+/* The identity of the file at path (LEAP_ERR_IO when it cannot be read). */
+leap_result leap_file_stamp_get(const char *path, leap_file_stamp *out, leap_error *err);
+
+/* Reads the index at index_path for grid `grid` of a file whose identity is `stamp`. *out is
+ * NULL when there is none (`why` empty), and when it is stale, corrupt or unreadable (`why`
+ * says how): the caller builds the grid's tables from its voxels then. Fails only for lack of
+ * memory. */
+leap_result leap_grid_index_read(const char *index_path, const leap_file_stamp *stamp, const char *grid,
+                                 leap_grid_index **out, char *why, size_t why_cap, leap_error *err);
+
+/* Writes the index through a temporary file and a rename (creating the directory), for the file
+ * whose identity was `stamp` when it was read; nothing is written (LEAP_ERR_IO) when the file
+ * at vdb_path no longer has that identity. */
+leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, const leap_file_stamp *stamp,
+                                  const char *grid, const leap_grid_index *index, leap_error *err);
+
+void leap_grid_index_destroy(leap_grid_index *index); /* accepts NULL */
+
+#ifdef __cplusplus
+}
+#endif
+#endif
