@@ -234,3 +234,14 @@ void cli_progress_bar_end(cli_progress_bar *bar)
     bar->shown = 0;
 }
 
+leap_result cli_scene_create(const leap_scene_desc *desc, int quiet, leap_scene **out, leap_error *err)
+{
+    leap_scene_desc d = *desc;
+    cli_progress_bar bar;
+    cli_progress_bar_start(&bar);
+    if (!quiet) d.progress = cli_progress_bar_report, d.progress_user = &bar;
+    leap_result r = leap_scene_create(&d, out, err);
+    cli_progress_bar_end(&bar);
+    return r;
+}
+

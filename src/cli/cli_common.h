@@ -116,4 +116,7 @@ void cli_progress_bar_start(cli_progress_bar *bar);
 void cli_progress_bar_report(void *bar, const char *what, double done);
 void cli_progress_bar_end(cli_progress_bar *bar);
 
+/* leap_scene_create with a progress bar (unless quiet). */
+leap_result cli_scene_create(const leap_scene_desc *desc, int quiet, leap_scene **out, leap_error *err);
+
 #endif

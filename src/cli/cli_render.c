@@ -396,11 +396,7 @@ int cli_render(int argc, char **argv)
     device_start device = {.desc = {.device_name = o.device, .max_segments = (uint32_t)o.max_segments,
                                     .float_atlas_max_bytes = 1, .cache_bytes = o.gpu_cache_bytes}};
     if (mode >= 0) device_start_begin(&device);
-    cli_progress_bar bar;
-    cli_progress_bar_start(&bar);
-    if (!quiet) o.scene.progress = cli_progress_bar_report, o.scene.progress_user = &bar;
-    leap_result r = leap_scene_create(&o.scene, &scene, &err);
-    cli_progress_bar_end(&bar);
+    leap_result r = cli_scene_create(&o.scene, quiet, &scene, &err);
     if (r) {
         rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
         goto done;
@@ -457,8 +453,11 @@ int cli_render(int argc, char **argv)
         }
         times.upload = leap__now_ms() - t;
         leap_renderer_count_naive(renderer, stats || stats_to_stdout);
+        cli_progress_bar bar;
+        cli_progress_bar_start(&bar);
         if (!quiet) leap_renderer_set_progress(renderer, cli_progress_bar_report, &bar);
         r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err);
+        leap_renderer_set_progress(renderer, NULL, NULL); /* the bar ends with this block */
         cli_progress_bar_end(&bar);
         if (r) {
             rc = cli_exit_code(r);

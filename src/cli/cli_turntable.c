@@ -69,12 +69,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
     const double t0 = leap__now_ms();
     double render_ms = 0;
     leap_image_preload();
-    cli_progress_bar bar;
-    cli_progress_bar_start(&bar);
-    leap_scene_desc desc = o->scene;
-    if (!quiet) desc.progress = cli_progress_bar_report, desc.progress_user = &bar;
-    leap_result r = leap_scene_create(&desc, &scene, &err);
-    cli_progress_bar_end(&bar);
+    leap_result r = cli_scene_create(&o->scene, quiet, &scene, &err);
     if (r) {
         rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
         goto done;

@@ -251,11 +251,7 @@ int cli_view(int argc, char **argv)
     /* The volume first: a bad input is reported whether or not a display exists. */
     leap_error err = {{0}};
     leap_scene *scene = NULL;
-    cli_progress_bar bar;
-    cli_progress_bar_start(&bar);
-    if (!o.quiet) o.view.scene.progress = cli_progress_bar_report, o.view.scene.progress_user = &bar;
-    leap_result r = leap_scene_create(&o.view.scene, &scene, &err);
-    cli_progress_bar_end(&bar);
+    leap_result r = cli_scene_create(&o.view.scene, o.quiet, &scene, &err);
     if (r) {
         leap_viewer_script_free(&script);
         cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);

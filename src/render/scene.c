@@ -38,10 +38,16 @@ static leap_result find_index(leap_scene_index *x, const char *path, const char 
         snprintf(x->note, sizeof x->note, "off (LEAP_INDEX_DIR is empty, or no home directory)");
         return LEAP_OK;
     }
-    leap_result r = leap_grid_index_path(dir, path, grid, x->path, sizeof x->path, err);
-    if (!r) r = leap_file_stamp_get(path, &x->stamp, err);
+    leap_error off;
+    if (leap_grid_index_path(dir, path, grid, x->path, sizeof x->path, &off) ||
+        leap_file_stamp_get(path, &x->stamp, &off)) { /* the grid is read as without one */
+        snprintf(x->note, sizeof x->note, "off: %.200s", off.msg);
+        x->path[0] = 0;
+        return LEAP_OK;
+    }
     char why[160] = "";
-    if (!r && x->use == 1) r = leap_grid_index_read(x->path, &x->stamp, grid, &x->index, why, sizeof why, err);
+    leap_result r = LEAP_OK;
+    if (x->use == 1) r = leap_grid_index_read(x->path, &x->stamp, grid, &x->index, why, sizeof why, err);
     if (!r && why[0]) snprintf(x->note, sizeof x->note, "rebuilt: %s", why);
     return r;
 }
@@ -541,10 +547,11 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
     if (!r) r = list_bricks(s, &bricks, &brick_count, err);
     if (!r) {
         const int streamed = leap_grid_on_demand(s->grid);
+        const int record = streamed && use_index && !s->index.index && s->index.path[0];
         leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on,
                               .stream_texels = streamed, .bricks = bricks, .brick_count = brick_count,
                               .known_cells = s->index.index ? &s->index.index->cells : NULL,
-                              .record_cells = streamed && use_index && !s->index.index && s->index.path[0] ? &cells : NULL,
+                              .record_cells = record ? &cells : NULL,
                               .progress = desc->progress, .progress_user = desc->progress_user};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;

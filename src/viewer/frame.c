@@ -514,6 +514,17 @@ static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char 
                                       "that file to --tf)" : "");
 }
 
+void session_frame_progress(void *user, const char *what, double done)
+{
+    leap_viewer_session *s = user;
+    pthread_mutex_lock(&s->mu);
+    snprintf(s->pub.title, sizeof s->pub.title, "leap view %s | %s: %.0f %% of the rays done", s->volume_name, what,
+             100.0 * done);
+    s->pub.title_new = 1;
+    pthread_mutex_unlock(&s->mu);
+    session_wake();
+}
+
 void *session_render_thread(void *arg)
 {
     leap_viewer_session *s = arg;

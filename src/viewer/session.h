@@ -141,6 +141,10 @@ void session_note(leap_viewer_session *s, leap_viewer_note kind, const char *fmt
 /* Render thread (frame.c). */
 void *session_render_thread(void *arg);
 
+/* The renderer's progress (leap_renderer_set_progress) during a frame through the brick cache:
+ * in the title until the frame is done. user is the session. */
+void session_frame_progress(void *user, const char *what, double done);
+
 /* Main thread (session.c): publish the edited state to the render thread, queue a
  * screenshot (its id; 0 if one is pending), resize the window, wake the event loop. */
 void session_post_state(leap_viewer_session *s);

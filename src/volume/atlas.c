@@ -522,7 +522,8 @@ static void *fill_run(void *arg)
                 constant = (w->entries[i] & LEAP_PAGE_CONST) != 0;
             } else {
                 key_cell(a, sh->keys->keys[first + i], c);
-                constant = read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS, &w->entries[i], &range);
+                constant = read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS, &w->entries[i],
+                                     &range);
             }
             if (!constant) {
                 w->entries[i] = 0; /* a slot: numbered when committed */

@@ -63,7 +63,8 @@ leap_result leap_grid_index_path(const char *dir, const char *vdb_path, const ch
     if (!realpath(vdb_path, full)) snprintf(full, sizeof full, "%s", vdb_path);
     const uint64_t key = fnv1a(fnv1a(FNV_START, full, strlen(full) + 1), grid, strlen(grid));
     const int n = snprintf(out, cap, "%s/%.80s-%016llx.leapidx", dir, leap__base_name(full), (unsigned long long)key);
-    if (n < 0 || (size_t)n >= cap) return leap_fail(err, LEAP_ERR_USAGE, "grid index: the path in '%.200s' is too long", dir);
+    if (n < 0 || (size_t)n >= cap)
+        return leap_fail(err, LEAP_ERR_USAGE, "grid index: the path in '%.200s' is too long", dir);
     return LEAP_OK;
 }
 
