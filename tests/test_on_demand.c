@@ -321,6 +321,18 @@ static void test_program(void)
     char shown[16384];
     read_text(bar, shown, sizeof shown);
     CHECK_MSG(strstr(shown, "% building the atlas") && strstr(shown, "\r\033[Kleap: wrote"), "%.300s", shown);
+
+    /* An index that cannot be written is said, once, on stderr (a file where its directory would be). */
+    char small[700];
+    snprintf(small, sizeof small, "%s/fog192.vdb", tmp_dir);
+    const char *const unwritable_args[] = {"render", small, "--size", "32x32", "--memory-budget", "32M", "-o", base, NULL};
+    const char *dir = getenv("LEAP_INDEX_DIR");
+    char kept[700];
+    snprintf(kept, sizeof kept, "%s", dir ? dir : "");
+    setenv("LEAP_INDEX_DIR", small, 1);
+    CHECK_MSG(run_leap(unwritable_args) == 0, "%s", res.err);
+    CHECK_MSG(strstr(res.err, "warning: grid index") && strstr(res.err, "not written"), "%s", res.err);
+    setenv("LEAP_INDEX_DIR", kept, 1);
     CHECK_MSG(same_pixels(lazy, whole), "the image read on demand differs from the in-memory one");
 #if defined(__SANITIZE_ADDRESS__)
     printf("(AddressSanitizer build: its shadow memory makes peaks meaningless; not checked)\n");

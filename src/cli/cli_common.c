@@ -71,6 +71,9 @@ void cli_warn_scene(const leap_scene *scene, int legend)
     if (legend && scene->labels)
         fprintf(stderr, "leap: warning: no legend: a segmentation's colours belong to its objects, not to a value "
                         "scale\n");
+    if (!strncmp(scene->index.note, "not written", 11))
+        fprintf(stderr, "leap: warning: grid index %s %s; every open of this grid reads all its leaves again "
+                        "(LEAP_INDEX_DIR chooses another directory)\n", scene->index.path, scene->index.note);
 }
 
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)
