@@ -81,7 +81,6 @@ typedef struct leap_scene {
     uint64_t gpu_cache_bytes;  /* a grid read on demand: the room its GPU brick cache may take
                                   (leap_renderer_bind_scene); 0 otherwise */
     leap_scene_index index;    /* a grid read on demand: its grid index */
-    char path[4096];           /* the file opened */
     uint64_t leaves_read_to_open; /* a grid read on demand: leaves read until the scene was ready */
     double load_ms;            /* opening the file and reading the grid */
     double bricks_ms;          /* listing the brick ranges for the occupancy */

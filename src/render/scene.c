@@ -164,7 +164,7 @@ static leap_result list_bricks(leap_scene *s, leap_brick **out, size_t *count, l
 
 /* Keeps what this open read from every leaf in the grid's index, for the next open. A failure
  * only goes into the note. */
-static void save_index(leap_scene *s, const leap_brick *bricks, size_t n, leap_atlas_cells *cells)
+static void save_index(leap_scene *s, const char *path, const leap_brick *bricks, size_t n, leap_atlas_cells *cells)
 {
     leap_grid_index x = {.brick_count = n, .cells = *cells};
     leap_grid_get_scan(s->grid, &x.scan);
@@ -175,7 +175,7 @@ static void save_index(leap_scene *s, const leap_brick *bricks, size_t n, leap_a
         x.brick_ranges[2 * i] = bricks[i].value_min;
         x.brick_ranges[2 * i + 1] = bricks[i].value_max;
     }
-    if (!r) r = leap_grid_index_write(s->index.path, s->path, &s->index.stamp, s->info->name, &x, &err);
+    if (!r) r = leap_grid_index_write(s->index.path, path, &s->index.stamp, s->info->name, &x, &err);
     free(x.brick_ranges);
     const int rebuilt = strncmp(s->index.note, "rebuilt", 7) == 0;
     if (r) snprintf(s->index.note, sizeof s->index.note, "not written: %.200s", err.msg);
@@ -510,7 +510,6 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         free(s);
         return LEAP_ERR_USAGE;
     }
-    snprintf(s->path, sizeof s->path, "%s", desc->path);
     /* Segmentations and shading are not read on demand (their atlases differ besides). */
     const int use_index = !desc->labels && !desc->shade.on;
     s->index.use = !use_index ? 0 : set_aside ? 2 : 1;
@@ -557,7 +556,7 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         if (!r) s->atlas_ms = s->atlas->build_ms;
         if (!r && ad.stream_texels) r = share_budget(s, err);
     }
-    if (!r && cells.entries) save_index(s, bricks, brick_count, &cells);
+    if (!r && cells.entries) save_index(s, desc->path, bricks, brick_count, &cells);
     leap_atlas_cells_free(&cells);
     leap_grid_index_destroy(s->index.index);
     s->index.index = NULL;
