@@ -4,7 +4,9 @@
  * in-memory grid's (pages, slot ranges, every slot's texels); every mode, plain and MIP, gives
  * the in-memory grid's image through the same GPU cache bit for bit, also with a cache of a few
  * dozen bricks; what the budget leaves gives the whole atlas's image within address rounding.
- * Shading and budgets too small are refused with the reason; LEAP_MEMORY_BUDGET is read. The
+ * Shading and budgets too small are refused with the reason; LEAP_MEMORY_BUDGET is read. A file
+ * changed or cut short while open fails the frames that read it, with the reason. Frames show
+ * incomplete pictures while bricks load (leap_renderer_set_partial). The
  * program `leap render` renders a fog of 4x the budget's bytes with a peak resident memory
  * within the budget above what a tiny volume's render takes (the fixed overhead: libraries,
  * pipelines, image buffers), to the same image as in memory. */
@@ -259,6 +261,162 @@ done:
     leap_scene_destroy(second);
 }
 
+/* leap_renderer_set_partial: the first incomplete picture kept; stop: end the frame there. */
+typedef struct partial_log {
+    frame_out *out, first;
+    uint32_t calls;
+    uint64_t first_waiting, last_waiting;
+    int stop;
+} partial_log;
+
+static int on_partial(void *user, const leap_frame_stats *so_far)
+{
+    partial_log *log = user;
+    if (log->calls++ == 0) {
+        memcpy(log->first.rgba, log->out->rgba, sizeof log->first.rgba);
+        log->first_waiting = so_far->waiting_pixels;
+    }
+    log->last_waiting = so_far->waiting_pixels;
+    return log->stop;
+}
+
+/* Incomplete pictures: after every pass that leaves rays waiting, the picture so far, in which
+ * only the waiting rays' pixels differ from the finished frame; a frame ended at its first
+ * picture says how many rays wait, and the next frame (not ended) is the whole image again. */
+static void test_partial(const char *fog)
+{
+    leap_error err = {{0}};
+    leap_scene *s = load(fog, 32u << 20, 0, &err);
+    const leap_renderer_desc few = {.cache_bytes = 200 * LEAP_SLOT_TEXELS * 4};
+    leap_renderer *r = make_renderer_with(&few);
+    static frame_out ref, out;
+    static partial_log log;
+    if (!s || !r || !render(r, s, LEAP_RENDER_SPARSELEAP, &ref)) goto done;
+    CHECK(ref.st.waiting_pixels == 0 && ref.st.cache_passes > 2);
+    log = (partial_log){.out = &out};
+    leap_renderer_set_partial(r, on_partial, &log, 0);
+    if (render(r, s, LEAP_RENDER_SPARSELEAP, &out)) {
+        uint64_t differ = 0;
+        for (size_t i = 0; i < W * H; ++i) differ += memcmp(log.first.rgba + 4 * i, ref.rgba + 4 * i, 16) != 0;
+        printf("partial pictures: %u in %u passes; the first with %llu rays waiting, %llu pixels differing from the "
+               "finished frame\n", log.calls, out.st.cache_passes, (unsigned long long)log.first_waiting,
+               (unsigned long long)differ);
+        CHECK(log.calls == out.st.cache_passes - 1 && log.first_waiting > 0 && log.last_waiting > 0);
+        CHECK(differ > 0 && differ <= log.first_waiting);
+        CHECK(out.st.waiting_pixels == 0 && same_frames(&out, &ref));
+    }
+    log = (partial_log){.out = &out, .stop = 1};
+    if (render(r, s, LEAP_RENDER_SPARSELEAP, &out)) {
+        printf("a frame ended at its first picture: %llu rays waiting, %u passes\n",
+               (unsigned long long)out.st.waiting_pixels, out.st.cache_passes);
+        CHECK(log.calls == 1 && out.st.waiting_pixels == log.first_waiting && out.st.waiting_pixels > 0);
+        CHECK(!memcmp(out.rgba, log.first.rgba, sizeof out.rgba) && !same_frames(&out, &ref));
+    }
+    leap_renderer_set_partial(r, NULL, NULL, 0);
+    if (render(r, s, LEAP_RENDER_SPARSELEAP, &out)) CHECK(out.st.waiting_pixels == 0 && same_frames(&out, &ref));
+done:
+    CHECK_MSG(s && r, "%s", err.msg);
+    leap_renderer_destroy(r);
+    leap_scene_destroy(s);
+}
+
+/* Renders through a cache of a few dozen bricks, so the frame reads leaves; the result. */
+static leap_result render_result(leap_renderer *r, leap_scene *s, frame_out *out, leap_error *err)
+{
+    leap_camera cam;
+    leap_rays view;
+    leap_result lr = leap_renderer_bind_scene(r, s, err);
+    if (!lr) lr = leap_camera_orbit(s->center, s->radius, 35, 25, 0, 40, 0, &cam, err);
+    if (!lr) lr = leap_scene_rays(s, &cam, W, H, &view, err);
+    if (!lr) lr = leap_renderer_render(r, &view, &s->march, LEAP_RENDER_SPARSELEAP, out->rgba, out->depth, NULL, &out->st, err);
+    return lr;
+}
+
+static int copy_file(const char *from, const char *to)
+{
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd, "cp '%s' '%s'", from, to);
+    return system(cmd) == 0;
+}
+
+/* The file of a grid read on demand changes while it is open: written over in place (same
+ * size), or cut short (a read from the mapping beyond its new end would raise SIGBUS). Reads
+ * of the atlas's cells and every later frame fail with a clear error, and nothing crashes.
+ * A leaf corrupt from the start fails the program cleanly. */
+static void test_changed_file(const char *fog)
+{
+    char path[700];
+    snprintf(path, sizeof path, "%s/changed.vdb", tmp_dir);
+    const leap_renderer_desc few = {.cache_bytes = 40 * LEAP_SLOT_TEXELS * 4};
+    leap_renderer *r = make_renderer_with(&few);
+    static frame_out out;
+    static uint16_t texels[LEAP_SLOT_TEXELS];
+    for (int cut = 0; cut < 2 && r; ++cut) {
+        leap_error err = {{0}};
+        if (!copy_file(fog, path)) {
+            CHECK_MSG(0, "cannot copy %s", fog);
+            break;
+        }
+        leap_scene *s = load(path, 32u << 20, 0, &err);
+        CHECK_MSG(s && leap_grid_on_demand(s->grid), "%s", err.msg);
+        if (!s) break;
+        CHECK_OK(render_result(r, s, &out, &err), &err);
+        struct stat st;
+        CHECK(stat(path, &st) == 0);
+        if (cut) {
+            CHECK(truncate(path, st.st_size / 2) == 0);
+        } else { /* the second half of the file, leaves' values, overwritten with huge floats */
+            const int fd = open(path, O_WRONLY);
+            CHECK(fd >= 0);
+            static uint32_t junk[16384];
+            for (size_t i = 0; i < sizeof junk / sizeof *junk; ++i) junk[i] = 0x7f7f7f7fu;
+            for (off_t at = st.st_size / 2; fd >= 0 && at < st.st_size; at += (off_t)sizeof junk) {
+                const size_t n = st.st_size - at < (off_t)sizeof junk ? (size_t)(st.st_size - at) : sizeof junk;
+                CHECK(pwrite(fd, junk, n, at) == (ssize_t)n);
+            }
+            if (fd >= 0) close(fd);
+        }
+        const char *what = cut ? "cut short" : "written over";
+        /* The atlas's reads first. Before reads from a file that may be cut short, its size is
+         * checked (the renderer does so before each batch). */
+        if (cut) CHECK(leap_atlas_check_source(s->atlas, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "its size went from"));
+        uint32_t failed = 0;
+        for (uint32_t h = 0; h < s->atlas->slot_count; ++h)
+            if (leap_atlas_read_slot(s->atlas, h, texels, &err) != LEAP_OK && failed++ == 0)
+                printf("file %s while open, the atlas's reads from cell %u of %u on: %s\n", what, h, s->atlas->slot_count,
+                       err.msg);
+        CHECK_MSG(failed == s->atlas->slot_count && strstr(err.msg, "changed while"), "%s: %u failed, %s", what, failed,
+                  err.msg);
+        for (int frame = 0; frame < 2; ++frame) {
+            leap_result lr = render_result(r, s, &out, &err);
+            printf("file %s while open, frame %d: %s\n", what, frame, lr ? err.msg : "rendered");
+            CHECK_MSG(lr == LEAP_ERR_FORMAT && strstr(err.msg, "changed while"), "%s: %d %s", what, lr, err.msg);
+        }
+        leap_scene_destroy(s);
+    }
+    leap_renderer_destroy(r);
+
+    /* A leaf whose compressed values are corrupt from the start: exit 1 naming it, no image. */
+    char out_png[700];
+    snprintf(out_png, sizeof out_png, "%s/corrupt.png", tmp_dir);
+    remove(out_png);
+    if (copy_file(fog, path)) {
+        FILE *f = fopen(path, "r+b");
+        CHECK(f != NULL && fseek(f, 0, SEEK_END) == 0);
+        const long size = f ? ftell(f) : 0;
+        for (int k = 0; f && k < 40; ++k) {
+            fseek(f, size / 2 + 1000L * k, SEEK_SET);
+            fwrite("\xff\xff\xff\x7f", 1, 4, f);
+        }
+        if (f) fclose(f);
+        const char *const args[] = {"render", path, "--size", "32x32", "--memory-budget", "32M", "-o", out_png, NULL};
+        CHECK_MSG(run_leap(args) == 1 && strstr(res.err, "cannot be read") && strstr(res.err, "corrupt"), "%s", res.err);
+        CHECK_MSG(access(out_png, F_OK) != 0, "an image was written from a corrupt file");
+        printf("corrupt leaf values, read on demand: %s", res.err);
+    }
+    remove(path);
+}
+
 static int same_pixels(const char *a, const char *b)
 {
     leap_error err = {{0}};
@@ -356,6 +514,8 @@ int main(void)
     if (make_fog(fog, 192)) {
         test_scenes(fog);
         test_index(fog);
+        test_partial(fog);
+        test_changed_file(fog);
     }
     test_program();
     return check_exit_code();

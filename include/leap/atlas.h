@@ -121,8 +121,13 @@ void leap_atlas_texels(const leap_atlas *atlas, size_t first, size_t count, uint
 
 /* Slot `slot`'s LEAP_SLOT_TEXELS texels into out: copied, or for an atlas built with
  * stream_texels read from the grid again (the texels the build read; one caller at a time).
- * Errors: LEAP_ERR_FORMAT when a leaf of a grid read on demand cannot be read. */
+ * Errors: LEAP_ERR_FORMAT when a leaf of a grid read on demand cannot be read (or its file
+ * changed since it was opened: leap_grid_check_source). */
 leap_result leap_atlas_read_slot(const leap_atlas *atlas, uint32_t slot, uint16_t *out, leap_error *err);
+
+/* Before a batch of leap_atlas_read_slot: LEAP_ERR_FORMAT if the file of a grid read on demand
+ * changed since it was opened (leap_grid_check_source); LEAP_OK for any other atlas. */
+leap_result leap_atlas_check_source(const leap_atlas *atlas, leap_error *err);
 
 /* Fills march->index_origin and the domain box from the atlas (step and range untouched). */
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march);

@@ -87,6 +87,9 @@ typedef struct leap_frame_stats {
      * pass), the slots loaded and those evicted for them. */
     uint32_t cache_slots, cache_passes;
     uint64_t cache_misses, cache_loaded, cache_evicted;
+    /* Rays still waiting for bricks: 0 in a finished frame; > 0 in the pictures given to a
+     * leap_renderer_set_partial callback and in a frame it ended (an incomplete frame). */
+    uint64_t waiting_pixels;
 } leap_frame_stats;
 
 leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer **out, leap_error *err);
@@ -179,6 +182,16 @@ void leap_renderer_count_naive(leap_renderer *r, int on);
 
 /* Frames through the brick cache report, after each pass, the share of rays done (NULL: off). */
 void leap_renderer_set_progress(leap_renderer *r, leap_progress_fn progress, void *user);
+
+/* Incomplete pictures of frames through the brick cache: after the first pass that left rays
+ * waiting for bricks, then after later ones once interval_ms has passed since the last call, the
+ * frame's outputs (as passed to leap_renderer_render) are written as they stand and fn is
+ * called with the figures so far (stats->waiting_pixels > 0). A waiting ray's pixel holds what
+ * it composited in front of the brick it waits for (nothing yet under MIP), its depth is
+ * infinite. fn returning nonzero ends the frame there: leap_renderer_render returns LEAP_OK
+ * with those outputs and waiting_pixels > 0. NULL fn: frames run until no ray waits. */
+typedef int (*leap_partial_fn)(void *user, const leap_frame_stats *so_far);
+void leap_renderer_set_partial(leap_renderer *r, leap_partial_fn fn, void *user, double interval_ms);
 
 /* Renders one frame. march: step and value range (the index origin and marching box are the
  * uploaded atlas's; rays made for another index origin are refused with LEAP_ERR_USAGE). Outputs are caller-owned, view->width * view->height pixels, any

@@ -130,6 +130,12 @@ uint64_t leap_grid_leaves_read(const leap_grid *grid);
 /* LEAP_ERR_FORMAT naming the first leaf a grid read on demand failed to read, else LEAP_OK. */
 leap_result leap_grid_read_status(const leap_grid *grid, leap_error *err);
 
+/* Grids read on demand: LEAP_ERR_FORMAT if the file's size or times are no longer those it had
+ * when opened (it was written to or cut short); from then on no leaf is read from it. Reads
+ * check this every millisecond themselves; call it before a batch of reads. Else as
+ * leap_grid_read_status. */
+leap_result leap_grid_check_source(const leap_grid *grid, leap_error *err);
+
 const leap_grid_info *leap_grid_get_info(const leap_grid *grid);
 
 /* A brick: one leaf node (size 8, origin a multiple of 8) or one active tile (size 8,

@@ -336,6 +336,7 @@ leap_result leap_viewer_script_frames(long frames, const char *screenshot, leap_
 
 #define LEAP_VIEWER_MAX_SCALE 16
 #define LEAP_VIEWER_IDLE_MS 200.0 /* the camera counts as moving this long after a change */
+#define LEAP_VIEWER_PARTIAL_MS 250.0 /* while bricks load, an incomplete picture at most this often */
 
 typedef struct leap_viewer_schedule {
     double budget_ms;

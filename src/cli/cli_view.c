@@ -199,7 +199,14 @@ static int run_session(const view_options *o, leap_scene *scene, const leap_view
         len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --voxel %.17g,%.17g,%.17g",
                         io->voxel[0], io->voxel[1], io->voxel[2]);
     if (io->has_threshold)
-        snprintf(open_options + len, sizeof open_options - (size_t)len, " --threshold %.17g", io->threshold);
+        len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --threshold %.17g", io->threshold);
+    /* A frame through a brick cache is the in-memory one only through the same cache. */
+    if (o->view.scene.memory_budget)
+        len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --memory-budget %llu",
+                        (unsigned long long)o->view.scene.memory_budget);
+    if (o->view.gpu_cache_bytes)
+        snprintf(open_options + len, sizeof open_options - (size_t)len, " --gpu-cache %llu",
+                 (unsigned long long)o->view.gpu_cache_bytes);
     leap_viewer_session_desc d = {
         .volume_path = o->view.input,
         .open_options = open_options,

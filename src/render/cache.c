@@ -141,6 +141,11 @@ int renderer_cache_missed(const leap_renderer *r)
     return r->cache.capacity && ((const uint32_t *)r->misses.mapped)[0] != 0;
 }
 
+void renderer_cache_forget_misses(leap_renderer *r)
+{
+    memset(r->misses.mapped, 0, (((size_t)r->cache.host_slots + 31) / 32 + 1) * sizeof(uint32_t));
+}
+
 leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_error *err)
 {
     brick_cache *c = &r->cache;
@@ -160,7 +165,8 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
         free(src);
         return leap_fail(err, LEAP_ERR_OOM, "brick cache: out of host memory for %u slots", most);
     }
-    leap_result lr = LEAP_OK;
+    /* A file cut short under its mapping would fault the reads: checked first. */
+    leap_result lr = leap_atlas_check_source(c->atlas, err);
     /* The missed slots, in host order, each into its place, their texels cube by cube. */
     uint32_t n = 0;
     for (size_t w = 0; w < words && !lr; ++w)
@@ -201,7 +207,7 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
                                    "(no progress)");
     free(origins);
     free(texels);
-    memset(r->misses.mapped, 0, (words + 1) * sizeof(uint32_t));
+    renderer_cache_forget_misses(r);
     st->cache_loaded += n;
     return lr;
 }

@@ -264,6 +264,63 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 }
 
+/* The frame's outputs and figures from the GPU's buffers. Pixels the composite pass did not
+ * run for are transparent, without sample or depth. A ray still waiting for bricks (out_aux.w
+ * = 1 + where it goes on; out_rgba holds its colour and transmittance) shows what it
+ * composited so far, nothing under MIP (its running extreme is not a colour yet). */
+static void read_outputs(leap_renderer *r, const leap_rays *view, chunk_rect drawn, int listed, int mip, float *rgba,
+                         float *depth, float *samples, leap_frame_stats *st)
+{
+    const size_t pixels = (size_t)view->width * view->height;
+    const float *out = r->out_rgba.mapped, *aux = r->out_aux.mapped;
+    if (rgba) memcpy(rgba, out, pixels * 4 * sizeof(float));
+    st->composited_pixels = st->total_samples = st->naive_samples = st->waiting_pixels = 0;
+    st->samples_max = st->events_max = st->segments_max = st->overflow_pixels = 0;
+    uint64_t events = 0, segs = 0;
+    uint32_t *pl = r->pixel_lists.mapped;
+    const uint32_t *event_counts = r->event_counts.mapped;
+    for (size_t i = 0, px = 0, py = 0; i < pixels; ++i, px = px + 1 < (size_t)view->width ? px + 1 : (++py, 0)) {
+        const int outside = !chunk_rect_holds(drawn, px, py);
+        /* The resolve pass writes the list facts of a pixel without events only for the
+         * statistics (its naive count); else they are set here, for the lists' readers. */
+        if (listed && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
+        /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
+         * sample, its naive count in the list facts (0 when not counted). */
+        const int skipped = outside || (listed && pl[4 * i] == 0);
+        const int waiting = !skipped && aux[4 * i + 3] >= 1.0f;
+        float naive = 0;
+        if (skipped) {
+            if (!outside) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
+            if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
+        } else if (waiting && rgba) {
+            if (mip) memset(rgba + 4 * i, 0, 4 * sizeof(float));
+            else rgba[4 * i + 3] = 1.0f - out[4 * i + 3];
+        }
+        st->composited_pixels += !skipped;
+        st->waiting_pixels += waiting;
+        uint32_t n = skipped ? 0 : (uint32_t)aux[4 * i + 1];
+        st->total_samples += n;
+        st->naive_samples += (uint64_t)(skipped ? naive : waiting ? 0 : aux[4 * i + 2]);
+        if (n > st->samples_max) st->samples_max = n;
+        if (depth) depth[i] = skipped || waiting ? INFINITY : aux[4 * i];
+        if (samples) samples[i] = skipped ? 0.0f : aux[4 * i + 1];
+        if (listed) {
+            uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
+            events += e;
+            segs += s;
+            if (e > st->events_max) st->events_max = e;
+            if (s > st->segments_max) st->segments_max = s;
+            st->overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
+        }
+    }
+    if (!r->count_naive) st->naive_samples = 0;
+    st->samples_mean = (double)st->total_samples / (double)pixels;
+    st->events_mean = (double)events / (double)pixels;
+    st->segments_mean = (double)segs / (double)pixels;
+    st->width = (uint32_t)view->width;
+    st->height = (uint32_t)view->height;
+}
+
 leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const leap_march *march_in,
                                  leap_mode mode, float *rgba, float *depth, float *samples,
                                  leap_frame_stats *stats, leap_error *err)
@@ -390,7 +447,16 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     /* The brick cache: more passes while rays wait on missed slots, each after loading them. */
     st.cache_slots = r->cache.capacity;
     st.cache_passes = 1;
+    double partial_at = 0; /* the first picture at once: a first sight of the volume */
     while (!lr && renderer_cache_missed(r)) {
+        if (r->partial && leap__now_ms() >= partial_at) { /* an incomplete picture */
+            read_outputs(r, view, drawn, listed, march->mip != 0, rgba, depth, samples, &st);
+            if (r->partial(r->partial_user, &st)) {
+                renderer_cache_forget_misses(r);
+                break;
+            }
+            partial_at = leap__now_ms() + r->partial_interval_ms;
+        }
         if (r->progress) { /* a waiting ray keeps 1 + where it goes on in out_aux.w */
             const float *aux = r->out_aux.mapped;
             size_t waiting = 0;
@@ -417,50 +483,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         st.gpu_composite_ms = ts[TS_COMPOSITE] - ts[TS_RESOLVE];
     }
 
-    const float *out = r->out_rgba.mapped, *aux = r->out_aux.mapped;
-    if (rgba) memcpy(rgba, out, pixels * 4 * sizeof(float));
-    uint64_t events = 0, segs = 0;
-    uint32_t *pl = r->pixel_lists.mapped;
-    const uint32_t *event_counts = r->event_counts.mapped;
-    for (size_t i = 0, px = 0, py = 0; i < pixels; ++i, px = px + 1 < (size_t)view->width ? px + 1 : (++py, 0)) {
-        const int outside = !chunk_rect_holds(drawn, px, py);
-        /* The resolve pass writes the list facts of a pixel without events only for the
-         * statistics (its naive count); else they are set here, for the lists' readers. */
-        if (listed && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
-        /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
-         * sample, its naive count in the list facts (0 when not counted). */
-        const int skipped = outside || (listed && pl[4 * i] == 0);
-        float naive = 0;
-        if (skipped) {
-            if (!outside) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
-            if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
-        }
-        st.composited_pixels += !skipped;
-        uint32_t n = skipped ? 0 : (uint32_t)aux[4 * i + 1];
-        st.total_samples += n;
-        st.naive_samples += (uint64_t)(skipped ? naive : aux[4 * i + 2]);
-        if (n > st.samples_max) st.samples_max = n;
-        if (depth) depth[i] = skipped ? INFINITY : aux[4 * i];
-        if (samples) samples[i] = skipped ? 0.0f : aux[4 * i + 1];
-        if (listed) {
-            uint32_t e = pl[4 * i + 1], s = pl[4 * i] & LEAP_PIXEL_COUNT_MASK;
-            events += e;
-            segs += s;
-            if (e > st.events_max) st.events_max = e;
-            if (s > st.segments_max) st.segments_max = s;
-            st.overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
-        }
-    }
-    if (!r->count_naive) st.naive_samples = 0;
+    read_outputs(r, view, drawn, listed, march->mip != 0, rgba, depth, samples, &st);
     r->lists_valid = listed;
     r->drawn = drawn;
     r->last_frame_pixels = pixels;
     st.readback_ms = leap__now_ms() - t2;
-    st.samples_mean = (double)st.total_samples / (double)pixels;
-    st.events_mean = (double)events / (double)pixels;
-    st.segments_mean = (double)segs / (double)pixels;
-    st.width = (uint32_t)view->width;
-    st.height = (uint32_t)view->height;
     if (stats) *stats = st;
     return LEAP_OK;
 }

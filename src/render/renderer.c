@@ -391,6 +391,13 @@ void leap_renderer_set_progress(leap_renderer *r, leap_progress_fn progress, voi
     r->progress_user = user;
 }
 
+void leap_renderer_set_partial(leap_renderer *r, leap_partial_fn fn, void *user, double interval_ms)
+{
+    r->partial = fn;
+    r->partial_user = user;
+    r->partial_interval_ms = interval_ms;
+}
+
 uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
 {
     uint32_t n = max_segments && max_segments < LEAP_MAX_SEGMENTS ? max_segments : LEAP_MAX_SEGMENTS;

@@ -68,6 +68,9 @@ struct leap_renderer {
     int count_naive; /* leap_renderer_count_naive */
     leap_progress_fn progress; /* leap_renderer_set_progress */
     void *progress_user;
+    leap_partial_fn partial;   /* leap_renderer_set_partial */
+    void *partial_user;
+    double partial_interval_ms;
     VkPipeline events;
     /* The resolve pass's two stages (resolve.comp), with and without the naive count; created
      * on first use from resolve_module. */
@@ -160,6 +163,8 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
 void renderer_cache_release(leap_renderer *r);
 /* cache.c: after a composite pass: 1 when a ray reported a miss. */
 int renderer_cache_missed(const leap_renderer *r);
+/* Forgets the misses rays reported (a frame ended while they wait). */
+void renderer_cache_forget_misses(leap_renderer *r);
 /* cache.c: loads the missed slots into their places (one per place and service), evicting
  * what was there, and clears the misses; counts into st. */
 leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_error *err);

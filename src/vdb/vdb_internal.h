@@ -274,8 +274,13 @@ float sanitize(float v, float bg, const Range &finite);
 // tree, so what was read can be dropped again.
 struct OnDemand {
     vdb::io::File file; // keeps the mapping the leaves read from
-    dev_t dev = 0;
-    ino_t ino = 0;
+    // The file as it was opened (its mapping is found by device and inode), held open: a read
+    // from a mapping of a file cut short raises SIGBUS, so reads stop once it is found changed
+    // (check_source).
+    int fd = -1;
+    struct stat opened = {};
+    static constexpr int64_t CHECK_NS = 1000000;
+    std::atomic<int64_t> checked_ns{0}; // CLOCK_MONOTONIC of the last check by a read
     // Values are mapped as the load maps a grid in memory: a non-finite background is
     // replaced (resetBackground), and non-finite values once the load-time scan saw one.
     float background = 0.0f, stored_background = 0.0f;
@@ -290,9 +295,17 @@ struct OnDemand {
     std::vector<std::pair<unsigned long, size_t>> mapped; // the file's mapping (trim)
 
     explicit OnDemand(const std::string &path) : file(path) {}
-    // Reads `leaf`'s values into `copy` (a leaf of the background if they cannot be read:
-    // the failure is kept for leap_grid_read_status).
+    ~OnDemand()
+    {
+        if (fd >= 0) ::close(fd);
+    }
+    // Reads `leaf`'s values into `copy` (a leaf of the background if they cannot be read, or
+    // once the file was found changed: the failure is kept for leap_grid_read_status).
     void read(const LeafT &leaf, std::unique_ptr<LeafT> &copy);
+    // Whether the file still has the size and times it had when opened; records the failure
+    // when not. Called before each batch of reads, and by reads every CHECK_NS.
+    bool check_source();
+    void fail(const std::string &why);
     // Drops the file's pages from this process's memory (they stay in the page cache).
     void trim();
 };

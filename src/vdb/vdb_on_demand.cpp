@@ -15,8 +15,55 @@ float sanitize(float v, float bg, const Range &finite)
 // bytes of pages read, they are dropped from the process (the kernel still caches them).
 static constexpr uint64_t TRIM_BYTES = 4u << 20;
 
+void OnDemand::fail(const std::string &why)
+{
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!failed.exchange(true)) error = why;
+}
+
+static bool same_time(const struct timespec &a, const struct timespec &b)
+{
+    return a.tv_sec == b.tv_sec && a.tv_nsec == b.tv_nsec;
+}
+
+bool OnDemand::check_source()
+{
+    if (failed.load()) return false;
+    struct stat now;
+    if (::fstat(fd, &now) != 0) {
+        fail(std::string("the file cannot be checked: ") + std::strerror(errno));
+        return false;
+    }
+    if (now.st_size == opened.st_size && same_time(now.st_mtim, opened.st_mtim) && same_time(now.st_ctim, opened.st_ctim))
+        return true;
+    fail("the file changed while it was open (" +
+         (now.st_size != opened.st_size ? "its size went from " + std::to_string(opened.st_size) + " to " +
+                                              std::to_string(now.st_size) + " bytes"
+                                        : std::string("written to, same size")) +
+         "); its leaves are no longer read: open it again");
+    return false;
+}
+
+static int64_t now_ns()
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return int64_t(t.tv_sec) * 1000000000 + t.tv_nsec;
+}
+
 void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
 {
+    // The file is checked at most every CHECK_NS (a read from a mapping of a file cut short
+    // raises SIGBUS; callers check before each batch as well).
+    const int64_t now = now_ns();
+    if (now - checked_ns.load(std::memory_order_relaxed) > CHECK_NS) {
+        checked_ns.store(now, std::memory_order_relaxed);
+        check_source();
+    }
+    if (failed.load()) { // the file may be shorter than its mapping now: read nothing more
+        copy.reset(new LeafT(leaf.origin(), background));
+        return;
+    }
     try {
         copy.reset(new LeafT(leaf)); // the copy's buffer still points into the file
         float *v = copy->buffer().data(); // reads it (OpenVDB's LeafBuffer::doLoad)
@@ -24,13 +71,14 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
         if (nonfinite)
             for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], background, finite);
     } catch (const std::exception &e) {
-        std::lock_guard<std::mutex> lock(mutex);
-        if (!failed.exchange(true)) {
-            const vdb::Coord o = leaf.origin();
-            error = "the leaf at (" + std::to_string(o.x()) + ", " + std::to_string(o.y()) + ", " +
-                    std::to_string(o.z()) + ") cannot be read: " + one_line(e.what()) +
-                    " (was the file changed while it was open?)";
-        }
+        const vdb::Coord o = leaf.origin();
+        fail("the leaf at (" + std::to_string(o.x()) + ", " + std::to_string(o.y()) + ", " + std::to_string(o.z()) +
+             ") cannot be read: " + one_line(e.what()) + " (a corrupt file, or one changed while it was open)");
+        // A buffer whose load threw still says it is in the file while it holds its values'
+        // array, and its destructor would free that array as the file's bookkeeping (OpenVDB
+        // 10): it is abandoned, one leaf's copy at most per reading thread, since no read
+        // starts after a failure.
+        (void)copy.release();
         copy.reset(new LeafT(leaf.origin(), background));
     }
     leaves_read.fetch_add(1, std::memory_order_relaxed);
@@ -51,7 +99,7 @@ void OnDemand::trim()
             unsigned long lo = 0, hi = 0, inode = 0;
             unsigned major = 0, minor = 0;
             if (std::sscanf(line, "%lx-%lx %*s %*s %x:%x %lu", &lo, &hi, &major, &minor, &inode) != 5) continue;
-            if (inode != ino || major != ::major(dev) || minor != ::minor(dev)) continue;
+            if (inode != opened.st_ino || major != ::major(opened.st_dev) || minor != ::minor(opened.st_dev)) continue;
             // Leaves are read in no file order: without read-around a fault maps one page.
             ::madvise(reinterpret_cast<void *>(lo), hi - lo, MADV_RANDOM);
             mapped.emplace_back(lo, hi - lo);

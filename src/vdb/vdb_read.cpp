@@ -604,11 +604,10 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
     const vdb::io::GridDescriptor &gd = file->descs[gi];
     if (!checked) file->reader->check(gd);
     if (!checked && gd.isInstance()) file->reader->check(file->descs[size_t(VdbReader::find_parent(file->descs, gd))]);
-    struct stat st;
-    if (stat(file->path.c_str(), &st) != 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
     od.reset(new OnDemand(file->path));
-    od->dev = st.st_dev;
-    od->ino = st.st_ino;
+    od->fd = ::open(file->path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (od->fd < 0 || ::fstat(od->fd, &od->opened) != 0)
+        OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
     od->file.setCopyMaxBytes(0); // map the file itself; OpenVDB would first copy a small one to /tmp
     od->file.open(/*delayLoad=*/true);
     // OpenVDB touches every page of the grid as it steps over the leaves' values (it reads each
@@ -738,6 +737,12 @@ int leap_grid_on_demand(const leap_grid *grid)
 uint64_t leap_grid_leaves_read(const leap_grid *grid)
 {
     return grid && grid->on_demand ? grid->on_demand->leaves_read.load() : 0;
+}
+
+leap_result leap_grid_check_source(const leap_grid *grid, leap_error *err)
+{
+    if (grid && grid->on_demand) grid->on_demand->check_source();
+    return leap_grid_read_status(grid, err);
 }
 
 leap_result leap_grid_read_status(const leap_grid *grid, leap_error *err)

@@ -21,6 +21,7 @@ typedef struct frame_figures {
     uint64_t overflowed;
     int scale;
     int refining;     /* 1 while a refinement pass is under way */
+    uint64_t waiting; /* rays still waiting for bricks: a frame ended early */
     double progress;  /* of the refinement pass, 0..1 */
     char heat[96];
 } frame_figures;
@@ -39,6 +40,7 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
     acc->pixels += f->pixels;
     acc->segments += f->segments;
     acc->overflowed += f->overflowed;
+    acc->waiting += f->waiting;
     acc->scale = f->scale;
     memcpy(acc->heat, f->heat, sizeof acc->heat);
 }
@@ -216,11 +218,53 @@ static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, 
     return r;
 }
 
+/* Writes the rendered rows of plan p, upscaled, into the base image and, with the heat
+ * overlay on, the heat values. */
+static void write_rows(leap_viewer_session *s, const leap_viewer *st, const leap_viewer_frame_plan *p)
+{
+    const int W = s->width, H = s->height, scale = p->scale, y0 = p->y0, rows = p->rows, w = p->width;
+    /* premultiplied colour over black = the RGB channels, as leap render writes PNGs */
+    const uint32_t *lists = st->show_heat && st->mode == LEAP_RENDER_SPARSELEAP ? leap_renderer_pixel_lists(s->renderer) : NULL;
+    int Y1 = (y0 + rows) * scale < H ? (y0 + rows) * scale : H;
+    for (int Y = y0 * scale; Y < Y1; ++Y) {
+        size_t row = (size_t)(Y / scale - y0) * w;
+        const float *src = s->rgba + row * 4;
+        uint8_t *dst = s->base8 + (size_t)Y * W * 3;
+        for (int X = 0; X < W; ++X) {
+            const float *px = src + (size_t)(X / scale) * 4;
+            dst[3 * X] = leap_viewer_to_u8(px[0]);
+            dst[3 * X + 1] = leap_viewer_to_u8(px[1]);
+            dst[3 * X + 2] = leap_viewer_to_u8(px[2]);
+        }
+        if (st->show_heat) {
+            float *hv = s->heat + (size_t)Y * W;
+            for (int X = 0; X < W; ++X) {
+                size_t si = row + (size_t)(X / scale);
+                if (lists) hv[X] = (lists[4 * si] & LEAP_PIXEL_OVERFLOW) ? -1.0f : (float)(lists[4 * si] & LEAP_PIXEL_COUNT_MASK);
+                else hv[X] = s->samples[si];
+            }
+        }
+    }
+}
+
+/* A frame through the brick cache presents its incomplete pictures (present_partial). */
+typedef struct partial_frame {
+    leap_viewer_session *s;
+    const leap_viewer *st;
+    const leap_viewer_frame_plan *p;
+    uint64_t seq, fb_seq; /* the state and window size the frame was begun for */
+    int finish;           /* a screenshot's frame: not ended by newer input */
+    double t0;            /* when the frame began */
+    int pictures;         /* incomplete pictures presented */
+} partial_frame;
+static int present_partial(void *user, const leap_frame_stats *so_far);
+
 /* Renders the rows of plan p for state st and writes them, upscaled, into the base image
  * and, with the heat overlay on, the heat values. A band is the same camera with its first
- * row moved to y0. */
+ * row moved to y0. Through a brick cache the frame's incomplete pictures are presented as
+ * they come (present_partial); finish: a screenshot's frame, which newer input does not end. */
 static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, const leap_viewer_frame_plan *p,
-                               frame_figures *ff, leap_error *err)
+                               int finish, frame_figures *ff, leap_error *err)
 {
     const int W = s->width, H = s->height, scale = p->scale, y0 = p->y0, rows = p->rows, w = p->width;
     leap_camera cam;
@@ -247,8 +291,14 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     int want_samples = st->show_heat && st->mode != LEAP_RENDER_SPARSELEAP;
     leap_frame_stats fs;
     double t0 = leap__now_ms();
+    pthread_mutex_lock(&s->mu);
+    partial_frame pf = {s, st, p, s->seq, s->fb_seq, finish, t0, 0};
+    pthread_mutex_unlock(&s->mu);
+    leap_renderer_set_partial(s->renderer, present_partial, &pf, LEAP_VIEWER_PARTIAL_MS);
     r = leap_renderer_render(s->renderer, &view, &march, st->mode, s->rgba, NULL, want_samples ? s->samples : NULL, &fs, err);
+    leap_renderer_set_partial(s->renderer, NULL, NULL, 0);
     if (r) return r;
+    ff->waiting = fs.waiting_pixels;
     double t1 = leap__now_ms();
     ff->render_ms = t1 - t0;
     ff->raster_ms = fs.gpu_raster_ms;
@@ -261,28 +311,7 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     ff->overflowed = fs.overflow_pixels;
     ff->scale = scale;
     leap_viewer_schedule_rendered(&s->schedule, p, st->mode, ff->render_ms, (double)band);
-    /* premultiplied colour over black = the RGB channels, as leap render writes PNGs */
-    const uint32_t *lists = st->show_heat && st->mode == LEAP_RENDER_SPARSELEAP ? leap_renderer_pixel_lists(s->renderer) : NULL;
-    int Y1 = (y0 + rows) * scale < H ? (y0 + rows) * scale : H;
-    for (int Y = y0 * scale; Y < Y1; ++Y) {
-        size_t row = (size_t)(Y / scale - y0) * w;
-        const float *src = s->rgba + row * 4;
-        uint8_t *dst = s->base8 + (size_t)Y * W * 3;
-        for (int X = 0; X < W; ++X) {
-            const float *px = src + (size_t)(X / scale) * 4;
-            dst[3 * X] = leap_viewer_to_u8(px[0]);
-            dst[3 * X + 1] = leap_viewer_to_u8(px[1]);
-            dst[3 * X + 2] = leap_viewer_to_u8(px[2]);
-        }
-        if (st->show_heat) {
-            float *hv = s->heat + (size_t)Y * W;
-            for (int X = 0; X < W; ++X) {
-                size_t si = row + (size_t)(X / scale);
-                if (lists) hv[X] = (lists[4 * si] & LEAP_PIXEL_OVERFLOW) ? -1.0f : (float)(lists[4 * si] & LEAP_PIXEL_COUNT_MASK);
-                else hv[X] = s->samples[si];
-            }
-        }
-    }
+    write_rows(s, st, p);
     ff->compose_ms = leap__now_ms() - t1;
     return LEAP_OK;
 }
@@ -335,6 +364,35 @@ static const uint8_t *with_panel(leap_viewer_session *s, const uint8_t *rgb)
     return s->ui8;
 }
 
+/* An incomplete picture while bricks load: presented with the share of rays done in the
+ * title. Ends the frame when the user asked for another (new state, new window size, quit). */
+static int present_partial(void *user, const leap_frame_stats *so_far)
+{
+    partial_frame *pf = user;
+    leap_viewer_session *s = pf->s;
+    leap_error err = {{0}};
+    frame_figures ff;
+    memset(&ff, 0, sizeof ff);
+    write_rows(s, pf->st, pf->p);
+    const uint8_t *rgb = NULL;
+    int shown = 0;
+    if (compose_output(s, pf->st, &ff, &rgb, &err) ||
+        leap_presenter_present(s->presenter, with_panel(s, rgb), s->width, s->height, &shown, &err))
+        return 1; /* the frame's own presentation reports it */
+    const double pixels = (double)so_far->width * so_far->height;
+    pthread_mutex_lock(&s->mu);
+    snprintf(s->pub.title, sizeof s->pub.title, "leap view %s | %s | INCOMPLETE: loading the bricks rays reach, "
+             "%.0f %% of the rays done", s->volume_name, leap_mode_name(pf->st->mode),
+             100.0 * (1.0 - (double)so_far->waiting_pixels / (pixels > 0 ? pixels : 1.0)));
+    s->pub.title_new = 1;
+    s->pub.partials++;
+    if (pf->pictures++ == 0) s->pub.first_partial_ms = leap__now_ms() - pf->t0;
+    const int stop = s->stop || (!pf->finish && (s->seq != pf->seq || s->fb_seq != pf->fb_seq));
+    pthread_mutex_unlock(&s->mu);
+    session_wake();
+    return stop;
+}
+
 /* Takes the main thread's newest panel layer (mutex held). Returns 1 if it changed. */
 static int take_layer(leap_viewer_session *s)
 {
@@ -364,11 +422,14 @@ static leap_result save_presented(const leap_viewer_session *s, const uint8_t *r
 static void make_title(const leap_viewer_session *s, const leap_viewer *st, const frame_figures *ff, const char *blank_why,
                        char *out, size_t size)
 {
-    char res[64] = "";
+    char res[128] = "";
     if (ff->refining)
         snprintf(res, sizeof res, " (refining%s: %.0f %%)", ff->scale > 1 ? " at reduced res" : "", 100.0 * ff->progress);
     else if (ff->scale > 1)
         snprintf(res, sizeof res, " (1/%d res)", ff->scale);
+    if (ff->waiting)
+        snprintf(res + strlen(res), sizeof res - strlen(res), " INCOMPLETE (%llu rays wait for bricks)",
+                 (unsigned long long)ff->waiting);
     char tf_ms[48] = "", blank[300] = "";
     if (s->tf_apply_ms > 0) snprintf(tf_ms, sizeof tf_ms, " | re-classify %.1f ms", s->tf_apply_ms);
     /* A blank frame says why, first: a silently black window looks like a failure. */
@@ -514,17 +575,6 @@ static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char 
                                       "that file to --tf)" : "");
 }
 
-void session_frame_progress(void *user, const char *what, double done)
-{
-    leap_viewer_session *s = user;
-    pthread_mutex_lock(&s->mu);
-    snprintf(s->pub.title, sizeof s->pub.title, "leap view %s | %s: %.0f %% of the rays done", s->volume_name, what,
-             100.0 * done);
-    s->pub.title_new = 1;
-    pthread_mutex_unlock(&s->mu);
-    session_wake();
-}
-
 void *session_render_thread(void *arg)
 {
     leap_viewer_session *s = arg;
@@ -611,7 +661,7 @@ void *session_render_thread(void *arg)
         frame_figures ff;
         memset(&ff, 0, sizeof ff);
         const uint8_t *shown_rgb = NULL;
-        leap_result r = render_rows(s, &st, &plan, &ff, &err);
+        leap_result r = render_rows(s, &st, &plan, shot_id != 0, &ff, &err);
         s->base_ok = !r;
         s->shown_state = st;
         if (!r) r = compose_output(s, &st, &ff, &shown_rgb, &err);
@@ -641,7 +691,11 @@ void *session_render_thread(void *arg)
             ff = pass;
         }
         int shot_failed = 0;
-        if (shot_id) {
+        if (shot_id && ff.waiting) { /* ended by quitting while bricks loaded: never saved incomplete */
+            session_note(s, LEAP_VIEWER_NOTE_STATUS, "screenshot %s not written: the frame ended before its bricks "
+                         "were loaded", shot_path);
+            shot_failed = 1;
+        } else if (shot_id) {
             if (save_presented(s, shot_panel ? presented : shown_rgb, shot_path, &err)) {
                 session_note(s, LEAP_VIEWER_NOTE_STATUS, "screenshot: %s", err.msg);
                 shot_failed = 1;

@@ -25,10 +25,14 @@ void script_mark(leap_viewer_session *s, script_run *run, const char *label)
     uint64_t frames = p.frames - run->mark_frames, full = p.frames_full - run->mark_full;
     double ms = now - run->mark_ms;
     const uint64_t classifies = p.classifies - run->mark_classifies;
-    char classify[96] = "";
+    char classify[160] = "";
+    const uint64_t partials = p.partials - run->mark_partials;
+    if (partials)
+        snprintf(classify, sizeof classify, "; %llu incomplete pictures while bricks loaded (the latest frame's first "
+                 "%.1f ms after it began)", (unsigned long long)partials, p.first_partial_ms);
     if (classifies)
-        snprintf(classify, sizeof classify, "; %llu re-classifications, mean %.2f ms", (unsigned long long)classifies,
-                 (p.classify_ms_sum - run->mark_classify_ms) / (double)classifies);
+        snprintf(classify + strlen(classify), sizeof classify - strlen(classify), "; %llu re-classifications, mean %.2f ms",
+                 (unsigned long long)classifies, (p.classify_ms_sum - run->mark_classify_ms) / (double)classifies);
     if (label)
         session_note(s, LEAP_VIEWER_NOTE_RESULT,
                      "mark %s: %llu frames (%llu full resolution, %llu reduced) in %.1f ms: %.2f fps; mean frame %.1f ms "
@@ -44,6 +48,7 @@ void script_mark(leap_viewer_session *s, script_run *run, const char *label)
     run->mark_render_ms = p.render_ms_sum;
     run->mark_classify_ms = p.classify_ms_sum;
     run->mark_classifies = p.classifies;
+    run->mark_partials = p.partials;
 }
 
 /* Whether what the current command waits for has happened; -1: a screenshot failed. */

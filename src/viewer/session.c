@@ -257,7 +257,6 @@ leap_result leap_viewer_session_start_gpu(leap_viewer_session *s, leap_error *er
     };
     leap_result lr = leap_renderer_create(&rd, &s->renderer, err);
     if (!lr) leap_renderer_count_naive(s->renderer, 0); /* the viewer shows no naive count */
-    if (!lr) leap_renderer_set_progress(s->renderer, session_frame_progress, s);
     return lr;
 }
 

@@ -20,6 +20,8 @@ int viewer_preset_index(const char *name);
 typedef struct session_published {
     uint64_t rendered_seq;     /* state version of the last presented frame */
     uint64_t frames, frames_full, forced_done;
+    uint64_t partials;         /* incomplete pictures presented while bricks loaded */
+    double first_partial_ms;   /* the latest frame with any: its first one, after it began */
     double frame_ms_sum, render_ms_sum;
     double classify_ms_sum;    /* re-classifications (transfer function, window, objects) */
     uint64_t classifies;
@@ -141,10 +143,6 @@ void session_note(leap_viewer_session *s, leap_viewer_note kind, const char *fmt
 /* Render thread (frame.c). */
 void *session_render_thread(void *arg);
 
-/* The renderer's progress (leap_renderer_set_progress) during a frame through the brick cache:
- * in the title until the frame is done. user is the session. */
-void session_frame_progress(void *user, const char *what, double done);
-
 /* Main thread (session.c): publish the edited state to the render thread, queue a
  * screenshot (its id; 0 if one is pending), resize the window, wake the event loop. */
 void session_post_state(leap_viewer_session *s);
@@ -179,7 +177,7 @@ typedef struct script_run {
     double mark_ms;
     uint64_t mark_frames, mark_full;
     double mark_frame_ms, mark_render_ms, mark_classify_ms;
-    uint64_t mark_classifies;
+    uint64_t mark_classifies, mark_partials;
 } script_run;
 
 void script_mark(leap_viewer_session *s, script_run *run, const char *label);

@@ -963,6 +963,11 @@ leap_result leap_atlas_read_slot(const leap_atlas *a, uint32_t slot, uint16_t *o
     return leap_grid_read_status(a->grid, err);
 }
 
+leap_result leap_atlas_check_source(const leap_atlas *atlas, leap_error *err)
+{
+    return atlas->slot_texels ? LEAP_OK : leap_grid_check_source(atlas->grid, err);
+}
+
 void leap_atlas_march_domain(const leap_atlas *atlas, leap_march *march)
 {
     for (int i = 0; i < 3; ++i) {
