@@ -113,8 +113,9 @@ typedef struct leap_grid_scan {
  * (leap_grid_get_scan of an earlier load of the same, unchanged file: a grid index): then it
  * reads the topology alone, and the file's checks are taken as passed. Values read are those
  * leap_vdb_load_grid gives. Float grids in .vdb files with grid offsets only
- * (LEAP_ERR_UNSUPPORTED otherwise). The file must not change while the grid is open: a leaf
- * that cannot be read then reads as the background and is reported by leap_grid_read_status. */
+ * (LEAP_ERR_UNSUPPORTED otherwise). A leaf that cannot be read (a corrupt file, or one that
+ * changed while open: leap_grid_check_source) reads as the background and is reported by
+ * leap_grid_read_status. */
 leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
                                          leap_grid **out, leap_error *err);
 
