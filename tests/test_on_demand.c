@@ -39,15 +39,25 @@ static leap_scene *load(const char *path, uint64_t budget, int mip, leap_error *
     return leap_scene_create(&d, &s, err) ? NULL : s;
 }
 
-/* A view from `dist` bounding radii (0: the whole volume in view) with a vertical field of `fov` degrees. */
+/* A view from `dist` bounding radii (0: the whole volume in view) with a vertical field of
+ * `fov` degrees; the result. */
+static leap_result render_result(leap_renderer *r, leap_scene *s, leap_mode mode, double dist, double fov, frame_out *out,
+                                 leap_error *err)
+{
+    leap_camera cam;
+    leap_rays view;
+    leap_result lr = leap_renderer_bind_scene(r, s, err);
+    if (!lr) lr = leap_camera_orbit(s->center, s->radius, 35, 25, dist, fov, 0, &cam, err);
+    if (!lr) lr = leap_scene_rays(s, &cam, W, H, &view, err);
+    if (!lr) lr = leap_renderer_render(r, &view, &s->march, mode, out->rgba, out->depth, out->samples, &out->st, err);
+    return lr;
+}
+
+/* As render_result; 1 if it rendered, else 0 after printing why. */
 static int render_view(leap_renderer *r, leap_scene *s, leap_mode mode, double dist, double fov, frame_out *out)
 {
     leap_error err = {{0}};
-    leap_camera cam;
-    leap_rays view;
-    if (leap_renderer_bind_scene(r, s, &err) || leap_camera_orbit(s->center, s->radius, 35, 25, dist, fov, 0, &cam, &err) ||
-        leap_scene_rays(s, &cam, W, H, &view, &err) ||
-        leap_renderer_render(r, &view, &s->march, mode, out->rgba, out->depth, out->samples, &out->st, &err)) {
+    if (render_result(r, s, mode, dist, fov, out, &err)) {
         printf("FAIL: %s\n", err.msg);
         return 0;
     }
@@ -320,18 +330,6 @@ done:
     leap_scene_destroy(s);
 }
 
-/* Renders through a cache of a few dozen bricks, so the frame reads leaves; the result. */
-static leap_result render_result(leap_renderer *r, leap_scene *s, frame_out *out, leap_error *err)
-{
-    leap_camera cam;
-    leap_rays view;
-    leap_result lr = leap_renderer_bind_scene(r, s, err);
-    if (!lr) lr = leap_camera_orbit(s->center, s->radius, 35, 25, 0, 40, 0, &cam, err);
-    if (!lr) lr = leap_scene_rays(s, &cam, W, H, &view, err);
-    if (!lr) lr = leap_renderer_render(r, &view, &s->march, LEAP_RENDER_SPARSELEAP, out->rgba, out->depth, NULL, &out->st, err);
-    return lr;
-}
-
 static int copy_file(const char *from, const char *to)
 {
     char cmd[2048];
@@ -360,7 +358,7 @@ static void test_changed_file(const char *fog)
         leap_scene *s = load(path, 32u << 20, 0, &err);
         CHECK_MSG(s && leap_grid_on_demand(s->grid), "%s", err.msg);
         if (!s) break;
-        CHECK_OK(render_result(r, s, &out, &err), &err);
+        CHECK_OK(render_result(r, s, LEAP_RENDER_SPARSELEAP, 0, 40, &out, &err), &err);
         struct stat st;
         CHECK(stat(path, &st) == 0);
         if (cut) {
@@ -388,7 +386,7 @@ static void test_changed_file(const char *fog)
         CHECK_MSG(failed == s->atlas->slot_count && strstr(err.msg, "changed while"), "%s: %u failed, %s", what, failed,
                   err.msg);
         for (int frame = 0; frame < 2; ++frame) {
-            leap_result lr = render_result(r, s, &out, &err);
+            leap_result lr = render_result(r, s, LEAP_RENDER_SPARSELEAP, 0, 40, &out, &err);
             printf("file %s while open, frame %d: %s\n", what, frame, lr ? err.msg : "rendered");
             CHECK_MSG(lr == LEAP_ERR_FORMAT && strstr(err.msg, "changed while"), "%s: %d %s", what, lr, err.msg);
         }

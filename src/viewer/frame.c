@@ -364,6 +364,18 @@ static const uint8_t *with_panel(leap_viewer_session *s, const uint8_t *rgb)
     return s->ui8;
 }
 
+/* Presents the base image as it stands, with the overlays of state st and the panel. */
+static leap_result present_again(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
+{
+    frame_figures ff;
+    memset(&ff, 0, sizeof ff);
+    const uint8_t *rgb = NULL;
+    int shown = 0;
+    leap_result r = compose_output(s, st, &ff, &rgb, err);
+    if (!r) r = leap_presenter_present(s->presenter, with_panel(s, rgb), s->width, s->height, &shown, err);
+    return r;
+}
+
 /* An incomplete picture while bricks load: presented with the share of rays done in the
  * title. Ends the frame when the user asked for another (new state, new window size, quit). */
 static int present_partial(void *user, const leap_frame_stats *so_far)
@@ -371,14 +383,8 @@ static int present_partial(void *user, const leap_frame_stats *so_far)
     partial_frame *pf = user;
     leap_viewer_session *s = pf->s;
     leap_error err = {{0}};
-    frame_figures ff;
-    memset(&ff, 0, sizeof ff);
     write_rows(s, pf->st, pf->p);
-    const uint8_t *rgb = NULL;
-    int shown = 0;
-    if (compose_output(s, pf->st, &ff, &rgb, &err) ||
-        leap_presenter_present(s->presenter, with_panel(s, rgb), s->width, s->height, &shown, &err))
-        return 1; /* the frame's own presentation reports it */
+    if (present_again(s, pf->st, &err)) return 1; /* the frame's own presentation reports it */
     const double pixels = (double)so_far->width * so_far->height;
     pthread_mutex_lock(&s->mu);
     snprintf(s->pub.title, sizeof s->pub.title, "leap view %s | %s | INCOMPLETE: loading the bricks rays reach, "
@@ -629,12 +635,7 @@ void *session_render_thread(void *arg)
             continue; /* only a pick was asked for */
         if (panel_changed && !is_new && !forced && !shot_id && s->base_ok) {
             /* only the panel changed: the last frame again, with the new panel over it */
-            frame_figures ff;
-            memset(&ff, 0, sizeof ff);
-            const uint8_t *rgb = NULL;
-            int shown = 0;
-            leap_result r = compose_output(s, &st, &ff, &rgb, &err);
-            if (!r) r = leap_presenter_present(s->presenter, with_panel(s, rgb), s->width, s->height, &shown, &err);
+            leap_result r = present_again(s, &st, &err);
             if (r) {
                 set_fatal(s, r, err.msg);
                 break;
