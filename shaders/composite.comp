@@ -77,8 +77,12 @@ void main()
             leap_march_interval(ray, lat, ca, cb, j_next, acc);
         } else if (mode == LEAP_MODE_OCTREE) {
             // Also sparseleap's rays whose events or segments did not fit (the overflow list):
-            // they still skip every EMPTY leaf, and take the same samples.
-            leap_march_interval(ray, lat, ca, cb, j_next, acc);
+            // they still skip every EMPTY leaf, and take the same samples. Outside the box of
+            // the non-empty cells every cell is EMPTY, so the walk starts and ends there (a
+            // camera inside a long box walked EMPTY leaves all the way to the data).
+            float b0, b1;
+            if (leap_clip_box(ray, frame.bbox_min.xyz, frame.bbox_max.xyz, b0, b1))
+                leap_march_interval(ray, lat, max(b0, ca), min(b1, cb), j_next, acc);
         } else if (mode == LEAP_MODE_BBOX) {
             float b0, b1;
             if (leap_clip_box(ray, frame.bbox_min.xyz, frame.bbox_max.xyz, b0, b1))

@@ -381,16 +381,21 @@ vec3 leap_shade_rgb(vec3 rgb, vec3 stored, leap_light k)
 }
 
 // Class of the occupancy-tree leaf holding cell c, and that leaf's cube [lo, lo + size) in
-// cells, found by descending from the root.
+// cells, found by descending from node 0 (frame.tree_top: the smallest node around every cell
+// that is not EMPTY).
 uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
 {
-    size = 1 << frame.lists.w;
-    lo = ivec3(0);
-    if (any(lessThan(c, ivec3(0))) || any(greaterThanEqual(c, ivec3(size)))) {
-        lo = c; // outside the tree (float rounding at the domain): treat as non-empty
+    const int level = int(frame.tree_top.w);
+    const ivec3 top = ivec3(frame.tree_top.xyz);
+    if (any(lessThan(c, top)) || any(greaterThanEqual(c, top + (1 << level)))) {
+        // Rays are clipped to the box of the non-empty cells, inside node 0: a cell outside it
+        // comes from float rounding at that box (or at the domain) and is marched.
+        lo = c;
         size = 1;
         return LEAP_CLASS_NONEMPTY;
     }
+    size = 1 << level;
+    lo = top;
     uint node = 0u;
     for (;;) {
         size >>= 1;

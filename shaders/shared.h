@@ -226,7 +226,7 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 bbox_min;       /* 352: xyz, non-empty bounds (bbox mode) */
     LEAP_VEC4 bbox_max;       /* 368: w = the farthest t of any sample a skipping mode may take (naive: inf) */
     LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,
-                                 w = occupancy tree depth (root edge = 2^w cells) */
+                                 w unused */
     LEAP_UVEC4 labels;        /* 400: label volumes: x = first label word in pages[], y = objects */
     LEAP_VEC4 keep[4];        /* 416: clipping planes (a, b, c, d), relative index space: a ray keeps
                                  the points where a x + b y + c z + d >= 0 for every plane in use */
@@ -243,7 +243,9 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 mip_floor;      /* 592: x = where MIP's running extreme starts (signed table
                                  coordinate, see leap_mip_sample): the largest one up to which
                                  the table is transparent, -2 if it is not at its end */
-} LEAP_STRUCT_END(leap_frame_gpu) /* 608 bytes */
+    LEAP_UVEC4 tree_top;      /* 608: the octree walk's node 0 (leap_occupancy_flatten): xyz = its
+                                 first cell, w = its level (edge = 2^w cells) */
+} LEAP_STRUCT_END(leap_frame_gpu) /* 624 bytes */
 
 
 #endif

@@ -164,10 +164,10 @@ static void scattered_box(leap_renderer *renderer)
     leap_scene_destroy(s);
 }
 
-/* A ball of varying values at the origin, a constant 64^3 tile and 8^3 leaves at the corners
- * of a box `half` voxels either way (faint: transparent under viridis): the grid a long box
- * stretches. */
-static int write_spread(const char *path, int half)
+/* A ball of varying values at (shift, shift, shift), a constant 64^3 tile beside it and 8^3
+ * leaves at the corners of a box `half` voxels either way of the origin (faint: transparent
+ * under viridis): the grid a long box stretches. */
+static int write_spread(const char *path, int half, int shift)
 {
     leap_error err = {{0}};
     leap_vdb_writer *w = NULL;
@@ -181,9 +181,9 @@ static int write_spread(const char *path, int half)
         for (int y = -12; y <= 12; ++y)
             for (int x = -12; x <= 12; ++x) {
                 const double r = sqrt(x * x + y * y + z * z);
-                if (r < 12) leap_vdb_writer_set(w, g, x, y, z, 1.0 - r / 12 + 0.05 * sin(x + 2 * y));
+                if (r < 12) leap_vdb_writer_set(w, g, x + shift, y + shift, z + shift, 1.0 - r / 12 + 0.05 * sin(x + 2 * y));
             }
-    const int32_t tile_lo[3] = {64, -32, -32}, tile_hi[3] = {127, 31, 31};
+    const int32_t tile_lo[3] = {shift + 64, shift - 32, shift - 32}, tile_hi[3] = {shift + 127, shift + 31, shift + 31};
     leap_vdb_writer_fill(w, g, tile_lo, tile_hi, 0.6, 1);
     for (int c = 0; c < 8; ++c) {
         const int32_t lo[3] = {c & 1 ? half - 8 : -half, c & 2 ? half - 8 : -half, c & 4 ? half - 8 : -half};
@@ -207,7 +207,7 @@ static void long_box(leap_renderer *renderer)
     mkdir(LEAP_TEST_TMP, 0755);
     snprintf(short_path, sizeof short_path, "%s/spread-short.vdb", LEAP_TEST_TMP);
     snprintf(long_path, sizeof long_path, "%s/spread-long.vdb", LEAP_TEST_TMP);
-    if (!write_spread(short_path, 512) || !write_spread(long_path, 16384)) return;
+    if (!write_spread(short_path, 512, 0) || !write_spread(long_path, 16384, 0)) return;
     leap_scene *short_box = load_scene(short_path, NULL, "viridis", 0.5);
     leap_scene *s = load_scene(long_path, NULL, "viridis", 0.5);
     CHECK(short_box && s);
@@ -263,6 +263,50 @@ static void long_box(leap_renderer *renderer)
     free(naive);
     free(img);
     free(ref);
+    leap_renderer_set_occupancy(renderer, NULL, NULL);
+    leap_scene_destroy(s);
+}
+
+/* The data of a long box inside one branch of its occupancy tree (the ball and tile in cells
+ * 919-937 of 4096 along each axis): the octree walk starts at the smallest node holding them
+ * (leap_occupancy_flatten) and passes everything around it as EMPTY; octree, and every mode,
+ * equals naive from a camera inside the box. */
+static void off_centre_box(leap_renderer *renderer)
+{
+    char path[1024];
+    mkdir(LEAP_TEST_TMP, 0755);
+    snprintf(path, sizeof path, "%s/spread-off-centre.vdb", LEAP_TEST_TMP);
+    const int shift = -9000;
+    if (!write_spread(path, 16384, shift)) return;
+    leap_scene *s = load_scene(path, NULL, "viridis", 0.5);
+    CHECK(s != NULL);
+    if (!s) return;
+    uint32_t depth, top[4];
+    CHECK(leap_occupancy_flatten(s->occupancy, NULL, 0, &depth, top) > 0);
+    printf("off-centre box: tree depth %u, the walk's node 0 at cells %u,%u,%u of level %u\n", depth, top[0], top[1],
+           top[2], top[3]);
+    CHECK_MSG(depth == 13 && top[3] == 6, "tree depth %u, node 0 of level %u", depth, top[3]);
+    leap_error err = {{0}};
+    CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+    enum { SW = 48, SH = 48 };
+    const size_t n = (size_t)SW * SH;
+    float *naive = malloc(n * 4 * sizeof(float)), *img = malloc(n * 4 * sizeof(float));
+    const double target[3] = {shift + 40, shift, shift};
+    leap_camera cam;
+    CHECK_OK(leap_camera_orbit(target, 110, 30, 20, 0, 40, 0, &cam, &err), &err);
+    leap_rays view;
+    CHECK_OK(leap_rays_make(&cam, SW, SH, s->info->index_to_world, s->march.index_origin, &view, &err), &err);
+    CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
+    double alpha_sum = 0;
+    for (size_t i = 0; i < n; ++i) alpha_sum += naive[4 * i + 3];
+    CHECK_MSG(alpha_sum > 50.0, "off-centre box: the image is nearly empty (alpha sum %g)", alpha_sum);
+    for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
+        CHECK_OK(leap_renderer_render(renderer, &view, &s->march, (leap_mode)m, img, NULL, NULL, NULL, &err), &err);
+        CHECK_MSG(!memcmp(img, naive, n * 4 * sizeof(float)), "off-centre box: %s differs from naive",
+                  leap_mode_name((leap_mode)m));
+    }
+    free(naive);
+    free(img);
     leap_renderer_set_occupancy(renderer, NULL, NULL);
     leap_scene_destroy(s);
 }
@@ -437,6 +481,7 @@ int main(void)
     CHECK(renderer != NULL);
     if (renderer) scattered_box(renderer);
     if (renderer) long_box(renderer);
+    if (renderer) off_centre_box(renderer);
     leap_renderer *float_32 = make_renderer();
     if (renderer && float_32) single_render(float_32, renderer);
     leap_renderer_destroy(float_32);

@@ -44,7 +44,7 @@ int main(void)
     CHECK(offsetof(leap_frame_gpu, light) == 560);
     CHECK(offsetof(leap_frame_gpu, overflow) == 576);
     CHECK(offsetof(leap_frame_gpu, mip_floor) == 592);
-    CHECK(sizeof(leap_frame_gpu) == 608);
+    CHECK(sizeof(leap_frame_gpu) == 624);
     CHECK(sizeof(((leap_frame_gpu *)0)->keep) / sizeof(leap_vec4) == LEAP_MAX_CLIPS);
     CHECK(sizeof(leap_push_gpu) == 16 && offsetof(leap_push_gpu, chunk) == 0);
     CHECK(offsetof(leap_box_gpu, lo) == 0);

@@ -379,6 +379,54 @@ static int walk_nodes(const leap_occupancy *occ, uint32_t ref, const svt *v, con
 
 static leap_tf tf1, tf2;
 
+/* The octree mode's walk of the flattened tree (leap_tree_leaf in shaders/march.glsl): the
+ * class of the leaf holding cell c, and that leaf's cube; cells outside node 0: -1. */
+static int flat_leaf(const uint32_t *words, const uint32_t top[4], const int64_t c[3], int64_t lo[3], int64_t *size)
+{
+    for (int a = 0; a < 3; ++a)
+        if (c[a] < top[a] || c[a] >= (int64_t)top[a] + ((int64_t)1 << top[3])) return -1;
+    *size = (int64_t)1 << top[3];
+    for (int a = 0; a < 3; ++a) lo[a] = top[a];
+    for (uint32_t node = 0;;) {
+        *size >>= 1;
+        uint32_t k = 0;
+        for (int a = 0; a < 3; ++a)
+            if (c[a] >= lo[a] + *size) lo[a] += *size, k |= 1u << a;
+        const uint32_t w = words[8 * node + k];
+        if (w & LEAP_TREE_LEAF) return (int)(w & 3u);
+        node = w;
+    }
+}
+
+/* Cells c[i] walked through the flattened tree: inside node 0, the class of every cell is its
+ * own and the far corners of its leaf's cube have that class too; every cell of the root
+ * outside node 0 is EMPTY. */
+static int check_flat_walk(const leap_occupancy *occ, const int64_t (*c)[3], size_t n)
+{
+    uint32_t depth, top[4];
+    const size_t words = leap_occupancy_flatten(occ, NULL, 0, &depth, top);
+    uint32_t *w = malloc(words * sizeof *w);
+    if (!w) return -1;
+    leap_occupancy_flatten(occ, w, words, &depth, top);
+    int wrong = 0;
+    for (size_t i = 0; i < n; ++i) {
+        int64_t lo[3], size, hi[3];
+        const int cls = flat_leaf(w, top, c[i], lo, &size);
+        if (cls < 0) {
+            int in_root = 1;
+            for (int a = 0; a < 3; ++a) in_root &= c[i][a] >= 0 && c[i][a] < (int64_t)1 << depth;
+            wrong += in_root && leap_occupancy_cell_class(occ, c[i]) != LEAP_CLASS_EMPTY;
+            continue;
+        }
+        for (int a = 0; a < 3; ++a) hi[a] = lo[a] + size - 1;
+        wrong += (uint32_t)cls != leap_occupancy_cell_class(occ, c[i]) ||
+                 (uint32_t)cls != leap_occupancy_cell_class(occ, lo) || (uint32_t)cls != leap_occupancy_cell_class(occ, hi);
+        for (int a = 0; a < 3; ++a) wrong += c[i][a] < lo[a] || c[i][a] > hi[a];
+    }
+    free(w);
+    return wrong;
+}
+
 /* Everything about one classified tree against the brute force. */
 static void check_against_truth(const leap_occupancy *occ, const scene *s, truth *t)
 {
@@ -392,6 +440,17 @@ static void check_against_truth(const leap_occupancy *occ, const scene *s, truth
                 if (leap_occupancy_cell_class(occ, c) != truth_class(t, c)) ++wrong;
             }
     CHECK_MSG(wrong == 0, "%zu of %zu cells classified differently", wrong, tested);
+    {
+        int64_t(*cells)[3] = malloc(tested * sizeof *cells);
+        size_t n = 0;
+        for (int64_t z = -1; cells && z <= (int64_t)s->cells[2]; ++z)
+            for (int64_t y = -1; y <= (int64_t)s->cells[1]; ++y)
+                for (int64_t x = -1; x <= (int64_t)s->cells[0]; ++x, ++n)
+                    cells[n][0] = x, cells[n][1] = y, cells[n][2] = z;
+        const int walk_wrong = cells ? check_flat_walk(occ, (const int64_t(*)[3])cells, n) : -1;
+        CHECK_MSG(walk_wrong == 0, "the flattened tree's walk: %d wrong of %zu cells", walk_wrong, n);
+        free(cells);
+    }
     int64_t far[3] = {-1000000, 5, 1LL << 40};
     CHECK(leap_occupancy_cell_class(occ, far) == t->bg_cls);
 
@@ -692,6 +751,44 @@ static void test_huge_tile(void)
     leap_occupancy_destroy(occ);
 }
 
+/* One leaf in a 4096^3-cell grid: the flattened tree starts at the smallest node around it, and
+ * the walk from there gives every cell's class, however far the root reaches. */
+static void test_flatten_top(void)
+{
+    leap_error err = {{0}};
+    scene s;
+    memset(&s, 0, sizeof s);
+    for (int a = 0; a < 3; ++a) s.cells[a] = 4096;
+    const int32_t o[3] = {8 * 3001, 8 * 17, 8 * 2050};
+    add_brick(&s, o, 8, 0, 1.0f, 2.0f, 0.0f);
+    s.vmin = 0.0, s.vmax = 2.0;
+    leap_occupancy_desc d = scene_desc(&s);
+    leap_occupancy *occ = NULL;
+    CHECK_OK(leap_occupancy_create(&d, &occ, &err), &err);
+    if (!occ) return;
+    single_entry_tf(&tf1, N - 1);
+    CHECK_OK(leap_occupancy_classify(occ, &tf1, 0.0, 2.0, &err), &err);
+    uint32_t depth, top[4];
+    CHECK(leap_occupancy_flatten(occ, NULL, 0, &depth, top) > 0);
+    /* the leaf and the cells its apron reaches (2049 and 2050 along z straddle a level-1 edge) */
+    CHECK_MSG(depth == 12 && top[3] == 2, "depth %u, node 0 of level %u", depth, top[3]);
+    for (int a = 0; a < 3; ++a)
+        CHECK(top[a] <= (uint32_t)o[a] / 8 && (uint32_t)o[a] / 8 < top[a] + (1u << top[3]));
+    enum { RANDOM = 20000, NEAR = 7 * 7 * 7 };
+    int64_t(*c)[3] = malloc((RANDOM + NEAR) * sizeof *c);
+    if (c) {
+        for (int i = 0; i < RANDOM; ++i)
+            for (int a = 0; a < 3; ++a) c[i][a] = rnd_int(-2, 4097);
+        for (int i = 0; i < NEAR; ++i)
+            for (int a = 0; a < 3; ++a) c[RANDOM + i][a] = o[a] / 8 - 3 + (a == 0 ? i % 7 : a == 1 ? i / 7 % 7 : i / 49);
+        const int wrong = check_flat_walk(occ, (const int64_t(*)[3])c, RANDOM + NEAR);
+        CHECK_MSG(wrong == 0, "the flattened tree's walk: %d wrong", wrong);
+        free(c);
+    }
+    leap_occupancy_destroy(occ);
+    free(s.bricks);
+}
+
 /* ---- resolve ----------------------------------------------------------------------------- */
 
 static leap_event ev(float t, uint32_t order, uint32_t cls)
@@ -883,6 +980,7 @@ int main(void)
     test_hand_case();
     test_random_scenes();
     test_huge_tile();
+    test_flatten_top();
     report_figures();
     return check_exit_code();
 }

@@ -96,10 +96,14 @@ int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], doub
 
 /* The tree for per-ray traversal on the GPU (the octree mode): node i is words[8i .. 8i+7],
  * one word per octant k = x | y << 1 | z << 2: LEAP_TREE_LEAF | class for a single-class
- * subtree, else the index of the child node. Node 0 is the root, a cube of 2^depth cells
- * anchored at cell 0. Returns the number of words the tree needs (writes at most cap); 0 on
- * out of memory. */
-size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth);
+ * subtree, else the index of the child node. The tree's root is a cube of 2^depth cells
+ * anchored at cell 0. Node 0 is the deepest node below it whose siblings on the way down are
+ * all EMPTY leaves (the root itself when there is none): a cube of 2^top[3] cells at cells
+ * top[0..2]. Every cell of the root outside node 0 is EMPTY, so a walk from node 0 costs what
+ * the data's own extent asks, however far a few EMPTY voxels stretch the grid. Returns the
+ * number of words the tree needs (writes at most cap); 0 on out of memory. */
+size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth,
+                              uint32_t top[4]);
 
 #ifdef __cplusplus
 }

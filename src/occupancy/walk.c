@@ -68,9 +68,37 @@ static int single_class(const leap_occupancy *occ, uint32_t ref)
     return (c[0] != 0) + (c[1] != 0) + (c[2] != 0) <= 1;
 }
 
-size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth)
+static int empty_leaf(const leap_occupancy *occ, uint32_t ref)
+{
+    return single_class(occ, ref) && leap_occ_internal_ref_class(occ, ref) == LEAP_CLASS_EMPTY;
+}
+
+/* The deepest stored node below `node` whose siblings on the way down are all EMPTY leaves. */
+static uint32_t lone_branch(const leap_occupancy *occ, uint32_t node)
+{
+    for (;;) {
+        uint32_t child[8], next = OCC_REF_IMPLICIT;
+        leap_occ_internal_node(occ, node, NULL, NULL, child, NULL);
+        for (int k = 0; k < 8; ++k) {
+            if (empty_leaf(occ, child[k])) continue;
+            if (next != OCC_REF_IMPLICIT || single_class(occ, child[k])) return node;
+            next = child[k];
+        }
+        if (next == OCC_REF_IMPLICIT) return node;
+        node = next;
+    }
+}
+
+size_t leap_occupancy_flatten(const leap_occupancy *occ, uint32_t *words, size_t cap, uint32_t *depth,
+                              uint32_t top[4])
 {
     uint32_t root = leap_occ_internal_root(occ, depth);
+    top[0] = top[1] = top[2] = 0;
+    top[3] = *depth;
+    if (!single_class(occ, root)) {
+        root = lone_branch(occ, root);
+        leap_occ_internal_node(occ, root, top, &top[3], NULL, NULL);
+    }
     if (single_class(occ, root)) {
         for (size_t k = 0; k < 8 && k < cap; ++k) words[k] = LEAP_TREE_LEAF | leap_occ_internal_ref_class(occ, root);
         return 8;

@@ -65,7 +65,7 @@ static void clip_matrix(const leap_rays *v, leap_frame_gpu *f)
  * and so tree leaves. It runs n sample iterations plus:
  * - naive, bbox: the march loop's outer iteration and two inner-loop entries per cell;
  * - octree: per cell, the march loop's three and, where a sample leaves a leaf, a descent of up to
- *   depth iterations and the skip of an EMPTY leaf (depth + 6 bounds the sum);
+ *   node 0's level (frame.tree_top) and the skip of an EMPTY leaf (that level + 6 bounds the sum);
  * - sparseleap: per segment (at most LEAP_MAX_SEGMENTS), the iteration and the loop's entry,
  *   and per cell the march loop's three; an overflowed pixel walks the tree as octree does, in
  *   a pipeline of its own with octree's figure (frame.overflow.x). */
@@ -73,7 +73,7 @@ static double chunk_indices(const leap_renderer *r, leap_mode mode, double step)
 {
     double per_cell = 0, fixed = 8;
     if (mode == LEAP_RENDER_OCTREE)
-        per_cell = r->tree_depth + 6.0;
+        per_cell = r->tree_top[3] + 6.0;
     else
         per_cell = 3;
     if (mode == LEAP_RENDER_SPARSELEAP) fixed += 2 * LEAP_MAX_SEGMENTS;
@@ -394,7 +394,8 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
     f->bbox_min = v4(lo, 0);
     f->bbox_max = v4(hi, 0);
-    f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, r->tree_depth};
+    f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, 0};
+    f->tree_top = (leap_uvec4){r->tree_top[0], r->tree_top[1], r->tree_top[2], r->tree_top[3]};
     f->labels = (leap_uvec4){r->label_base, r->object_count, 0, 0};
     if (m->shade.on) shade_frame(&m->shade, view->index_to_world_linear, scale, f);
 }

@@ -92,7 +92,8 @@ static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *er
  * lists overflowed). */
 static leap_result upload_tree(leap_renderer *r, leap_error *err)
 {
-    size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &r->tree_depth);
+    uint32_t depth;
+    size_t words = leap_occupancy_flatten(r->occupancy, NULL, 0, &depth, r->tree_top);
     if (words == 0) return leap_fail(err, LEAP_ERR_OOM, "out of memory for the occupancy tree");
     if (words * 4 > r->gpu->storage_buffer_range)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "occupancy tree of %zu nodes exceeds the device's %llu MiB buffer limit",
@@ -103,7 +104,7 @@ static leap_result upload_tree(leap_renderer *r, leap_error *err)
         leap_result lr = leap_gpu_buffer_create(r->gpu, words * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->tree, err);
         if (lr) return lr;
     }
-    leap_occupancy_flatten(r->occupancy, r->tree.mapped, words, &r->tree_depth);
+    leap_occupancy_flatten(r->occupancy, r->tree.mapped, words, &depth, r->tree_top);
     return LEAP_OK;
 }
 

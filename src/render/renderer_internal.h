@@ -8,7 +8,7 @@
 #include "gpu.h"
 #include "shared.h"
 
-_Static_assert(sizeof(leap_frame_gpu) == 608, "leap_frame_gpu must match its std140 layout in shared.h");
+_Static_assert(sizeof(leap_frame_gpu) == 624, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
 #define BINDING_COUNT 18
 
@@ -112,7 +112,7 @@ struct leap_renderer {
     leap_buffer objects;
     double objects_step;     /* 0: the device table is stale */
     leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, ray_lists, tree;
-    uint32_t tree_depth;
+    uint32_t tree_top[4];    /* frame.tree_top: the walk's node 0 (leap_occupancy_flatten) */
     int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
     size_t pixels_allocated;
     size_t last_frame_pixels; /* pixels of the last finished frame (0: none since the buffers were made) */
