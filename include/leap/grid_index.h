@@ -7,7 +7,9 @@
  * identity (device, inode, size, modification and status-change times) and a checksum of its
  * own bytes: an index whose file changed since, or whose bytes do not add up, is stale and is
  * rebuilt by the open that finds it. The numbers are in this machine's byte order (an index
- * from another machine fails its checks and is rebuilt). */
+ * from another machine fails its checks and is rebuilt). The directory's indexes are kept
+ * within LEAP_INDEX_MAX bytes (default 1 GiB): each write removes the least recently used
+ * others (reading an index marks it used) until they fit; the one written always stays. */
 #ifndef LEAP_GRID_INDEX_H
 #define LEAP_GRID_INDEX_H
 
@@ -54,12 +56,24 @@ leap_result leap_grid_index_read(const char *index_path, const leap_file_stamp *
                                  leap_grid_index **out, char *why, size_t why_cap, leap_error *err);
 
 /* Writes the index through a temporary file and a rename (creating the directory), for the file
- * whose identity was `stamp` when it was read; nothing is written (LEAP_ERR_IO) when the file
- * at vdb_path no longer has that identity. */
+ * whose identity was `stamp` when it was read, then prunes the directory (leap_grid_index_prune
+ * with leap_grid_index_max_bytes); nothing is written (LEAP_ERR_IO) when the file at vdb_path
+ * no longer has that identity. */
 leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, const leap_file_stamp *stamp,
                                   const char *grid, const leap_grid_index *index, leap_error *err);
 
 void leap_grid_index_destroy(leap_grid_index *index); /* accepts NULL */
+
+#define LEAP_GRID_INDEX_MAX_DEFAULT (1ull << 30)
+
+/* LEAP_INDEX_MAX (a size: 512M, 4G, ...) when set and valid, else LEAP_GRID_INDEX_MAX_DEFAULT. */
+uint64_t leap_grid_index_max_bytes(void);
+
+/* Removes the least recently used (oldest modification time) index files of index_path's
+ * directory, never index_path itself, until the directory's index files take at most
+ * max_bytes or none but it is left. Other files are left alone; what cannot be removed is
+ * skipped. Returns how many were removed. */
+int leap_grid_index_prune(const char *index_path, uint64_t max_bytes);
 
 #ifdef __cplusplus
 }

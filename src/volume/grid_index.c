@@ -6,15 +6,19 @@
 #include "shared.h"
 #include "util.h"
 
+#include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #define INDEX_MAGIC "LEAPIDX"
+#define INDEX_SUFFIX ".leapidx"
 #define INDEX_VERSION 1u
 
 typedef struct index_header {
@@ -62,7 +66,7 @@ leap_result leap_grid_index_path(const char *dir, const char *vdb_path, const ch
     char full[PATH_MAX];
     if (!realpath(vdb_path, full)) snprintf(full, sizeof full, "%s", vdb_path);
     const uint64_t key = fnv1a(fnv1a(FNV_START, full, strlen(full) + 1), grid, strlen(grid));
-    const int n = snprintf(out, cap, "%s/%.80s-%016llx.leapidx", dir, leap__base_name(full), (unsigned long long)key);
+    const int n = snprintf(out, cap, "%s/%.80s-%016llx" INDEX_SUFFIX, dir, leap__base_name(full), (unsigned long long)key);
     if (n < 0 || (size_t)n >= cap)
         return leap_fail(err, LEAP_ERR_USAGE, "grid index: the path in '%.200s' is too long", dir);
     return LEAP_OK;
@@ -160,6 +164,7 @@ leap_result leap_grid_index_read(const char *index_path, const leap_file_stamp *
     int ok = fstat(fileno(f), &st) == 0 && S_ISREG(st.st_mode);
     if (!ok) snprintf(why, why_cap, "it is not a regular file");
     else ok = read_index(f, (uint64_t)st.st_size, stamp, grid, x, why, why_cap);
+    if (ok) futimens(fileno(f), NULL); /* used now: the last to go when the directory is pruned */
     fclose(f);
     if (!ok) {
         leap_grid_index_destroy(x);
@@ -167,6 +172,65 @@ leap_result leap_grid_index_read(const char *index_path, const leap_file_stamp *
     }
     *out = x;
     return LEAP_OK;
+}
+
+uint64_t leap_grid_index_max_bytes(void)
+{
+    const char *env = getenv("LEAP_INDEX_MAX");
+    const uint64_t n = env && *env ? leap__parse_bytes(env) : 0;
+    return n ? n : LEAP_GRID_INDEX_MAX_DEFAULT;
+}
+
+typedef struct index_file {
+    char name[256];
+    int64_t used_ns;
+    uint64_t bytes;
+} index_file;
+
+static int by_use(const void *a, const void *b)
+{
+    const int64_t x = ((const index_file *)a)->used_ns, y = ((const index_file *)b)->used_ns;
+    return (x > y) - (x < y);
+}
+
+int leap_grid_index_prune(const char *index_path, uint64_t max_bytes)
+{
+    char dir[4096];
+    snprintf(dir, sizeof dir, "%s", index_path);
+    char *slash = strrchr(dir, '/');
+    const char *keep = slash ? slash + 1 : index_path;
+    if (slash) *slash = 0;
+    else snprintf(dir, sizeof dir, ".");
+    DIR *d = opendir(dir);
+    if (!d) return 0;
+    index_file *files = NULL;
+    size_t count = 0, cap = 0;
+    uint64_t total = 0;
+    const size_t suffix = strlen(INDEX_SUFFIX);
+    for (struct dirent *e; (e = readdir(d));) {
+        const size_t len = strlen(e->d_name);
+        struct stat st;
+        if (len <= suffix || len >= sizeof files->name || strcmp(e->d_name + len - suffix, INDEX_SUFFIX) != 0 ||
+            fstatat(dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode))
+            continue;
+        total += (uint64_t)st.st_size;
+        if (strcmp(e->d_name, keep) == 0) continue;
+        if (!leap__grow((void **)&files, &cap, count + 1, sizeof *files)) break;
+        index_file *f = &files[count++];
+        snprintf(f->name, sizeof f->name, "%s", e->d_name);
+        f->used_ns = (int64_t)st.st_mtim.tv_sec * 1000000000 + st.st_mtim.tv_nsec;
+        f->bytes = (uint64_t)st.st_size;
+    }
+    int removed = 0;
+    if (files) qsort(files, count, sizeof *files, by_use);
+    for (size_t i = 0; i < count && total > max_bytes; ++i)
+        if (unlinkat(dirfd(d), files[i].name, 0) == 0) {
+            total -= files[i].bytes;
+            ++removed;
+        }
+    closedir(d);
+    free(files);
+    return removed;
 }
 
 leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, const leap_file_stamp *stamp,
@@ -209,5 +273,7 @@ leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, 
         leap_publish_abort(&p);
         return leap_fail(err, LEAP_ERR_IO, "%s: %s", index_path, strerror(saved ? saved : EIO));
     }
-    return leap_publish_commit(&p, err);
+    if ((r = leap_publish_commit(&p, err))) return r;
+    leap_grid_index_prune(index_path, leap_grid_index_max_bytes());
+    return LEAP_OK;
 }
