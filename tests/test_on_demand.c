@@ -200,19 +200,27 @@ static int exists(const char *path)
 /* The index directory stays within LEAP_INDEX_MAX: a write removes the least recently used
  * other indexes until they fit, keeps the one written and every file that is not an index,
  * and reading an index marks it used. */
-static void test_index_prune(const char *fog, const char *dir, const char *path)
+static void test_index_prune(const char *fog, const char *path)
 {
-    char old[3][1500], notes[1500];
-    for (int k = 0; k < 3; ++k) snprintf(old[k], sizeof old[k], "%s/old-%d.leapidx", dir, k);
-    snprintf(notes, sizeof notes, "%s/notes.txt", dir);
-    const size_t other = 400 << 10;
-    int ok = write_file(notes, other, 9000);
-    for (int k = 0; k < 3; ++k) ok = ok && write_file(old[k], other, 3000 - 1000 * k); /* old-0 the least recent */
     const struct timespec long_ago[2] = {{time(NULL) - 20000, 0}, {time(NULL) - 20000, 0}};
-    CHECK(ok && utimensat(AT_FDCWD, path, long_ago, 0) == 0);
+    CHECK(utimensat(AT_FDCWD, path, long_ago, 0) == 0);
     leap_scene_destroy(load_noting(fog, 32u << 20, "used"));
     struct stat st;
     CHECK(stat(path, &st) == 0 && st.st_mtime >= time(NULL) - 600);
+    /* A directory of its own: old indexes, a file that is not one, then this grid's index. */
+    char dir[800], old[3][1500], notes[1500], written[1500];
+    snprintf(dir, sizeof dir, "%s/prune", tmp_dir);
+    mkdir(dir, 0755);
+    snprintf(written, sizeof written, "%s/%s", dir, strrchr(path, '/') + 1);
+    snprintf(notes, sizeof notes, "%s/notes.txt", dir);
+    remove(written);
+    const size_t other = 400 << 10;
+    int ok = write_file(notes, other, 9000);
+    for (int k = 0; k < 3; ++k) {
+        snprintf(old[k], sizeof old[k], "%s/old-%d.leapidx", dir, k);
+        ok = ok && write_file(old[k], other, 3000 - 1000 * k); /* old-0 the least recent */
+    }
+    CHECK(ok);
     /* Room for the index and one more of those: the two least recently used go. */
     char max[32];
     snprintf(max, sizeof max, "%llu", (unsigned long long)st.st_size + other + 1024);
@@ -224,17 +232,18 @@ static void test_index_prune(const char *fog, const char *dir, const char *path)
     char why[160];
     CHECK_OK(leap_file_stamp_get(fog, &stamp, &err), &err);
     CHECK_OK(leap_grid_index_read(path, &stamp, "density", &x, why, sizeof why, &err), &err);
-    if (x) CHECK_OK(leap_grid_index_write(path, fog, &stamp, "density", x, &err), &err);
+    if (x) CHECK_OK(leap_grid_index_write(written, fog, &stamp, "density", x, &err), &err);
     leap_grid_index_destroy(x);
     CHECK_MSG(!exists(old[0]) && !exists(old[1]) && exists(old[2]), "pruned: old-0 %d, old-1 %d, old-2 %d",
               exists(old[0]), exists(old[1]), exists(old[2]));
-    CHECK(exists(path) && exists(notes));
+    CHECK(exists(written) && exists(notes));
     /* A limit below the one just written: it stays, alone. */
-    CHECK(leap_grid_index_prune(path, 1) == 1 && exists(path) && !exists(old[2]));
+    CHECK(leap_grid_index_prune(written, 1) == 1 && exists(written) && !exists(old[2]));
     setenv("LEAP_INDEX_MAX", "lots", 1);
     CHECK(leap_grid_index_max_bytes() == LEAP_GRID_INDEX_MAX_DEFAULT);
     unsetenv("LEAP_INDEX_MAX");
     remove(notes);
+    remove(written);
 }
 
 static void test_index(const char *fog)
@@ -315,7 +324,7 @@ static void test_index(const char *fog)
     second = load_noting(fog, budget, "used");
     leap_scene_destroy(second);
     second = NULL;
-    test_index_prune(fog, dir, path);
+    test_index_prune(fog, path);
     /* No directory, or one that cannot be made: the grid is read as without an index. */
     setenv("LEAP_INDEX_DIR", "", 1);
     leap_scene_destroy(load_noting(fog, budget, "off"));
