@@ -390,6 +390,25 @@ static void test_partial(const char *fog)
     }
     leap_renderer_set_partial(r, NULL, NULL, 0);
     if (render(r, s, LEAP_RENDER_SPARSELEAP, &out)) CHECK(out.st.waiting_pixels == 0 && same_frames(&out, &ref));
+    /* MIP: a waiting ray shows the colour of the largest value it met so far. */
+    CHECK_OK(leap_scene_set_mip(s, LEAP_MIP_MAX, &err), &err);
+    if (render(r, s, LEAP_RENDER_SPARSELEAP, &ref)) {
+        log = (partial_log){.out = &out, .stop = 1};
+        leap_renderer_set_partial(r, on_partial, &log, 0);
+        if (render(r, s, LEAP_RENDER_SPARSELEAP, &out)) {
+            uint64_t shown = 0, waiting = 0;
+            for (size_t i = 0; i < W * H; ++i) {
+                if (!isinf(out.depth[i]) || ref.rgba[4 * i + 3] == out.rgba[4 * i + 3]) continue;
+                ++waiting;
+                shown += out.rgba[4 * i + 3] > 0.0f;
+            }
+            printf("MIP, a frame ended at its first picture: %llu rays waiting, %llu pixels short of the finished "
+                   "frame, %llu of them showing a colour\n", (unsigned long long)out.st.waiting_pixels,
+                   (unsigned long long)waiting, (unsigned long long)shown);
+            CHECK(out.st.waiting_pixels > 0 && shown > 0 && waiting <= out.st.waiting_pixels);
+        }
+        leap_renderer_set_partial(r, NULL, NULL, 0);
+    }
 done:
     CHECK_MSG(s && r, "%s", err.msg);
     leap_renderer_destroy(r);

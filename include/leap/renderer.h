@@ -187,7 +187,8 @@ void leap_renderer_set_progress(leap_renderer *r, leap_progress_fn progress, voi
  * waiting for bricks, then after later ones once interval_ms has passed since the last call, the
  * frame's outputs (as passed to leap_renderer_render) are written as they stand and fn is
  * called with the figures so far (stats->waiting_pixels > 0). A waiting ray's pixel holds what
- * it composited in front of the brick it waits for (nothing yet under MIP), its depth is
+ * it composited in front of the brick it waits for (under MIP, the colour of the extreme value
+ * it met so far), its depth is
  * infinite. fn returning nonzero ends the frame there: leap_renderer_render returns LEAP_OK
  * with those outputs and waiting_pixels > 0. NULL fn: frames run until no ray waits. */
 typedef int (*leap_partial_fn)(void *user, const leap_frame_stats *so_far);

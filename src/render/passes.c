@@ -265,10 +265,27 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
                    VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
 }
 
+/* The colour, premultiplied, that the composite pass gives a MIP ray whose extreme is the
+ * signed table coordinate x (leap_mip_sample; `minimum`: minIP), the table filtered as the
+ * GPU filters it: the picture of a ray still waiting for bricks, from the extreme so far. */
+static void mip_colour(const leap_renderer *r, float x, int minimum, float *rgba)
+{
+    memset(rgba, 0, 4 * sizeof *rgba);
+    if (!(x > r->mip_floor[minimum]) || !r->tf_table) return;
+    const int n = LEAP_TF_GPU_TABLE_SIZE;
+    const double u = fmin(fmax((minimum ? -x : x) * n - 0.5, 0.0), n - 1.0), w = u - floor(u);
+    const int i = (int)u, j = i + 1 < n ? i + 1 : i;
+    double c[4];
+    for (int k = 0; k < 4; ++k) c[k] = (1.0 - w) * r->tf_table[i][k] + w * r->tf_table[j][k];
+    for (int k = 0; k < 3; ++k) rgba[k] = (float)(c[k] * c[3]);
+    rgba[3] = (float)c[3];
+}
+
 /* The frame's outputs and figures from the GPU's buffers. Pixels the composite pass did not
  * run for are transparent, without sample or depth. A ray still waiting for bricks (out_aux.w
- * = 1 + where it goes on; out_rgba holds its colour and transmittance) shows what it
- * composited so far, nothing under MIP (its running extreme is not a colour yet). */
+ * = 1 + where it goes on; out_rgba holds its colour and transmittance, under MIP its extreme
+ * so far) shows what it composited so far, under MIP the colour of its extreme so far.
+ * mip: leap_march.mip. */
 static void read_outputs(leap_renderer *r, const leap_rays *view, chunk_rect drawn, int listed, int mip, float *rgba,
                          float *depth, float *samples, leap_frame_stats *st)
 {
@@ -294,7 +311,7 @@ static void read_outputs(leap_renderer *r, const leap_rays *view, chunk_rect dra
             if (!outside) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
             if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
         } else if (waiting && rgba) {
-            if (mip) memset(rgba + 4 * i, 0, 4 * sizeof(float));
+            if (mip) mip_colour(r, out[4 * i], mip < 0, rgba + 4 * i);
             else rgba[4 * i + 3] = 1.0f - out[4 * i + 3];
         }
         st->composited_pixels += !skipped;
@@ -451,7 +468,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     double partial_at = 0; /* the first picture at once: a first sight of the volume */
     while (!lr && renderer_cache_missed(r)) {
         if (r->partial && leap__now_ms() >= partial_at) { /* an incomplete picture */
-            read_outputs(r, view, drawn, listed, march->mip != 0, rgba, depth, samples, &st);
+            read_outputs(r, view, drawn, listed, march->mip, rgba, depth, samples, &st);
             if (r->partial(r->partial_user, &st)) {
                 renderer_cache_forget_misses(r);
                 break;
@@ -484,7 +501,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         st.gpu_composite_ms = ts[TS_COMPOSITE] - ts[TS_RESOLVE];
     }
 
-    read_outputs(r, view, drawn, listed, march->mip != 0, rgba, depth, samples, &st);
+    read_outputs(r, view, drawn, listed, march->mip, rgba, depth, samples, &st);
     r->lists_valid = listed;
     r->drawn = drawn;
     r->last_frame_pixels = pixels;

@@ -100,6 +100,7 @@ void leap_renderer_destroy(leap_renderer *r)
     }
     leap_gpu_destroy(gpu);
     free(r->object_rgba);
+    free(r->tf_table);
     free(r);
 }
 
@@ -310,8 +311,9 @@ leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_erro
     if (r->tf.image && r->tf_step == step && r->tf_mip == mip) return LEAP_OK;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device)); /* the old table may be in use */
     size_t bytes = sizeof(float[LEAP_TF_GPU_TABLE_SIZE][4]);
-    float(*table)[4] = malloc(bytes);
-    if (!table) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the transfer function table");
+    if (!r->tf_table && !(r->tf_table = malloc(bytes)))
+        return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the transfer function table");
+    float(*table)[4] = r->tf_table;
     r->tf_precorrected = !mip && leap_tf_precorrect_ok(&r->tf_raw, step);
     leap_tf_gpu_table(&r->tf_raw, step, r->tf_precorrected, table);
     /* A projection whose extreme stays in a transparent end of the table shows nothing, so
@@ -326,7 +328,6 @@ leap_result renderer_upload_tf(leap_renderer *r, double step, int mip, leap_erro
     leap_gpu_image_destroy(r->gpu, &r->tf);
     uint32_t extent[3] = {LEAP_TF_GPU_TABLE_SIZE, 0, 0};
     leap_result lr = leap_gpu_image_create(r->gpu, VK_FORMAT_R32G32B32A32_SFLOAT, extent, table, bytes, &r->tf, err);
-    free(table);
     if (!lr) { /* a failed upload leaves no table: the next frame retries */
         r->tf_step = step;
         r->tf_mip = mip;

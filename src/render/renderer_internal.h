@@ -102,6 +102,7 @@ struct leap_renderer {
     int tf_precorrected; /* the table's opacities are corrected for tf_step */
     int tf_mip;          /* the table was made for MIP: opacities as they are */
     float mip_floor[2];  /* MIP, minIP: frame.mip_floor.x for the table */
+    float (*tf_table)[4]; /* the table as uploaded (LEAP_TF_GPU_TABLE_SIZE entries; NULL: none yet) */
     leap_buffer out_rgba, out_aux;
     /* Label volumes: the objects' looks (display RGB, opacity per voxel) and their table on
      * the device, corrected for objects_step. */
