@@ -181,14 +181,16 @@ static leap_scene *load_noting(const char *fog, uint64_t budget, const char *exp
 /* The grid index: the first open writes it; the next reads no leaf, builds the same atlas and
  * renders the same images, and a narrow view then reads only the leaves its rays reach. A
  * corrupt, truncated or stale index is rebuilt, an unwritable directory only noted. */
+/* A file of `bytes` bytes last modified age_s seconds ago. */
 static int write_file(const char *path, size_t bytes, time_t age_s)
 {
-    FILE *f = fopen(path, "wb");
-    int ok = f != NULL;
-    for (size_t i = 0; ok && i < bytes; ++i) ok = fputc('x', f) != EOF;
-    if (f && fclose(f) != 0) ok = 0;
+    char *data = malloc(bytes);
+    if (!data) return 0;
+    memset(data, 'x', bytes);
+    write_bytes(path, data, bytes);
+    free(data);
     const struct timespec t[2] = {{time(NULL) - age_s, 0}, {time(NULL) - age_s, 0}};
-    return ok && utimensat(AT_FDCWD, path, t, 0) == 0;
+    return utimensat(AT_FDCWD, path, t, 0) == 0;
 }
 
 static int exists(const char *path)

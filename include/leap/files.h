@@ -18,6 +18,10 @@ extern "C" {
 leap_result leap_file_read(const char *path, const char *what, size_t max_bytes, char **data, size_t *size,
                            leap_error *err);
 
+/* The directory part of path into dir ("." when there is none, "/" for the root); returns
+ * the last component (a pointer into path). */
+const char *leap_path_split(const char *path, char *dir, size_t cap);
+
 /* 1 if a and b name the same file: the same device and inode after following links when
  * both exist; the same directory and name when either does not exist yet. */
 int leap_file_same(const char *a, const char *b);

@@ -68,15 +68,20 @@ leap_result leap_file_read(const char *path, const char *what, size_t max_bytes,
     return LEAP_OK;
 }
 
+const char *leap_path_split(const char *path, char *dir, size_t cap)
+{
+    const char *slash = strrchr(path, '/');
+    if (!slash) snprintf(dir, cap, ".");
+    else if (slash == path) snprintf(dir, cap, "/");
+    else snprintf(dir, cap, "%.*s", (int)(slash - path), path);
+    return slash ? slash + 1 : path;
+}
+
 /* The canonical directory of a path's last component, and that component. */
 static int split_canonical(const char *path, char *dir, size_t cap, const char **name)
 {
-    const char *slash = strrchr(path, '/');
     char d[PATH_MAX];
-    if (!slash) snprintf(d, sizeof d, ".");
-    else if (slash == path) snprintf(d, sizeof d, "/");
-    else snprintf(d, sizeof d, "%.*s", (int)(slash - path), path);
-    *name = slash ? slash + 1 : path;
+    *name = leap_path_split(path, d, sizeof d);
     char real[PATH_MAX];
     if (!realpath(d, real)) return 0;
     return snprintf(dir, cap, "%s", real) < (int)cap;

@@ -193,20 +193,10 @@ static int by_use(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* The directory part of path into dir ("." when there is none); returns the file's name. */
-static const char *split_dir(const char *path, char *dir, size_t cap)
-{
-    const char *slash = strrchr(path, '/');
-    if (!slash) snprintf(dir, cap, ".");
-    else if (slash == path) snprintf(dir, cap, "/");
-    else snprintf(dir, cap, "%.*s", (int)(slash - path), path);
-    return slash ? slash + 1 : path;
-}
-
 int leap_grid_index_prune(const char *index_path, uint64_t max_bytes)
 {
     char dir[4096];
-    const char *keep = split_dir(index_path, dir, sizeof dir);
+    const char *keep = leap_path_split(index_path, dir, sizeof dir);
     DIR *d = opendir(dir);
     if (!d) return 0;
     index_file *files = NULL;
@@ -260,7 +250,7 @@ leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, 
     h.checksum = index_checksum(&h, x);
 
     char dir[4096];
-    split_dir(index_path, dir, sizeof dir);
+    leap_path_split(index_path, dir, sizeof dir);
     if ((r = leap_make_dirs(dir, NULL, err))) return r;
     leap_publish p;
     if ((r = leap_publish_begin(&p, index_path, err))) return r;
