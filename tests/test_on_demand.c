@@ -14,6 +14,7 @@
 #define H 96
 #include "cli_harness.h"
 #include "gpu_fixture.h"
+#include "leap/atlas.h"
 #include "leap/image.h"
 #include "leap/grid_index.h"
 #include "leap/scene.h"
@@ -586,6 +587,57 @@ static void test_program(void)
     remove(fog);
 }
 
+/* The streamed atlas of a grid read on demand, built with room for the leaves its threads share
+ * (leap_atlas_desc.share_bytes, as the scene builds it) and without: the same pages, slots and
+ * recorded cells; shared, the cells read each leaf about once. */
+static void test_shared_leaves(const char *fog)
+{
+    leap_error err = {{0}};
+    leap_vdb_file *file = NULL;
+    leap_grid *grid = NULL;
+    leap_brick *bricks = NULL;
+    leap_atlas *atlas[2] = {NULL, NULL};
+    leap_atlas_cells cells[2] = {{0}, {0}};
+    uint64_t reads[2] = {0, 0};
+    CHECK_OK(leap_vdb_open(fog, &file, &err), &err);
+    if (file) CHECK_OK(leap_vdb_load_grid_on_demand(file, 0, NULL, &grid, &err), &err);
+    const size_t n = grid ? leap_grid_brick_count(grid) : 0;
+    if (grid) bricks = malloc(n * sizeof *bricks);
+    if (!bricks || leap_grid_bricks(grid, bricks, &err)) goto done;
+    for (int shared = 0; shared < 2; ++shared) {
+        const uint64_t before = leap_grid_leaves_read(grid);
+        leap_atlas_desc ad = {.grid = grid, .stream_texels = 1, .share_bytes = shared ? (uint64_t)64 << 20 : 0,
+                              .bricks = bricks, .brick_count = n, .record_cells = &cells[shared]};
+        CHECK_OK(leap_atlas_create(&ad, &atlas[shared], &err), &err);
+        reads[shared] = leap_grid_leaves_read(grid) - before;
+    }
+    const uint64_t leaves = leap_grid_get_info(grid)->leaf_count;
+    printf("shared leaves: the atlas read %llu leaves of %llu shared, %llu with per-thread copies\n",
+           (unsigned long long)reads[1], (unsigned long long)leaves, (unsigned long long)reads[0]);
+    CHECK_MSG(reads[1] >= leaves && reads[1] * 20 <= leaves * 21 && reads[0] > reads[1],
+              "shared: %llu reads, per thread: %llu, %llu leaves", (unsigned long long)reads[1],
+              (unsigned long long)reads[0], (unsigned long long)leaves);
+    if (atlas[0] && atlas[1]) {
+        const leap_atlas *a = atlas[0], *b = atlas[1];
+        CHECK(a->slot_count == b->slot_count && a->page_words == b->page_words && cells[0].count == cells[1].count);
+        if (a->slot_count == b->slot_count && a->page_words == b->page_words && cells[0].count == cells[1].count) {
+            CHECK(!memcmp(a->pages, b->pages, a->page_words * 4));
+            CHECK(!memcmp(a->slot_cells, b->slot_cells, a->slot_count * 8));
+            CHECK(!memcmp(a->slot_ranges, b->slot_ranges, a->slot_count * 4));
+            CHECK(!memcmp(cells[0].entries, cells[1].entries, cells[0].count * 4));
+            CHECK(!memcmp(cells[0].ranges, cells[1].ranges, cells[0].count * 4));
+        }
+    }
+done:
+    for (int i = 0; i < 2; ++i) {
+        leap_atlas_destroy(atlas[i]);
+        leap_atlas_cells_free(&cells[i]);
+    }
+    free(bricks);
+    leap_grid_destroy(grid);
+    leap_vdb_close(file);
+}
+
 int main(void)
 {
     snprintf(tmp_dir, sizeof tmp_dir, "%s", LEAP_TEST_TMP);
@@ -599,6 +651,7 @@ int main(void)
     if (make_fog(fog, 192)) {
         test_scenes(fog);
         test_index(fog);
+        test_shared_leaves(fog);
         test_partial(fog);
         test_changed_file(fog);
     }

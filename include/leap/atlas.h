@@ -41,6 +41,10 @@ typedef struct leap_atlas_desc {
                              constant cell's gradient is 0; the others get slots (scalar grids) */
     int stream_texels;    /* 1 = keep no texels: a slot's texels are read from the grid again
                              when needed (leap_atlas_read_slot); the grid must outlive the atlas */
+    uint64_t share_bytes; /* a grid read on demand: memory the reading threads may fill with the
+                             leaves they share (leap_grid_share_leaves) while they read the cells;
+                             used when it holds a layer of them (then each leaf is read about
+                             once, else up to 2.5 times); 0: none */
     const leap_brick *bricks; /* the grid's bricks (leap_grid_bricks), if the caller has them;
                                  NULL: listed here */
     size_t brick_count;

@@ -128,6 +128,13 @@ int leap_grid_on_demand(const leap_grid *grid);
 /* Leaves read from the file so far (grids read on demand; 0 otherwise). */
 uint64_t leap_grid_leaves_read(const leap_grid *grid);
 
+/* A grid read on demand: its readers share copies of up to `leaves` of the leaves they read,
+ * so that a pass in which several threads and cells need the same leaves reads each about once;
+ * the copy lowest in (z, y, x) order of origins goes first, which suits passes sweeping in that
+ * order. 0 drops them. Each takes about leap_grid_shared_leaf_bytes(). */
+void leap_grid_share_leaves(const leap_grid *grid, size_t leaves);
+uint64_t leap_grid_shared_leaf_bytes(void);
+
 /* LEAP_ERR_FORMAT naming the first leaf a grid read on demand failed to read, else LEAP_OK. */
 leap_result leap_grid_read_status(const leap_grid *grid, leap_error *err);
 

@@ -140,6 +140,18 @@ static leap_result share_budget(leap_scene *s, leap_error *err)
     return LEAP_OK;
 }
 
+/* A grid read on demand: what the atlas's reading threads may share of leaves
+ * (leap_atlas_desc.share_bytes), half of what the budget leaves beside the topology and the
+ * bookkeeping, given back before the brick cache takes its share. */
+static uint64_t open_share_bytes(const leap_scene *s)
+{
+    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    const uint64_t threads = (cpus > 1 ? (uint64_t)cpus : 1) + 1;
+    const uint64_t held = s->info->memory_bytes + (uint64_t)leap_grid_brick_count(s->grid) * ON_DEMAND_BRICK_BYTES +
+                          threads * ON_DEMAND_THREAD_BYTES + ON_DEMAND_FIXED_BYTES;
+    return s->memory_budget > held ? (s->memory_budget - held) / 2 : 0;
+}
+
 int leap_scene_label_count(double lo, double hi)
 {
     return (int)fmin(fmax(hi - lo + 1, 1), 65536);
@@ -548,7 +560,8 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         const int streamed = leap_grid_on_demand(s->grid);
         const int record = streamed && use_index && !s->index.index && s->index.path[0];
         leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on,
-                              .stream_texels = streamed, .bricks = bricks, .brick_count = brick_count,
+                              .stream_texels = streamed, .share_bytes = streamed ? open_share_bytes(s) : 0,
+                              .bricks = bricks, .brick_count = brick_count,
                               .known_cells = s->index.index ? &s->index.index->cells : NULL,
                               .record_cells = record ? &cells : NULL,
                               .progress = desc->progress, .progress_user = desc->progress_user};

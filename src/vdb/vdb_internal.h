@@ -293,6 +293,10 @@ struct OnDemand {
     std::string error;  // the first failed read
     std::atomic<bool> failed{false};
     std::vector<std::pair<unsigned long, size_t>> mapped; // the file's mapping (trim)
+    // The shared copies by leaf origin in (z, y, x) order; guarded by shared_mutex.
+    std::mutex shared_mutex;
+    size_t shared_capacity = 0;
+    std::map<std::tuple<int, int, int>, std::shared_ptr<const LeafT>> shared;
 
     explicit OnDemand(const std::string &path) : file(path) {}
     ~OnDemand()
@@ -302,6 +306,12 @@ struct OnDemand {
     // Reads `leaf`'s values into `copy` (a leaf of the background if they cannot be read, or
     // once the file was found changed: the failure is kept for leap_grid_read_status).
     void read(const LeafT &leaf, std::unique_ptr<LeafT> &copy);
+    // `leaf`'s values: from the leaves shared by every reader (leap_grid_share_leaves), else
+    // read (and shared when sharing is on).
+    std::shared_ptr<const LeafT> values(const LeafT &leaf);
+    // At most `leaves` copies kept for every reader, the lowest in (z, y, x) order out first
+    // (0: none).
+    void share(size_t leaves);
     // Whether the file still has the size and times it had when opened; records the failure
     // when not. Called before each batch of reads, and by reads every CHECK_NS.
     bool check_source();
@@ -311,9 +321,9 @@ struct OnDemand {
 };
 
 // Values of leaves for one thread: the tree's own buffers for a grid in memory; for a grid
-// read on demand, copies read from the file, of which the last LeafValues::KEPT stay (clock
-// eviction; about 2 MiB). That holds a brick's apron neighbours in the tree's order and the
-// next row of cells in the atlas's, so most leaves are read once or twice.
+// read on demand, copies read from the file (or shared by the grid's readers), of which the
+// last LeafValues::KEPT stay (clock eviction; about 2 MiB). That holds a brick's apron
+// neighbours in the tree's order and the next row of cells in the atlas's.
 class LeafValues {
 public:
     static constexpr size_t KEPT = 1024;
@@ -332,7 +342,7 @@ public:
 private:
     struct Slot {
         const LeafT *leaf = nullptr;
-        std::unique_ptr<LeafT> copy;
+        std::shared_ptr<const LeafT> copy;
         bool used = false;
     };
     Slot *load(const LeafT &leaf);

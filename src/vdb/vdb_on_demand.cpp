@@ -86,6 +86,43 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
     if (bytes_since_trim.fetch_add(3 * 4096, std::memory_order_relaxed) > TRIM_BYTES) trim();
 }
 
+// Evicting the copy lowest in (z, y, x) order drops first what a pass sweeping cells in that
+// order is done with: the atlas reads a cell's leaf and its +x, +y, +z neighbours, so about one
+// layer of leaves stays live (least recently used needed two, as layers alternate in use).
+static std::tuple<int, int, int> sweep_key(const LeafT &leaf)
+{
+    const vdb::Coord o = leaf.origin();
+    return {o.z(), o.y(), o.x()};
+}
+
+std::shared_ptr<const LeafT> OnDemand::values(const LeafT &leaf)
+{
+    const auto key = sweep_key(leaf);
+    {
+        std::lock_guard<std::mutex> lock(shared_mutex);
+        auto at = shared.find(key);
+        if (at != shared.end()) return at->second;
+    }
+    std::unique_ptr<LeafT> copy;
+    read(leaf, copy); // outside the lock: two threads may read one leaf, rarely
+    std::shared_ptr<const LeafT> values(std::move(copy));
+    std::shared_ptr<const LeafT> evicted; // freed after the lock is released
+    std::lock_guard<std::mutex> lock(shared_mutex);
+    if (shared_capacity == 0 || !shared.emplace(key, values).second) return values;
+    if (shared.size() > shared_capacity) {
+        evicted = std::move(shared.begin()->second);
+        shared.erase(shared.begin());
+    }
+    return values;
+}
+
+void OnDemand::share(size_t leaves)
+{
+    std::lock_guard<std::mutex> lock(shared_mutex);
+    shared_capacity = leaves;
+    while (shared.size() > shared_capacity) shared.erase(shared.begin());
+}
+
 void OnDemand::trim()
 {
     std::unique_lock<std::mutex> lock(mutex, std::try_to_lock);
@@ -122,7 +159,7 @@ LeafValues::Slot *LeafValues::load(const LeafT &leaf)
     }
     Slot &s = slots_[hand_];
     if (s.leaf) index_.erase(s.leaf);
-    on_demand_->read(leaf, s.copy);
+    s.copy = on_demand_->values(leaf);
     s.leaf = &leaf;
     index_[&leaf] = hand_;
     hand_ = (hand_ + 1) % KEPT;

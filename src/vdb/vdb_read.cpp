@@ -739,6 +739,16 @@ uint64_t leap_grid_leaves_read(const leap_grid *grid)
     return grid && grid->on_demand ? grid->on_demand->leaves_read.load() : 0;
 }
 
+uint64_t leap_grid_shared_leaf_bytes(void)
+{
+    return sizeof(LeafT) + LeafT::SIZE * sizeof(float) + 128; // the leaf, its values, keeping it
+}
+
+void leap_grid_share_leaves(const leap_grid *grid, size_t leaves)
+{
+    if (grid && grid->on_demand) grid->on_demand->share(leaves);
+}
+
 leap_result leap_grid_check_source(const leap_grid *grid, leap_error *err)
 {
     if (grid && grid->on_demand) grid->on_demand->check_source();

@@ -43,6 +43,7 @@ typedef struct builder {
     uint64_t *cells;          /* stream_texels: per slot, in allocation order, its cell key */
     size_t cells_cap;
     int stream_texels;
+    uint64_t share_bytes;          /* leap_atlas_desc.share_bytes */
     const leap_atlas_cells *known; /* the cells' results, not read again */
     leap_progress_fn progress;
     void *progress_user;
@@ -584,6 +585,13 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         workers[i].sh = &sh;
         r = leap_grid_reader_create(grid, &workers[i].reader, err);
     }
+    /* Cells in key order (x fastest) read their leaf and its +x, +y, +z neighbours: with the
+     * copy lowest in that order dropped first, a layer of leaves, two rows and the chunks in
+     * flight stay live. Less than that would drop the leaves needed next. */
+    const size_t layer = ((size_t)a->cells[0] + 1) * ((size_t)a->cells[1] + 1) + 4 * ((size_t)a->cells[0] + 1) +
+                         2 * threads * FILL_CHUNK_KEYS;
+    const int share = b->stream_texels && !b->known && b->share_bytes / leap_grid_shared_leaf_bytes() >= layer;
+    if (!r && share) leap_grid_share_leaves(grid, layer);
     if (!r) {
         atomic_init(&sh.next_chunk, 0);
         atomic_init(&sh.failed, 0);
@@ -599,6 +607,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         r = sh.r;
         if (!r) r = leap_grid_read_status(grid, err);
     }
+    if (share) leap_grid_share_leaves(grid, 0);
     for (size_t i = 0; i < threads; ++i) leap_grid_reader_destroy(workers[i].reader);
     free(workers);
     return r;
@@ -849,6 +858,7 @@ static void start_build(builder *b, leap_atlas *a, const leap_atlas_desc *desc)
     a->labels = desc->labels != NULL;
     a->wide = desc->wide && !a->labels;
     b->stream_texels = desc->stream_texels && !a->labels;
+    b->share_bytes = desc->share_bytes;
     b->known = a->labels ? NULL : desc->known_cells;
     b->record = a->labels ? NULL : desc->record_cells;
     b->progress = desc->progress;
