@@ -121,16 +121,21 @@ static leap_result open_grid(leap_scene *s, const char *path, const char *name, 
 #define ON_DEMAND_THREAD_BYTES ((uint64_t)5 << 19)
 #define ON_DEMAND_FIXED_BYTES ((uint64_t)16 << 20)
 
+/* A grid read on demand: what it holds besides the atlas's tables. */
+static uint64_t on_demand_bytes(const leap_scene *s)
+{
+    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+    const uint64_t threads = (cpus > 1 ? (uint64_t)cpus : 1) + 1;
+    return s->info->memory_bytes + (uint64_t)leap_grid_brick_count(s->grid) * ON_DEMAND_BRICK_BYTES +
+           threads * ON_DEMAND_THREAD_BYTES + ON_DEMAND_FIXED_BYTES;
+}
+
 /* A grid read on demand: the GPU brick cache gets what the budget leaves (at least a brick). */
 static leap_result share_budget(leap_scene *s, leap_error *err)
 {
     const leap_atlas *a = s->atlas;
-    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-    const uint64_t threads = (cpus > 1 ? (uint64_t)cpus : 1) + 1;
-    const uint64_t held = s->info->memory_bytes + (uint64_t)a->page_words * 4 +
-                          (uint64_t)a->slot_count * (sizeof *a->slot_cells + sizeof *a->slot_ranges) +
-                          (uint64_t)leap_grid_brick_count(s->grid) * ON_DEMAND_BRICK_BYTES +
-                          threads * ON_DEMAND_THREAD_BYTES + ON_DEMAND_FIXED_BYTES;
+    const uint64_t held = on_demand_bytes(s) + (uint64_t)a->page_words * 4 +
+                          (uint64_t)a->slot_count * (sizeof *a->slot_cells + sizeof *a->slot_ranges);
     const uint64_t least = held + LEAP_SLOT_TEXELS * sizeof(float);
     if (least > s->memory_budget)
         return leap_fail(err, LEAP_ERR_USAGE, "a memory budget of %.1f MiB is too small for this grid read on demand: "
@@ -145,10 +150,7 @@ static leap_result share_budget(leap_scene *s, leap_error *err)
  * bookkeeping, given back before the brick cache takes its share. */
 static uint64_t open_share_bytes(const leap_scene *s)
 {
-    const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
-    const uint64_t threads = (cpus > 1 ? (uint64_t)cpus : 1) + 1;
-    const uint64_t held = s->info->memory_bytes + (uint64_t)leap_grid_brick_count(s->grid) * ON_DEMAND_BRICK_BYTES +
-                          threads * ON_DEMAND_THREAD_BYTES + ON_DEMAND_FIXED_BYTES;
+    const uint64_t held = on_demand_bytes(s);
     return s->memory_budget > held ? (s->memory_budget - held) / 2 : 0;
 }
 

@@ -295,7 +295,7 @@ struct OnDemand {
     std::vector<std::pair<unsigned long, size_t>> mapped; // the file's mapping (trim)
     // The shared copies by leaf origin in (z, y, x) order; guarded by shared_mutex.
     std::mutex shared_mutex;
-    size_t shared_capacity = 0;
+    std::atomic<size_t> shared_capacity{0}; // 0: nothing shared, and no lock taken
     std::map<std::tuple<int, int, int>, std::shared_ptr<const LeafT>> shared;
 
     explicit OnDemand(const std::string &path) : file(path) {}

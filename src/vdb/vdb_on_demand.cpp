@@ -97,18 +97,22 @@ static std::tuple<int, int, int> sweep_key(const LeafT &leaf)
 
 std::shared_ptr<const LeafT> OnDemand::values(const LeafT &leaf)
 {
+    std::unique_ptr<LeafT> copy;
+    if (shared_capacity.load(std::memory_order_relaxed) == 0) {
+        read(leaf, copy);
+        return std::shared_ptr<const LeafT>(std::move(copy));
+    }
     const auto key = sweep_key(leaf);
     {
         std::lock_guard<std::mutex> lock(shared_mutex);
         auto at = shared.find(key);
         if (at != shared.end()) return at->second;
     }
-    std::unique_ptr<LeafT> copy;
     read(leaf, copy); // outside the lock: two threads may read one leaf, rarely
     std::shared_ptr<const LeafT> values(std::move(copy));
     std::shared_ptr<const LeafT> evicted; // freed after the lock is released
     std::lock_guard<std::mutex> lock(shared_mutex);
-    if (shared_capacity == 0 || !shared.emplace(key, values).second) return values;
+    if (shared_capacity.load() == 0 || !shared.emplace(key, values).second) return values;
     if (shared.size() > shared_capacity) {
         evicted = std::move(shared.begin()->second);
         shared.erase(shared.begin());
@@ -119,8 +123,8 @@ std::shared_ptr<const LeafT> OnDemand::values(const LeafT &leaf)
 void OnDemand::share(size_t leaves)
 {
     std::lock_guard<std::mutex> lock(shared_mutex);
-    shared_capacity = leaves;
-    while (shared.size() > shared_capacity) shared.erase(shared.begin());
+    shared_capacity.store(leaves);
+    while (shared.size() > leaves) shared.erase(shared.begin());
 }
 
 void OnDemand::trim()
