@@ -29,6 +29,8 @@ typedef struct leap_atlas_cells {
 } leap_atlas_cells;
 void leap_atlas_cells_free(leap_atlas_cells *cells); /* frees the arrays, accepts NULL */
 
+#define LEAP_ATLAS_READERS 8 /* threads that read an atlas's slots again, at most */
+
 typedef struct leap_atlas_desc {
     const leap_grid *grid;
     int dense;            /* 1 = every cell next to data gets a slot, even where its footprint
@@ -83,7 +85,8 @@ typedef struct leap_atlas {
     uint64_t *slot_cells;      /* stream_texels: per slot (numbered as slot_texels), its cell
                                 * (x + cells[0] * (y + cells[1] * z)), read again by leap_atlas_read_slot */
     const leap_grid *grid;     /* stream_texels: the grid the slots are read from */
-    leap_grid_reader *slot_reader;
+    leap_grid_reader *slot_readers[LEAP_ATLAS_READERS]; /* stream_texels: one per reading thread */
+    uint32_t slot_reader_count;
     uint32_t *slot_ranges;     /* per slot (x + slot_dims[0] * (y + slot_dims[1] * z)): its smallest texel
                                 * | largest << 16 (MIP skipping) */
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
@@ -128,6 +131,11 @@ void leap_atlas_texels(const leap_atlas *atlas, size_t first, size_t count, uint
  * Errors: LEAP_ERR_FORMAT when a leaf of a grid read on demand cannot be read (or its file
  * changed since it was opened: leap_grid_check_source). */
 leap_result leap_atlas_read_slot(const leap_atlas *atlas, uint32_t slot, uint16_t *out, leap_error *err);
+
+/* As leap_atlas_read_slot for slots[0 .. n-1], into out[i * LEAP_SLOT_TEXELS ..]; a stream_texels
+ * atlas reads a batch of many slots from several threads, each a run of consecutive ones. */
+leap_result leap_atlas_read_slots(const leap_atlas *atlas, const uint32_t *slots, size_t n, uint16_t *out,
+                                  leap_error *err);
 
 /* Before a batch of leap_atlas_read_slot: LEAP_ERR_FORMAT if the file of a grid read on demand
  * changed since it was opened (leap_grid_check_source); LEAP_OK for any other atlas. */

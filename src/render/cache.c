@@ -157,20 +157,20 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
     for (size_t w = 0; w < words; ++w) missed += (uint64_t)__builtin_popcount(bits[w]);
     const uint32_t most = missed < c->capacity ? (uint32_t)missed : c->capacity;
     uint32_t(*origins)[3] = malloc((most ? most : 1) * sizeof *origins);
+    uint32_t *hosts = malloc((most ? most : 1) * sizeof *hosts);
     void *texels = malloc((size_t)(most ? most : 1) * LEAP_SLOT_TEXELS * r->texel_bytes);
-    uint16_t *src = malloc(LEAP_SLOT_TEXELS * sizeof *src);
-    if (!origins || !texels || !src) {
+    if (!origins || !hosts || !texels) {
         free(origins);
+        free(hosts);
         free(texels);
-        free(src);
         return leap_fail(err, LEAP_ERR_OOM, "brick cache: out of host memory for %u slots", most);
     }
     /* A file cut short under its mapping would fault the reads: checked first. */
     leap_result lr = leap_atlas_check_source(c->atlas, err);
-    /* The missed slots, in host order, each into its place, their texels cube by cube. */
+    /* The missed slots, in host order, each into its place; then their texels, cube by cube. */
     uint32_t n = 0;
     for (size_t w = 0; w < words && !lr; ++w)
-        for (uint32_t b = bits[w]; b && !lr; b &= b - 1) {
+        for (uint32_t b = bits[w]; b; b &= b - 1) {
             const uint32_t h = (uint32_t)(w * 32) + (uint32_t)__builtin_ctz(b);
             /* Its place, unless a slot missed before it took that place in this service: h then
              * waits for a later one. */
@@ -190,21 +190,21 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
             origins[n][0] = slot % d[0] * LEAP_SLOT;
             origins[n][1] = slot / d[0] % d[1] * LEAP_SLOT;
             origins[n][2] = slot / d[0] / d[1] * LEAP_SLOT;
-            /* A slot that cannot be read ends the frame with that error. */
-            if ((lr = leap_atlas_read_slot(c->atlas, h, src, err))) break;
-            for (size_t i = 0; i < LEAP_SLOT_TEXELS; ++i) {
-                const size_t at = (size_t)n * LEAP_SLOT_TEXELS + i;
-                if (r->texel_bytes == sizeof(float)) ((float *)texels)[at] = renderer_texel_float(src[i]);
-                else ((uint16_t *)texels)[at] = src[i];
-            }
-            ++n;
+            hosts[n++] = h;
         }
     st->cache_misses += missed;
-    free(src);
+    /* Read as 16-bit texels at the front of the buffer; float images widen them in place, from
+     * the last down (texel i's float covers 16-bit texels 2i and 2i + 1, already widened). A slot
+     * that cannot be read ends the frame with that error. */
+    if (!lr) lr = leap_atlas_read_slots(c->atlas, hosts, n, texels, err);
+    if (!lr && r->texel_bytes == sizeof(float))
+        for (size_t i = (size_t)n * LEAP_SLOT_TEXELS; i-- > 0;)
+            ((float *)texels)[i] = renderer_texel_float(((const uint16_t *)texels)[i]);
     if (!lr) lr = n ? leap_gpu_image_write_cubes(r->gpu, &r->atlas, r->texel_bytes, LEAP_SLOT, n,
                                                     (const uint32_t(*)[3])origins, texels, err)
                        : leap_fail(err, LEAP_ERR_UNSUPPORTED, "brick cache: rays wait on slots that are resident "
                                    "(no progress)");
+    free(hosts);
     free(origins);
     free(texels);
     renderer_cache_forget_misses(r);

@@ -928,7 +928,10 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
     if (a->labels) a->object_count = (uint32_t)leap_labels_count(desc->labels);
     if (a->slot_cells) {
         a->grid = desc->grid;
-        r = leap_grid_reader_create(desc->grid, &a->slot_reader, err);
+        const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
+        a->slot_reader_count = cpus < 1 ? 1 : cpus > LEAP_ATLAS_READERS ? LEAP_ATLAS_READERS : (uint32_t)cpus;
+        for (uint32_t i = 0; i < a->slot_reader_count && !r; ++i)
+            r = leap_grid_reader_create(desc->grid, &a->slot_readers[i], err);
         if (r) {
             leap_atlas_destroy(a);
             return r;
@@ -953,7 +956,7 @@ void leap_atlas_destroy(leap_atlas *atlas)
     free(atlas->pages);
     free(atlas->slot_texels);
     free(atlas->slot_cells);
-    leap_grid_reader_destroy(atlas->slot_reader);
+    for (uint32_t i = 0; i < atlas->slot_reader_count; ++i) leap_grid_reader_destroy(atlas->slot_readers[i]);
     free(atlas->slot_ranges);
     free(atlas->label_words);
     free(atlas->record_offsets);
@@ -962,14 +965,62 @@ void leap_atlas_destroy(leap_atlas *atlas)
 
 leap_result leap_atlas_read_slot(const leap_atlas *a, uint32_t slot, uint16_t *out, leap_error *err)
 {
-    if (slot >= a->slot_count) return leap_fail(err, LEAP_ERR_USAGE, "atlas: slot %u of %u", slot, a->slot_count);
+    return leap_atlas_read_slots(a, &slot, 1, out, err);
+}
+
+/* One reading thread's run of a batch of slots. */
+typedef struct slot_run {
+    const leap_atlas *a;
+    leap_grid_reader *reader;
+    const uint32_t *slots;
+    size_t n;
+    uint16_t *out;
+} slot_run;
+
+static void *read_run(void *arg)
+{
+    const slot_run *run = arg;
+    for (size_t i = 0; i < run->n; ++i) {
+        uint32_t c[3], entry, range;
+        key_cell(run->a, run->a->slot_cells[run->slots[i]], c);
+        read_cell(run->a, run->reader, c, 1, run->out + i * LEAP_SLOT_TEXELS, &entry, &range);
+    }
+    return NULL;
+}
+
+/* Slots per reading thread below which a batch is read by fewer threads: a thread's start
+ * costs about as much as a few reads. */
+#define READ_RUN_MIN 32
+
+leap_result leap_atlas_read_slots(const leap_atlas *a, const uint32_t *slots, size_t n, uint16_t *out, leap_error *err)
+{
+    for (size_t i = 0; i < n; ++i)
+        if (slots[i] >= a->slot_count) return leap_fail(err, LEAP_ERR_USAGE, "atlas: slot %u of %u", slots[i], a->slot_count);
     if (a->slot_texels) {
-        memcpy(out, a->slot_texels + (size_t)slot * LEAP_SLOT_TEXELS, LEAP_SLOT_TEXELS * sizeof *out);
+        for (size_t i = 0; i < n; ++i)
+            memcpy(out + i * LEAP_SLOT_TEXELS, a->slot_texels + (size_t)slots[i] * LEAP_SLOT_TEXELS,
+                   LEAP_SLOT_TEXELS * sizeof *out);
         return LEAP_OK;
     }
-    uint32_t c[3], entry, range;
-    key_cell(a, a->slot_cells[slot], c);
-    read_cell(a, a->slot_reader, c, 1, out, &entry, &range);
+    /* Consecutive slots are neighbouring cells (slots are numbered in cell order), so each thread
+     * takes a run of them and its reader keeps the leaves they share. */
+    size_t threads = n / READ_RUN_MIN;
+    if (threads > a->slot_reader_count) threads = a->slot_reader_count;
+    if (threads < 1) threads = 1;
+    slot_run runs[LEAP_ATLAS_READERS];
+    pthread_t tids[LEAP_ATLAS_READERS];
+    int started[LEAP_ATLAS_READERS] = {0};
+    for (size_t t = 0; t < threads; ++t) {
+        const size_t lo = n * t / threads, hi = n * (t + 1) / threads;
+        runs[t] = (slot_run){a, a->slot_readers[t], slots + lo, hi - lo, out + lo * LEAP_SLOT_TEXELS};
+    }
+    /* Run 0 on this thread; one that cannot start is read here too. */
+    for (size_t t = 1; t < threads; ++t) started[t] = pthread_create(&tids[t], NULL, read_run, &runs[t]) == 0;
+    read_run(&runs[0]);
+    for (size_t t = 1; t < threads; ++t) {
+        if (started[t]) pthread_join(tids[t], NULL);
+        else read_run(&runs[t]);
+    }
     return leap_grid_read_status(a->grid, err);
 }
 
