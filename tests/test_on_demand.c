@@ -179,9 +179,6 @@ static leap_scene *load_noting(const char *fog, uint64_t budget, const char *exp
     return s;
 }
 
-/* The grid index: the first open writes it; the next reads no leaf, builds the same atlas and
- * renders the same images, and a narrow view then reads only the leaves its rays reach. A
- * corrupt, truncated or stale index is rebuilt, an unwritable directory only noted. */
 /* A file of `bytes` bytes last modified age_s seconds ago. */
 static int write_file(const char *path, size_t bytes, time_t age_s)
 {
@@ -249,6 +246,19 @@ static void test_index_prune(const char *fog, const char *path)
     remove(written);
 }
 
+/* Two streamed atlases of one grid are the same: pages, slot cells and slot ranges. */
+static void check_same_streamed(const leap_atlas *a, const leap_atlas *b)
+{
+    CHECK(a->slot_count == b->slot_count && a->page_words == b->page_words);
+    if (a->slot_count != b->slot_count || a->page_words != b->page_words) return;
+    CHECK(!memcmp(a->pages, b->pages, a->page_words * 4));
+    CHECK(!memcmp(a->slot_cells, b->slot_cells, a->slot_count * 8));
+    CHECK(!memcmp(a->slot_ranges, b->slot_ranges, a->slot_count * 4));
+}
+
+/* The grid index: the first open writes it; the next reads no leaf, builds the same atlas and
+ * renders the same images, and a narrow view then reads only the leaves its rays reach. A
+ * corrupt, truncated or stale index is rebuilt, an unwritable directory only noted. */
 static void test_index(const char *fog)
 {
     char dir[700], path[1400];
@@ -267,12 +277,7 @@ static void test_index(const char *fog)
            (unsigned long long)second->leaves_read_to_open);
     CHECK(first->leaves_read_to_open >= leaves && second->leaves_read_to_open == 0);
     CHECK(first->info->value_min == second->info->value_min && first->info->value_max == second->info->value_max);
-    CHECK(first->atlas->slot_count == second->atlas->slot_count && first->atlas->page_words == second->atlas->page_words);
-    if (first->atlas->slot_count == second->atlas->slot_count && first->atlas->page_words == second->atlas->page_words) {
-        CHECK(!memcmp(first->atlas->pages, second->atlas->pages, first->atlas->page_words * 4));
-        CHECK(!memcmp(first->atlas->slot_cells, second->atlas->slot_cells, first->atlas->slot_count * 8));
-        CHECK(!memcmp(first->atlas->slot_ranges, second->atlas->slot_ranges, first->atlas->slot_count * 4));
-    }
+    check_same_streamed(first->atlas, second->atlas);
     static frame_out a, b, ref;
     /* A narrow view first, on the fresh open: the leaves its rays reach. */
     const uint64_t before = leap_grid_leaves_read(second->grid);
@@ -618,12 +623,9 @@ static void test_shared_leaves(const char *fog)
               "shared: %llu reads, per thread: %llu, %llu leaves", (unsigned long long)reads[1],
               (unsigned long long)reads[0], (unsigned long long)leaves);
     if (atlas[0] && atlas[1]) {
-        const leap_atlas *a = atlas[0], *b = atlas[1];
-        CHECK(a->slot_count == b->slot_count && a->page_words == b->page_words && cells[0].count == cells[1].count);
-        if (a->slot_count == b->slot_count && a->page_words == b->page_words && cells[0].count == cells[1].count) {
-            CHECK(!memcmp(a->pages, b->pages, a->page_words * 4));
-            CHECK(!memcmp(a->slot_cells, b->slot_cells, a->slot_count * 8));
-            CHECK(!memcmp(a->slot_ranges, b->slot_ranges, a->slot_count * 4));
+        check_same_streamed(atlas[0], atlas[1]);
+        CHECK(cells[0].count == cells[1].count);
+        if (cells[0].count == cells[1].count) {
             CHECK(!memcmp(cells[0].entries, cells[1].entries, cells[0].count * 4));
             CHECK(!memcmp(cells[0].ranges, cells[1].ranges, cells[0].count * 4));
         }
