@@ -11,7 +11,8 @@
 # timeout-*); replay one with  build-fuzz/tests/fuzz/fuzz_<target> FILE.
 # Without LEAP_FUZZ_FORK a target stops at its first crash; LEAP_FUZZ_FORK=1 keeps fuzzing
 # (libFuzzer's fork mode) and counts every crash, OOM and timeout.
-# Environment: LEAP_FUZZ_BUILD_DIR (default build-fuzz), LEAP_FUZZ_JOBS (build jobs, default 2).
+# Environment: LEAP_FUZZ_BUILD_DIR (default build-fuzz), LEAP_FUZZ_JOBS (build jobs, default 2),
+# LEAP_FUZZ_PARALLEL (targets fuzzed at once, default one per processor).
 # Exit status: 0 when no target crashed, 1 otherwise.
 set -euo pipefail
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -34,18 +35,20 @@ cmake --build "$build" -j"$jobs" --target "${targets[@]/#/fuzz_}"
 scratch="$(mktemp -d "$( [ -d /dev/shm ] && [ -w /dev/shm ] && echo /dev/shm || echo "${TMPDIR:-/tmp}")/leap-fuzz.XXXXXX")"
 trap 'rm -rf "$scratch"' EXIT
 
-declare -A summary
-status=0
-for t in "${targets[@]}"; do
-  dir="$build/fuzz/$t"
+# One target's run; its summary line goes to $dir/summary, and its exit status is 1 when it
+# crashed or failed.
+fuzz_target() {
+  local t="$1" dir="$build/fuzz/$1"
   mkdir -p "$dir/corpus"
+  rm -f "$dir/summary"
   cp -n "$root/tests/fuzz/corpus/$t/"* "$dir/corpus/" 2>/dev/null || true
+  local before after execs kinds crashes rc line status=0
   before="$(find "$dir" -maxdepth 1 -type f \( -name 'crash-*' -o -name 'leak-*' -o -name 'oom-*' -o -name 'timeout-*' \) | wc -l)"
-  args=(-max_total_time="$seconds" -print_final_stats=1 -close_fd_mask=3 -timeout=20
-        -rss_limit_mb=4096 -malloc_limit_mb=4096 -artifact_prefix="$dir/")
+  local args=(-max_total_time="$seconds" -print_final_stats=1 -close_fd_mask=3 -timeout=20
+              -rss_limit_mb=4096 -malloc_limit_mb=4096 -artifact_prefix="$dir/")
   [ -f "$root/tests/fuzz/corpus/$t.dict" ] && args+=(-dict="$root/tests/fuzz/corpus/$t.dict")
   [ "${LEAP_FUZZ_FORK:-0}" != "0" ] && args+=(-fork=1 -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1)
-  log="$dir/last-run.log"
+  local log="$dir/last-run.log"
   echo "fuzz.sh: fuzz_$t for ${seconds}s (log: $log)"
   set +e
   TMPDIR="$scratch" LSAN_OPTIONS="suppressions=$root/tests/fuzz/lsan.supp" \
@@ -60,17 +63,37 @@ for t in "${targets[@]}"; do
   after="$(find "$dir" -maxdepth 1 -type f \( -name 'crash-*' -o -name 'leak-*' -o -name 'oom-*' -o -name 'timeout-*' \) | wc -l)"
   crashes=$((after - before))
   kinds="$(grep -o 'ERROR: [A-Za-z]*Sanitizer: [a-z-]*\|ERROR: libFuzzer: [a-z-]*' "$log" | sort | uniq -c | sed 's/^ *//' | paste -sd';' - || true)"
-  summary[$t]="executions ${execs:-?}, crashes $crashes${kinds:+ ($kinds)}"
+  line="executions ${execs:-?}, crashes $crashes${kinds:+ ($kinds)}"
   if [ "$crashes" -gt 0 ]; then
     status=1
-    summary[$t]+=", inputs in $dir/"
+    line+=", inputs in $dir/"
   elif [ "$rc" -ne 0 ]; then
     status=1
-    summary[$t]+=", but the run failed (exit $rc, see $log)"
+    line+=", but the run failed (exit $rc, see $log)"
+  fi
+  echo "$line" >"$dir/summary"
+  return $status
+}
+
+# The targets run side by side, one per processor (LEAP_FUZZ_PARALLEL): each fuzzer is one
+# thread, so every target still gets its whole time.
+parallel="${LEAP_FUZZ_PARALLEL:-$(nproc)}"
+case "$parallel" in ''|*[!0-9]*|0) echo "fuzz.sh: LEAP_FUZZ_PARALLEL must be a positive whole number, got '$parallel'" >&2; exit 2 ;; esac
+status=0
+running=()
+for t in "${targets[@]}"; do
+  fuzz_target "$t" &
+  running+=($!)
+  if [ ${#running[@]} -ge "$parallel" ]; then
+    wait "${running[0]}" || status=1
+    running=("${running[@]:1}")
   fi
 done
+for pid in "${running[@]}"; do wait "$pid" || status=1; done
 
 echo
 echo "fuzz.sh: ${seconds}s per target"
-for t in "${targets[@]}"; do printf '  fuzz_%-4s %s\n' "$t" "${summary[$t]}"; done
+for t in "${targets[@]}"; do
+  printf '  fuzz_%-4s %s\n' "$t" "$(cat "$build/fuzz/$t/summary" 2>/dev/null || echo 'no result: its run stopped early')"
+done
 exit $status

@@ -141,7 +141,7 @@ static void check_without_naive(void)
  * below one 16384x16384 RGBA float image (4 GiB). AddressSanitizer needs more. */
 static void check_image_out_of_memory(void)
 {
-#if defined(__SANITIZE_ADDRESS__)
+#ifdef LEAP_SANITIZED
     return;
 #else
     char cmd[4096], path[2048];

@@ -88,7 +88,7 @@ static void test_image_failures(leap_gpu *gpu)
     CHECK(is_zero(&img, sizeof img));
     CHECK(leap_gpu_allocated_bytes(gpu) == start);
 
-#ifndef __SANITIZE_ADDRESS__
+#ifndef LEAP_SANITIZED
     /* Failing after vkCreateImage: an address-space limit just above the current size makes
      * the device memory (or staging) allocation fail, so the image exists when the failure
      * comes and must be destroyed again. (Skipped under ASan, whose allocator aborts on a

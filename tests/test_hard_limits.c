@@ -9,12 +9,6 @@
 
 #include "hard_cases.h"
 
-#if defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define LEAP_ASAN 1
-#endif
-#endif
-
 /* Renders v in every mode (all checks); returns the sparseleap frame's overflowed pixels. */
 static uint64_t overflow_frame(gpu *g, const leap_scene *s, const leap_rays *v, const char *label)
 {
@@ -115,7 +109,7 @@ static void case_fill_int32_end(void)
     fflush(NULL);
     pid_t pid = fork();
     if (pid == 0) {
-#if !defined(__SANITIZE_ADDRESS__) && !defined(LEAP_ASAN)
+#ifndef LEAP_SANITIZED
         /* (AddressSanitizer reserves far more address space than this: no limit there) */
         struct rlimit rl = {(rlim_t)1 << 31, (rlim_t)1 << 31};
         setrlimit(RLIMIT_AS, &rl);

@@ -241,7 +241,7 @@ static void signals_and_limits(void)
  * limit at all (its shadow memory), so the case is for the plain build only. */
 static void address_space_limit(void)
 {
-#if defined(__SANITIZE_ADDRESS__)
+#ifdef LEAP_SANITIZED
     printf("[address-space limit] skipped: AddressSanitizer build\n");
 #else
     ++case_count;

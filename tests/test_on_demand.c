@@ -9,7 +9,9 @@
  * incomplete pictures while bricks load (leap_renderer_set_partial). The
  * program `leap render` renders a fog of 4x the budget's bytes with a peak resident memory
  * within the budget above what a tiny volume's render takes (the fixed overhead: libraries,
- * pipelines, image buffers), to the same image as in memory. */
+ * pipelines, image buffers), to the same image as in memory, and reads the whole file from
+ * storage on its first open when the file's pages were dropped from the page cache (under the
+ * sanitizers, whose shadow memory makes peaks meaningless, a fog of 0.8x the budget). */
 #define W 96 /* the frames' size (gpu_fixture.h's frame_out) */
 #define H 96
 #include "cli_harness.h"
@@ -20,6 +22,7 @@
 #include "leap/scene.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -95,11 +98,13 @@ static int same_frames(const frame_out *a, const frame_out *b)
     return !memcmp(a->rgba, b->rgba, sizeof a->rgba) && !memcmp(a->depth, b->depth, sizeof a->depth);
 }
 
-/* Every mode through the same cache: the grid read on demand gives the in-memory image. */
-static void check_frames(leap_renderer *cache, leap_scene *whole, leap_scene *lazy, const char *what)
+/* Each mode of mode_mask (bit m: modes[m]) through the same cache: the grid read on demand
+ * gives the in-memory image. */
+static void check_frames(leap_renderer *cache, leap_scene *whole, leap_scene *lazy, const char *what, unsigned mode_mask)
 {
     static frame_out a, b;
     for (size_t m = 0; m < sizeof modes / sizeof *modes; ++m) {
+        if (!(mode_mask >> m & 1u)) continue;
         if (!render(cache, whole, modes[m], &a) || !render(cache, lazy, modes[m], &b)) continue;
         const int same = same_frames(&a, &b);
         printf("%-5s %-10s cache %5u of %6u bricks: %3u passes, %6llu loaded; on demand %s in memory\n", what,
@@ -127,10 +132,18 @@ static void test_scenes(const char *fog)
     const leap_renderer_desc some = {.cache_bytes = 1u << 20}, few = {.cache_bytes = 40 * LEAP_SLOT_TEXELS * 4};
     leap_renderer *r_some = make_renderer_with(&some), *r_few = make_renderer_with(&few), *r_room = make_renderer();
     if (r_some && r_few && r_room) {
-        check_frames(r_some, whole, lazy, "plain");
-        check_frames(r_few, whole, lazy, "plain");
+        check_frames(r_some, whole, lazy, "plain", 0xfu);
+        check_frames(r_few, whole, lazy, "plain", 0xfu);
+        /* MIP's rays never stop early, so they thrash this cache for long. Under the sanitizers,
+         * which do not see into the shaders where the modes differ, naive and sparseleap (the
+         * lists) cover the host's paths. */
+#ifdef LEAP_SANITIZED
+        const unsigned mip_modes = 0x9u;
+#else
+        const unsigned mip_modes = 0xfu;
+#endif
         leap_scene *whole_mip = load(fog, 0, LEAP_MIP_MAX, &err), *lazy_mip = load(fog, budget, LEAP_MIP_MAX, &err);
-        if (whole_mip && lazy_mip) check_frames(r_some, whole_mip, lazy_mip, "mip");
+        if (whole_mip && lazy_mip) check_frames(r_some, whole_mip, lazy_mip, "mip", mip_modes);
         leap_scene_destroy(whole_mip);
         leap_scene_destroy(lazy_mip);
         /* What the budget leaves: the whole atlas's image within the rounding of texel addresses. */
@@ -520,22 +533,61 @@ static int same_pixels(const char *a, const char *b)
     return same;
 }
 
+/* Drops path's pages from the page cache (written back first); 1 when mincore(2) then finds at
+ * most a tenth of them cached (a file system may keep them: tmpfs does). */
+static int drop_cached_pages(const char *path)
+{
+    const int fd = open(path, O_RDONLY);
+    struct stat st;
+    int dropped = 0;
+    if (fd >= 0 && fstat(fd, &st) == 0 && st.st_size > 0 && fdatasync(fd) == 0 &&
+        posix_fadvise(fd, 0, 0, POSIX_FADV_DONTNEED) == 0) {
+        const size_t page = (size_t)sysconf(_SC_PAGESIZE), pages = ((size_t)st.st_size + page - 1) / page;
+        void *map = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_SHARED, fd, 0);
+        unsigned char *cached = malloc(pages);
+        if (map != MAP_FAILED && cached && mincore(map, (size_t)st.st_size, cached) == 0) {
+            size_t n = 0;
+            for (size_t i = 0; i < pages; ++i) n += cached[i] & 1;
+            dropped = n * 10 <= pages;
+        }
+        free(cached);
+        if (map != MAP_FAILED) munmap(map, (size_t)st.st_size);
+    }
+    if (fd >= 0) close(fd);
+    return dropped;
+}
+
+/* The number after "key": in a --stats text; -1 when it is not there. */
+static double stats_number(const char *json, const char *key)
+{
+    char quoted[128];
+    snprintf(quoted, sizeof quoted, "\"%s\":", key);
+    const char *at = strstr(json, quoted);
+    return at ? strtod(at + strlen(quoted), NULL) : -1;
+}
+
 /* The program: a fog of 4x the budget's bytes of values, rendered within the budget. */
 static void test_program(void)
 {
     char fog[700], base[700], lazy[700], whole[700], stats[700];
-    snprintf(fog, sizeof fog, "%s/fog440.vdb", tmp_dir);
+#ifdef LEAP_SANITIZED
+    const int size = 256; /* 64 MiB of values, still read on demand: the peak is not checked here */
+#else
+    const int size = 440; /* 325 MiB of values */
+#endif
+    snprintf(fog, sizeof fog, "%s/fog%d.vdb", tmp_dir, size);
     snprintf(base, sizeof base, "%s/tiny.png", tmp_dir);
     snprintf(lazy, sizeof lazy, "%s/on_demand.png", tmp_dir);
     snprintf(whole, sizeof whole, "%s/in_memory.png", tmp_dir);
     snprintf(stats, sizeof stats, "%s/on_demand.json", tmp_dir);
-    if (!make_fog(fog, 440)) return; /* 325 MiB of values */
+    if (!make_fog(fog, size)) return;
     const char *const tiny_args[] = {"render", sphere, "--size", "128x128", "-o", base, NULL};
     const char *const lazy_args[] = {"render", fog, "--size", "128x128", "--memory-budget", "80M", "--gpu-cache", "1M",
                                      "--stats", stats, "-o", lazy, NULL};
     const char *const whole_args[] = {"render", fog, "--size", "128x128", "--gpu-cache", "1M", "-o", whole, NULL};
     CHECK_MSG(run_leap(tiny_args) == 0, "%s", res.err);
     const long tiny_kb = res.max_rss_kb;
+    const int cold = drop_cached_pages(fog);
     CHECK_MSG(run_leap_limit("300", lazy_args) == 0, "%s", res.err);
     CHECK_MSG(!strstr(res.err, "building the atlas"), "a progress bar went to a stderr that is not a terminal");
     const long lazy_kb = res.max_rss_kb;
@@ -544,10 +596,16 @@ static void test_program(void)
     char json[16384];
     read_text(stats, json, sizeof json);
     const char *read = strstr(json, "\"leaves_read\"");
-    printf("fog 440^3 (325 MiB of values), budget 80 MiB: peak %.0f MiB on demand (%.1f s), %.0f MiB in memory, "
-           "%.0f MiB for a tiny volume; %.40s\n", lazy_kb / 1024.0, lazy_s, res.max_rss_kb / 1024.0,
-           tiny_kb / 1024.0, read ? read : "no leaves_read in --stats");
+    printf("fog %d^3 (%.0f MiB of values), budget 80 MiB: peak %.0f MiB on demand (%.1f s), %.0f MiB in memory, "
+           "%.0f MiB for a tiny volume; %.40s\n", size, 4.0 * size * size * size / (1 << 20), lazy_kb / 1024.0, lazy_s,
+           res.max_rss_kb / 1024.0, tiny_kb / 1024.0, read ? read : "no leaves_read in --stats");
     CHECK(read != NULL);
+    /* The first open reads every leaf: from storage, when the fog was not in the page cache. */
+    const double file_bytes = stats_number(json, "input_file_bytes"), storage = stats_number(json, "storage_bytes_read");
+    printf("storage read %.0f MiB of the %.0f MiB file (%s)\n", storage / (1 << 20), file_bytes / (1 << 20),
+           cold ? "its pages dropped from the page cache first" : "its pages could not be dropped: not checked");
+    CHECK(file_bytes > 0 && storage >= 0);
+    if (cold) CHECK_MSG(storage >= 0.9 * file_bytes, "%.0f bytes read from storage, the file has %.0f", storage, file_bytes);
     /* "rebuilt": the index of an earlier run's fog, made again since */
     CHECK_MSG(strstr(json, "\"written\"") || strstr(json, "\"rebuilt: the file changed"),
               "the first open of the fog wrote no grid index");
@@ -583,7 +641,7 @@ static void test_program(void)
     CHECK_MSG(strstr(res.err, "warning: grid index") && strstr(res.err, "not written"), "%s", res.err);
     setenv("LEAP_INDEX_DIR", kept, 1);
     CHECK_MSG(same_pixels(lazy, whole), "the image read on demand differs from the in-memory one");
-#if defined(__SANITIZE_ADDRESS__)
+#ifdef LEAP_SANITIZED
     printf("(AddressSanitizer build: its shadow memory makes peaks meaningless; not checked)\n");
 #else
     CHECK_MSG(lazy_kb <= tiny_kb + 80 * 1024 + 8 * 1024, "peak %ld KiB, more than %ld KiB above a tiny volume's %ld",

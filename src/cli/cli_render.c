@@ -265,6 +265,12 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     }
     struct rusage usage; /* this process's peak so far (the image writer's process is not counted) */
     if (getrusage(RUSAGE_SELF, &usage) == 0) cJSON_AddNumberToObject(mem, "peak_rss", (double)usage.ru_maxrss * 1024);
+    /* What came from storage: a file already in the page cache is read from memory (0 bytes). */
+    cJSON *io = cJSON_AddObjectToObject(root, "io");
+    struct stat st;
+    if (stat(o->input, &st) == 0 && S_ISREG(st.st_mode)) cJSON_AddNumberToObject(io, "input_file_bytes", (double)st.st_size);
+    uint64_t storage = 0;
+    if (cli_storage_bytes_read(&storage)) cJSON_AddNumberToObject(io, "storage_bytes_read", (double)storage);
     cJSON *pages = cJSON_AddObjectToObject(root, "page_table");
     cJSON_AddNumberToObject(pages, "block_cells", 1u << s->atlas->block_shift);
     cJSON_AddNumberToObject(pages, "blocks", s->atlas->block_count);

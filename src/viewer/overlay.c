@@ -75,7 +75,10 @@ static int clip_rect(double *x0, double *y0, double *x1, double *y1, double w, d
 
 void leap_viewer_draw_line(uint8_t *rgb, int w, int h, double x0, double y0, double x1, double y1, const uint8_t c[3])
 {
-    if (w <= 0 || h <= 0 || !clip_rect(&x0, &y0, &x1, &y1, w, h)) return;
+    /* fmax drops a NaN, so each end is checked before the length */
+    if (w <= 0 || h <= 0 || !isfinite(x0) || !isfinite(y0) || !isfinite(x1) || !isfinite(y1) ||
+        !clip_rect(&x0, &y0, &x1, &y1, w, h))
+        return;
     double len = fmax(fabs(x1 - x0), fabs(y1 - y0));
     if (!isfinite(len)) return;
     int steps = (int)ceil(len) + 1;

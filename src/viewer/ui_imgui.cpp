@@ -553,7 +553,9 @@ void triangle(const leap_ui *ui, layer &L, const ImDrawVert &v0, const ImDrawVer
                 hi = std::max(hi, x2);
             }
         }
-        const int xa = std::max(x0, (int)std::floor(lo - 1.0f)), xb = std::min(x1, (int)std::ceil(hi + 1.0f));
+        if (!(lo <= hi)) continue; // the row misses the triangle
+        // clamped before the conversion: a float beyond int's range does not convert
+        const int xa = (int)std::max((float)x0, std::floor(lo - 1.0f)), xb = (int)std::min((float)x1, std::ceil(hi + 1.0f));
         for (int x = xa; x < xb; ++x) {
             const float px = x + 0.5f;
             const float w0 = edge(v1.pos, v2.pos, px, py) * inv, w1 = edge(v2.pos, v0.pos, px, py) * inv;
