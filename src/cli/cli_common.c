@@ -130,19 +130,6 @@ int cli_dir_writable(const char *path)
     return stat(dir, &st) == 0 && S_ISDIR(st.st_mode) && access(dir, W_OK) == 0;
 }
 
-int cli_storage_bytes_read(uint64_t *bytes)
-{
-    FILE *f = fopen("/proc/self/io", "r");
-    if (!f) return 0;
-    char line[128];
-    unsigned long long n = 0;
-    int found = 0;
-    while (!found && fgets(line, sizeof line, f)) found = sscanf(line, "read_bytes: %llu", &n) == 1;
-    fclose(f);
-    if (found) *bytes = n;
-    return found;
-}
-
 /* The option names a help text lists: "-x" and "--name" tokens on lines that start with an
  * option. Writes at most cap; returns the count. */
 static size_t help_options(const char *help, char names[][32], size_t count, size_t cap)

@@ -48,11 +48,6 @@ int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs,
 /* 1 if the directory that would hold `path` exists and is writable. */
 int cli_dir_writable(const char *path);
 
-/* Bytes this process has read from storage so far (the kernel's read_bytes in /proc/self/io:
- * reads and mapped pages the page cache did not already hold, with the kernel's read-ahead);
- * returns 0 when the kernel does not say. */
-int cli_storage_bytes_read(uint64_t *bytes);
-
 /* Options shared by render, segments, bench and view. */
 typedef struct cli_camera_options {
     leap_scene_desc scene;

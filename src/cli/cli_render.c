@@ -157,6 +157,22 @@ leap_result cli_write_image(const cli_camera_options *o, const leap_scene *scene
     return r;
 }
 
+/* Bytes this process has read from storage so far (the kernel's read_bytes in /proc/self/io:
+ * reads and mapped pages the page cache did not already hold, with the kernel's read-ahead);
+ * returns 0 when the kernel does not say. */
+static int storage_bytes_read(uint64_t *bytes)
+{
+    FILE *f = fopen("/proc/self/io", "r");
+    if (!f) return 0;
+    char line[128];
+    unsigned long long n = 0;
+    int found = 0;
+    while (!found && fgets(line, sizeof line, f)) found = sscanf(line, "read_bytes: %llu", &n) == 1;
+    fclose(f);
+    if (found) *bytes = n;
+    return found;
+}
+
 static char *stats_json(const cli_camera_options *o, const leap_scene *s, const leap_renderer *renderer,
                         const stage_times *t, const leap_frame_stats *fs, int mode)
 {
@@ -270,7 +286,7 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     struct stat st;
     if (stat(o->input, &st) == 0 && S_ISREG(st.st_mode)) cJSON_AddNumberToObject(io, "input_file_bytes", (double)st.st_size);
     uint64_t storage = 0;
-    if (cli_storage_bytes_read(&storage)) cJSON_AddNumberToObject(io, "storage_bytes_read", (double)storage);
+    if (storage_bytes_read(&storage)) cJSON_AddNumberToObject(io, "storage_bytes_read", (double)storage);
     cJSON *pages = cJSON_AddObjectToObject(root, "page_table");
     cJSON_AddNumberToObject(pages, "block_cells", 1u << s->atlas->block_shift);
     cJSON_AddNumberToObject(pages, "blocks", s->atlas->block_count);
