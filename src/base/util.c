@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <ctype.h>
 #include <math.h>
+#include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -167,4 +168,21 @@ const char *leap__closest(const char *word, const char *const *candidates, size_
         }
     }
     return best;
+}
+
+void leap__run_jobs(void *(*fn)(void *), void *jobs, size_t job_bytes, size_t count)
+{
+    typedef struct worker {
+        pthread_t tid;
+        int started;
+    } worker;
+    char *job = jobs;
+    worker *w = count > 1 ? calloc(count, sizeof *w) : NULL; /* without it, every job runs here */
+    for (size_t i = 1; w && i < count; ++i) w[i].started = pthread_create(&w[i].tid, NULL, fn, job + i * job_bytes) == 0;
+    if (count) fn(job);
+    for (size_t i = 1; i < count; ++i) {
+        if (w && w[i].started) pthread_join(w[i].tid, NULL);
+        else fn(job + i * job_bytes);
+    }
+    free(w);
 }

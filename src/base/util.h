@@ -26,6 +26,10 @@ int leap__parse_numbers(const char *s, double *out, int min_n, int n);
  * NULL when none is. */
 const char *leap__closest(const char *word, const char *const *candidates, size_t count);
 
+/* Runs fn(jobs + i * job_bytes) for every i < count: job 0 on the calling thread, each other
+ * job on a thread of its own; a job whose thread cannot start runs on the calling thread. */
+void leap__run_jobs(void *(*fn)(void *), void *jobs, size_t job_bytes, size_t count);
+
 /* The part of path after its last '/'. */
 const char *leap__base_name(const char *path);
 

@@ -3,7 +3,6 @@
 #include "leap/reference.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -420,22 +419,14 @@ leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, 
         nthreads = 1;
 
     ref_job *jobs = calloc((size_t)nthreads, sizeof *jobs);
-    pthread_t *tids = calloc((size_t)nthreads, sizeof *tids);
-    int *started = calloc((size_t)nthreads, sizeof *started);
-    if (!jobs || !tids || !started) {
-        free(jobs);
-        free(tids);
-        free(started);
+    if (!jobs)
         return leap_fail(err, LEAP_ERR_OOM, "reference: out of memory for %d threads", nthreads);
-    }
     for (int i = 0; i < nthreads; ++i) {
         r = leap_grid_reader_create(desc->grid, &jobs[i].reader, err);
         if (r != LEAP_OK) {
             for (int j = 0; j < i; ++j)
                 leap_grid_reader_destroy(jobs[j].reader);
             free(jobs);
-            free(tids);
-            free(started);
             return r;
         }
         jobs[i].desc = desc;
@@ -445,21 +436,10 @@ leap_result leap_reference_render(const leap_reference_desc *desc, float *rgba, 
         jobs[i].depth = depth;
         jobs[i].samples = samples;
     }
-    /* Job 0 runs on the calling thread; a job whose thread cannot start runs there too. */
-    for (int i = 1; i < nthreads; ++i)
-        started[i] = pthread_create(&tids[i], NULL, render_rows, &jobs[i]) == 0;
-    render_rows(&jobs[0]);
-    for (int i = 1; i < nthreads; ++i) {
-        if (started[i])
-            pthread_join(tids[i], NULL);
-        else
-            render_rows(&jobs[i]);
-    }
+    leap__run_jobs(render_rows, jobs, sizeof *jobs, (size_t)nthreads);
     for (int i = 0; i < nthreads; ++i)
         leap_grid_reader_destroy(jobs[i].reader);
     free(jobs);
-    free(tids);
-    free(started);
     return LEAP_OK;
 }
 

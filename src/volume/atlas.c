@@ -578,8 +578,6 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
     if (threads > FILL_MAX_THREADS) threads = FILL_MAX_THREADS;
     if (threads > sh.chunk_count) threads = sh.chunk_count ? sh.chunk_count : 1;
     fill_worker *workers = calloc(threads, sizeof *workers);
-    pthread_t tids[FILL_MAX_THREADS];
-    int started[FILL_MAX_THREADS] = {0};
     if (!workers) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
     for (size_t i = 0; i < threads && !r; ++i) {
         workers[i].sh = &sh;
@@ -597,11 +595,9 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         atomic_init(&sh.failed, 0);
         pthread_mutex_init(&sh.lock, NULL);
         pthread_cond_init(&sh.turn, NULL);
-        /* Worker 0 is this thread; one that cannot start leaves its share to the others. */
-        for (size_t i = 1; i < threads; ++i) started[i] = pthread_create(&tids[i], NULL, fill_run, &workers[i]) == 0;
-        fill_run(&workers[0]);
-        for (size_t i = 1; i < threads; ++i)
-            if (started[i]) pthread_join(tids[i], NULL);
+        /* A worker whose thread cannot start leaves its share to the others: run afterwards, it
+         * finds no chunk left. */
+        leap__run_jobs(fill_run, workers, sizeof *workers, threads);
         pthread_cond_destroy(&sh.turn);
         pthread_mutex_destroy(&sh.lock);
         r = sh.r;
@@ -1008,19 +1004,11 @@ leap_result leap_atlas_read_slots(const leap_atlas *a, const uint32_t *slots, si
     if (threads > a->slot_reader_count) threads = a->slot_reader_count;
     if (threads < 1) threads = 1;
     slot_run runs[LEAP_ATLAS_READERS];
-    pthread_t tids[LEAP_ATLAS_READERS];
-    int started[LEAP_ATLAS_READERS] = {0};
     for (size_t t = 0; t < threads; ++t) {
         const size_t lo = n * t / threads, hi = n * (t + 1) / threads;
         runs[t] = (slot_run){a, a->slot_readers[t], slots + lo, hi - lo, out + lo * LEAP_SLOT_TEXELS};
     }
-    /* Run 0 on this thread; one that cannot start is read here too. */
-    for (size_t t = 1; t < threads; ++t) started[t] = pthread_create(&tids[t], NULL, read_run, &runs[t]) == 0;
-    read_run(&runs[0]);
-    for (size_t t = 1; t < threads; ++t) {
-        if (started[t]) pthread_join(tids[t], NULL);
-        else read_run(&runs[t]);
-    }
+    leap__run_jobs(read_run, runs, sizeof *runs, threads);
     return leap_grid_read_status(a->grid, err);
 }
 
