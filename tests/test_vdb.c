@@ -1045,6 +1045,76 @@ static void test_histogram(void)
 
 /* ---- grids read on demand --------------------------------------------------------- */
 
+/* A grid loaded again with the leaf offsets its first load found reads its topology alone and
+ * then every leaf at its offset: the same values as the grid loaded whole (`whole`'s reader, its
+ * bricks `bricks`), every box read. Offsets of another count are refused; one that points
+ * elsewhere in the file reads as the background and is reported (its bytes fail their check). */
+static void check_leaf_offsets(const char *path, const char *name, const leap_grid *lazy, const leap_brick *bricks,
+                               size_t count, leap_grid_reader *whole)
+{
+    leap_error err = {{0}};
+    leap_grid_scan scan;
+    leap_grid_get_scan(lazy, &scan);
+    const uint64_t *offsets = leap_grid_leaf_offsets(lazy);
+    CHECK_MSG(offsets != NULL, "%s: the first load found no leaf offsets", path);
+    leap_vdb_file *f = open_file(path, &err);
+    if (!offsets || !f || !whole) {
+        leap_vdb_close(f);
+        return;
+    }
+    const int index = leap_vdb_find_grid(f, name);
+    leap_grid *g = NULL, *refused = NULL;
+    CHECK_OK(leap_vdb_load_grid_on_demand(f, index, &scan, offsets, &g, &err), &err);
+    leap_grid_scan fewer = scan;
+    fewer.leaf_count--;
+    CHECK(scan.leaf_count == 0 ||
+          (leap_vdb_load_grid_on_demand(f, index, &fewer, offsets, &refused, &err) == LEAP_ERR_FORMAT && !refused &&
+           strstr(err.msg, "index")));
+    uint64_t *moved = malloc((scan.leaf_count ? scan.leaf_count : 1) * sizeof *moved);
+    leap_grid *wrong = NULL;
+    if (moved && scan.leaf_count) {
+        memcpy(moved, offsets, scan.leaf_count * sizeof *moved);
+        moved[0] += 3; /* inside the leaf's own bytes: OpenVDB's reader meets what is not a header */
+        CHECK_OK(leap_vdb_load_grid_on_demand(f, index, &scan, moved, &wrong, &err), &err);
+    }
+    leap_vdb_close(f);
+    leap_grid_reader *rg = NULL, *rw = NULL;
+    if (g) {
+        CHECK(leap_grid_leaves_read(g) == 0 && leap_grid_leaf_offsets(g) != NULL);
+        CHECK_OK(leap_grid_reader_create(g, &rg, &err), &err);
+    }
+    enum { E = 10 };
+    float va[E * E * E], vb[E * E * E];
+    size_t differ = 0;
+    for (size_t k = 0; rg && k < count; ++k) {
+        const int32_t min[3] = {bricks[k].origin[0] - 1, bricks[k].origin[1] - 1, bricks[k].origin[2] - 1},
+                      dim[3] = {E, E, E};
+        leap_grid_reader_box(whole, min, dim, va);
+        leap_grid_reader_box(rg, min, dim, vb);
+        differ += memcmp(va, vb, sizeof va) != 0;
+    }
+    CHECK_MSG(differ == 0, "%s: %zu boxes read differently at the leaves' offsets", path, differ);
+    if (g) CHECK_OK(leap_grid_read_status(g, &err), &err);
+    if (wrong && leap_grid_reader_create(wrong, &rw, &err) == LEAP_OK) {
+        for (size_t k = 0; k < count; ++k) {
+            const int32_t min[3] = {bricks[k].origin[0] - 1, bricks[k].origin[1] - 1, bricks[k].origin[2] - 1},
+                          dim[3] = {E, E, E};
+            leap_grid_reader_box(rw, min, dim, vb);
+        }
+        /* The leaf's bytes are checked before OpenVDB decodes them. */
+        const leap_result status = leap_grid_read_status(wrong, &err);
+        printf("on demand %-40s a leaf at a wrong offset: %s\n", path, status ? err.msg : "read, no error");
+        CHECK(status == LEAP_ERR_FORMAT && strstr(err.msg, "cannot be read") && strstr(err.msg, "voxel values"));
+    }
+    printf("on demand %-40s %llu leaves read at their offsets: the same values\n", path,
+           (unsigned long long)(g ? leap_grid_leaves_read(g) : 0));
+    leap_grid_reader_destroy(rg);
+    leap_grid_reader_destroy(rw);
+    leap_grid_destroy(g);
+    leap_grid_destroy(wrong);
+    free(moved);
+}
+
 /* A grid read on demand gives what the same grid loaded whole gives: info, bricks, histogram,
  * and the values readers read (boxes covering every leaf and its apron, read in two orders). */
 static void check_on_demand(const char *path, const char *name)
@@ -1053,7 +1123,7 @@ static void check_on_demand(const char *path, const char *name)
     leap_grid *whole = load(path, name), *lazy = NULL;
     leap_vdb_file *f = open_file(path, &err);
     if (f) {
-        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), NULL, &lazy, &err), &err);
+        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), NULL, NULL, &lazy, &err), &err);
         leap_vdb_close(f); /* the grid outlives its file here too */
     }
     if (!whole || !lazy) {
@@ -1110,11 +1180,11 @@ static void check_on_demand(const char *path, const char *name)
     for (size_t k = 0; ranges && k < nb; ++k) ranges[2 * k] = bb[k].value_min, ranges[2 * k + 1] = bb[k].value_max;
     leap_grid *known = NULL;
     if ((f = open_file(path, &err)) != NULL) {
-        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &scan, &known, &err), &err);
+        CHECK_OK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &scan, NULL, &known, &err), &err);
         leap_grid_scan wrong = scan;
         wrong.leaf_count++;
         leap_grid *refused = NULL;
-        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &wrong, &refused, &err) == LEAP_ERR_FORMAT &&
+        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, name), &wrong, NULL, &refused, &err) == LEAP_ERR_FORMAT &&
               !refused && strstr(err.msg, "index"));
         leap_vdb_close(f);
     }
@@ -1142,6 +1212,7 @@ static void check_on_demand(const char *path, const char *name)
     }
     free(ranges);
     leap_grid_destroy(known);
+    check_leaf_offsets(path, name, lazy, ba, na, ra);
     leap_grid_reader_destroy(ra);
     leap_grid_reader_destroy(rb);
     free(ba);
@@ -1174,14 +1245,14 @@ static void test_on_demand(void)
     leap_vdb_file *f = open_file(nf, &err);
     leap_grid *g = NULL;
     if (f) {
-        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, "d"), NULL, &g, &err) == LEAP_ERR_UNSUPPORTED &&
+        CHECK(leap_vdb_load_grid_on_demand(f, leap_vdb_find_grid(f, "d"), NULL, NULL, &g, &err) == LEAP_ERR_UNSUPPORTED &&
               strstr(err.msg, "only float grids"));
         leap_vdb_close(f);
     }
     char path[1024];
     snprintf(path, sizeof path, "%s/labels.vdb", LEAP_VOLUMES);
     if ((f = open_file(path, &err))) {
-        CHECK(leap_vdb_load_grid_on_demand(f, 0, NULL, &g, &err) == LEAP_ERR_UNSUPPORTED && g == NULL);
+        CHECK(leap_vdb_load_grid_on_demand(f, 0, NULL, NULL, &g, &err) == LEAP_ERR_UNSUPPORTED && g == NULL);
         leap_vdb_close(f);
     }
 }

@@ -1,7 +1,7 @@
 /* Grid indexes: what opening a grid read on demand learns by reading every leaf (the value
- * range, each brick's range, what each cell next to data holds), kept in a file of its own so
- * that a later open of the unchanged .vdb reads the topology alone, and the renderer reads only
- * the bricks rays reach.
+ * range, each brick's range, what each cell next to data holds, where each leaf's values start),
+ * kept in a file of its own so that a later open of the unchanged .vdb reads the topology alone
+ * from the file, and the renderer reads only the bricks rays reach.
  *
  * An index lives in a cache directory, one file per .vdb path and grid. It records the .vdb's
  * identity (device, inode, size, modification and status-change times) and a checksum of its
@@ -35,6 +35,8 @@ typedef struct leap_grid_index {
     size_t brick_count;
     float *brick_ranges;   /* value_min, value_max of each brick, as leap_grid_bricks lists them */
     leap_atlas_cells cells; /* the atlas's cells (built without wide and dense) */
+    size_t leaf_offset_count; /* scan.leaf_count, or 0 when not known */
+    uint64_t *leaf_offsets;   /* where each leaf's values start in the file (leap_grid_leaf_offsets) */
 } leap_grid_index;
 
 /* The directory indexes go to: LEAP_INDEX_DIR when set (empty: no indexes), else

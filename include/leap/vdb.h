@@ -51,7 +51,8 @@ typedef struct leap_grid_info {
     uint64_t active_tiles[LEAP_TILE_LEVELS];
     double value_min, value_max; /* finite min/max over active voxels and tiles (background if none) */
     uint64_t nonfinite_values;   /* NaN/Inf found in leaf buffers and tiles */
-    uint64_t memory_bytes;       /* OpenVDB's memUsage() of the loaded tree */
+    uint64_t memory_bytes;       /* OpenVDB's memUsage() of the loaded tree (read on demand: with the
+                                    leaves' offsets) */
 } leap_grid_info;
 
 /* Opens a .vdb file and reads the grid descriptors (not the voxel data).
@@ -110,14 +111,24 @@ typedef struct leap_grid_scan {
  * topology and tiles; readers, leap_grid_bricks and leap_grid_histogram read each leaf they
  * need into a short-lived copy (a reader keeps the last few hundred). The load itself reads
  * every leaf once, for the info's value range, unless `known` gives what that read found
- * (leap_grid_get_scan of an earlier load of the same, unchanged file: a grid index): then it
- * reads the topology alone, and the file's checks are taken as passed. Values read are those
- * leap_vdb_load_grid gives. Float grids in .vdb files with grid offsets only
- * (LEAP_ERR_UNSUPPORTED otherwise). A leaf that cannot be read (a corrupt file, or one that
- * changed while open: leap_grid_check_source) reads as the background and is reported by
- * leap_grid_read_status. */
+ * (leap_grid_get_scan of an earlier load of the same, unchanged file: a grid index): then the
+ * file's checks are taken as passed, and no leaf is read. OpenVDB's delayed loading still steps
+ * over every leaf's values in the file (it reads each one's size), so the whole file comes
+ * from storage, unless `leaf_offsets` (known->leaf_count of them, leap_grid_leaf_offsets of that
+ * earlier load) say where each leaf's values start: then the load reads the grid's topology
+ * alone, and each leaf read later reads its own bytes (OpenVDB's reader of a leaf's values, at
+ * that offset). Values read are those leap_vdb_load_grid gives. Float grids in .vdb files with
+ * grid offsets only (LEAP_ERR_UNSUPPORTED otherwise). A leaf that cannot be read (a corrupt
+ * file, or one that changed while open: leap_grid_check_source) reads as the background and is
+ * reported by leap_grid_read_status. A `known` or `leaf_offsets` that does not fit the grid is
+ * LEAP_ERR_FORMAT naming the index. */
 leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
-                                         leap_grid **out, leap_error *err);
+                                         const uint64_t *leaf_offsets, leap_grid **out, leap_error *err);
+
+/* A grid read on demand: where each leaf's values start in the file, in the order the grid's
+ * leaves are iterated (leap_grid_get_scan's leaf_count of them), as its load's check of the
+ * file found them or as given to it; NULL when not known (an instance of another grid). */
+const uint64_t *leap_grid_leaf_offsets(const leap_grid *grid);
 
 /* What the load of a grid read on demand found in its leaves (zero for other grids). */
 void leap_grid_get_scan(const leap_grid *grid, leap_grid_scan *out);

@@ -58,14 +58,19 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     const uint64_t need = 2 * leap_vdb_grid_memory_estimate(file, grid);
     if (need <= budget) return leap_vdb_load_grid(file, grid, out, err);
     leap_result r = x->use ? find_index(x, path, leap_vdb_grid_name(file, grid), err) : LEAP_OK;
-    if (!r) r = leap_vdb_load_grid_on_demand(file, grid, x->index ? &x->index->scan : NULL, out, err);
+    if (!r)
+        r = leap_vdb_load_grid_on_demand(file, grid, x->index ? &x->index->scan : NULL,
+                                         x->index && x->index->leaf_offset_count ? x->index->leaf_offsets : NULL, out, err);
     if (r && x->index) { /* an index that does not serve: the leaves are read */
         snprintf(x->note, sizeof x->note, "rebuilt: %.200s", err->msg);
         leap_grid_index_destroy(x->index);
         x->index = NULL;
-        r = leap_vdb_load_grid_on_demand(file, grid, NULL, out, err);
+        r = leap_vdb_load_grid_on_demand(file, grid, NULL, NULL, out, err);
     } else if (!r && x->index) {
         snprintf(x->note, sizeof x->note, "used");
+        free(x->index->leaf_offsets); /* the grid holds them now */
+        x->index->leaf_offsets = NULL;
+        x->index->leaf_offset_count = 0;
     }
     if (r == LEAP_ERR_UNSUPPORTED) {
         char why[sizeof err->msg];
@@ -182,6 +187,9 @@ static void save_index(leap_scene *s, const char *path, const leap_brick *bricks
 {
     leap_grid_index x = {.brick_count = n, .cells = *cells};
     leap_grid_get_scan(s->grid, &x.scan);
+    /* Not changed through x: the index writer only reads them. */
+    x.leaf_offsets = (uint64_t *)leap_grid_leaf_offsets(s->grid);
+    x.leaf_offset_count = x.leaf_offsets ? (size_t)x.scan.leaf_count : 0;
     x.brick_ranges = malloc((n ? n : 1) * 2 * sizeof(float));
     leap_error err = {{0}};
     leap_result r = x.brick_ranges ? LEAP_OK : leap_fail(&err, LEAP_ERR_OOM, "out of memory");

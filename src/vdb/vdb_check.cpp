@@ -119,9 +119,15 @@ namespace {
 class TreeCheck {
 public:
     // `w` carries the prefix for messages (the grid).
-    TreeCheck(Walker &w, const TreeFormat &format, uint32_t compression)
-        : w_(w), f_(format), compression_(compression)
+    TreeCheck(Walker &w, const TreeFormat &format, uint32_t compression, std::vector<uint64_t> *leaf_offsets)
+        : w_(w), f_(format), compression_(compression), leaf_offsets_(leaf_offsets)
     {
+    }
+
+    void leaf(uint64_t active)
+    {
+        values(active, 512, "voxel values");
+        if (w_.left()) w_.fail("voxel values", "corrupt leaf (" + std::to_string(w_.left()) + " bytes left over)");
     }
 
     void run()
@@ -150,6 +156,7 @@ public:
             for (const Lower &lower : uppers[entry.second].children)
                 for (uint16_t active : lower.leaf_active) {
                     w_.skip(64, "leaf mask"); // read with the topology; skipped here
+                    if (leaf_offsets_) leaf_offsets_->push_back(w_.pos());
                     values(active, 512, "voxel values");
                 }
     }
@@ -250,13 +257,19 @@ private:
     Walker &w_;
     TreeFormat f_;
     uint32_t compression_;
+    std::vector<uint64_t> *leaf_offsets_;
 };
 
 } // namespace
 
-void check_tree_data(Walker &w, const TreeFormat &format, uint32_t compression)
+void check_leaf_values(Walker &w, const TreeFormat &format, uint32_t compression, uint64_t active)
 {
-    TreeCheck(w, format, compression).run();
+    TreeCheck(w, format, compression, nullptr).leaf(active);
+}
+
+void check_tree_data(Walker &w, const TreeFormat &format, uint32_t compression, std::vector<uint64_t> *leaf_offsets)
+{
+    TreeCheck(w, format, compression, leaf_offsets).run();
 }
 
 } // namespace leap_vdb_detail

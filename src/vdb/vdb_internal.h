@@ -123,6 +123,11 @@ public:
         : data_(m.data()), pos_(pos), limit_(std::min(limit, m.size())), prefix_(std::move(prefix))
     {
     }
+    // The `size` bytes at `data` (copied from the file), which it never releases.
+    Walker(const unsigned char *data, uint64_t size, std::string prefix)
+        : data_(data), pos_(0), limit_(size), walked_(UINT64_MAX - RELEASE_BYTES), prefix_(std::move(prefix))
+    {
+    }
     uint64_t pos() const { return pos_; }
     void seek(uint64_t pos) { pos_ = pos; }
     uint64_t left() const { return pos_ < limit_ ? limit_ - pos_ : 0; }
@@ -209,8 +214,15 @@ struct TreeFormat {
 
 TreeFormat tree_format(const std::string &type, bool half);
 
-// Walks a tree's topology and buffers from `w` (which carries the message prefix).
-void check_tree_data(Walker &w, const TreeFormat &format, uint32_t compression);
+// Walks the values of one leaf with `active` active voxels (the bytes after its mask), as
+// io::readCompressedValues reads them.
+void check_leaf_values(Walker &w, const TreeFormat &format, uint32_t compression, uint64_t active);
+
+// Walks a tree's topology and buffers from `w` (which carries the message prefix). `leaf_offsets`
+// (when given) gets where each leaf's values start, past its mask, in the order OpenVDB reads
+// the leaves (the tree's leaf order).
+void check_tree_data(Walker &w, const TreeFormat &format, uint32_t compression,
+                     std::vector<uint64_t> *leaf_offsets = nullptr);
 
 // ---- Value ranges: per-brick in vdb_stats.cpp, the load-time scan in vdb_read.cpp.
 
@@ -297,6 +309,18 @@ struct OnDemand {
     std::mutex shared_mutex;
     std::atomic<size_t> shared_capacity{0}; // 0: nothing shared, and no lock taken
     std::map<std::tuple<int, int, int>, std::shared_ptr<const LeafT>> shared;
+    // Where each leaf's values start in the file, in leaf order (leap_grid_leaf_offsets; empty:
+    // not known).
+    std::vector<uint64_t> leaf_offsets;
+    // A grid whose load read its topology alone (stream_meta set) reads a leaf's bytes (from its
+    // offset to the next leaf's mask, or to the tree's end) with pread(2), checks them, and
+    // decodes them with OpenVDB's reader in the stream state the topology was read in; no
+    // mapping of the file. leaf_order: each leaf's index in leaf_offsets, sorted by leaf.
+    std::vector<std::pair<const LeafT *, uint32_t>> leaf_order;
+    vdb::io::StreamMetadata::Ptr stream_meta;
+    TreeFormat format;
+    uint32_t compression = 0;
+    uint64_t tree_end = 0;
 
     explicit OnDemand(const std::string &path) : file(path) {}
     ~OnDemand()

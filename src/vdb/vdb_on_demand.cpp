@@ -44,6 +44,49 @@ bool OnDemand::check_source()
     return false;
 }
 
+// A stream over bytes in memory.
+class MemoryBuffer : public std::streambuf {
+public:
+    MemoryBuffer(char *data, size_t size) { setg(data, data, data + size); }
+};
+
+// A leaf's values are at most 512 four-byte values with OpenVDB's few bytes around them; a
+// compressed chunk may be a little longer than what it holds.
+static constexpr uint64_t LEAF_MAX_BYTES = 64u << 10;
+
+// Reads `leaf`'s values into v (LeafT::SIZE of them) from its bytes in the file, checked before
+// OpenVDB's reader of a leaf's values decodes them, in the stream state the topology was read in.
+static void read_at_offset(const OnDemand &od, const LeafT &leaf, float *v)
+{
+    const auto at = std::lower_bound(od.leaf_order.begin(), od.leaf_order.end(), &leaf,
+                                     [](const std::pair<const LeafT *, uint32_t> &e, const LeafT *l) {
+                                         return std::less<const LeafT *>()(e.first, l);
+                                     });
+    if (at == od.leaf_order.end() || at->first != &leaf) throw std::runtime_error("the leaf has no offset");
+    const size_t i = at->second;
+    const uint64_t begin = od.leaf_offsets[i],
+                   end = i + 1 < od.leaf_offsets.size() ? od.leaf_offsets[i + 1] - 64 : od.tree_end;
+    if (!(begin < end && end - begin <= LEAF_MAX_BYTES))
+        throw std::runtime_error("its offsets in the grid index are not those of a leaf");
+    std::vector<char> bytes(size_t(end - begin));
+    size_t got = 0;
+    while (got < bytes.size()) {
+        const ssize_t n = ::pread(od.fd, bytes.data() + got, bytes.size() - got, off_t(begin + got));
+        if (n < 0 && errno == EINTR) continue;
+        if (n <= 0) throw std::runtime_error(n < 0 ? std::strerror(errno) : "the file ends before the leaf");
+        got += size_t(n);
+    }
+    Walker w(reinterpret_cast<const unsigned char *>(bytes.data()), bytes.size(), "");
+    check_leaf_values(w, od.format, od.compression, leaf.getValueMask().countOn());
+    MemoryBuffer buffer(bytes.data(), bytes.size());
+    std::istream is(&buffer);
+    is.exceptions(std::ios_base::failbit | std::ios_base::badbit);
+    // A copy per read: handing it to a stream writes to it, and readers run side by side.
+    vdb::io::StreamMetadata::Ptr meta = std::make_shared<vdb::io::StreamMetadata>(*od.stream_meta);
+    vdb::io::setStreamMetadataPtr(is, meta, /*transfer=*/true);
+    vdb::io::readCompressedValues(is, v, LeafT::SIZE, leaf.getValueMask(), od.format.stored != od.format.full);
+}
+
 static int64_t now_ns()
 {
     struct timespec t;
@@ -65,8 +108,9 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
         return;
     }
     try {
-        copy.reset(new LeafT(leaf)); // the copy's buffer still points into the file
-        float *v = copy->buffer().data(); // reads it (OpenVDB's LeafBuffer::doLoad)
+        copy.reset(new LeafT(leaf)); // the copy's buffer still points into the file, or is empty
+        float *v = copy->buffer().data(); // reads it (OpenVDB's LeafBuffer::doLoad), or allocates it
+        if (stream_meta) read_at_offset(*this, leaf, v);
         if (reset_background) copy->resetBackground(stored_background, background);
         if (nonfinite)
             for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], background, finite);
@@ -74,16 +118,17 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
         const vdb::Coord o = leaf.origin();
         fail("the leaf at (" + std::to_string(o.x()) + ", " + std::to_string(o.y()) + ", " + std::to_string(o.z()) +
              ") cannot be read: " + one_line(e.what()) + " (a corrupt file, or one changed while it was open)");
-        // A buffer whose load threw still says it is in the file while it holds its values'
-        // array, and its destructor would free that array as the file's bookkeeping (OpenVDB
-        // 10): it is abandoned, one leaf's copy at most per reading thread, since no read
-        // starts after a failure.
-        (void)copy.release();
+        // A buffer whose load by OpenVDB threw still says it is in the file while it holds its
+        // values' array, and its destructor would free that array as the file's bookkeeping
+        // (OpenVDB 10): it is abandoned, one leaf's copy at most per reading thread, since no
+        // read starts after a failure. One read at its offset holds an array of its own.
+        if (stream_meta) copy.reset();
+        else (void)copy.release();
         copy.reset(new LeafT(leaf.origin(), background));
     }
     leaves_read.fetch_add(1, std::memory_order_relaxed);
     // A read maps the pages of the leaf's mask and of its values: count three.
-    if (bytes_since_trim.fetch_add(3 * 4096, std::memory_order_relaxed) > TRIM_BYTES) trim();
+    if (!stream_meta && bytes_since_trim.fetch_add(3 * 4096, std::memory_order_relaxed) > TRIM_BYTES) trim();
 }
 
 // Evicting the copy lowest in (z, y, x) order drops first what a pass sweeping cells in that

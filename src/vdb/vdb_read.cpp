@@ -184,12 +184,36 @@ public:
         return grid;
     }
 
-    // Checks the bytes of grid `gd`'s tree before OpenVDB reads them.
-    void check(const vdb::io::GridDescriptor &gd)
+    // Checks the bytes of grid `gd`'s tree before OpenVDB reads them; `leaf_offsets` (when
+    // given) gets where each leaf's values start (check_tree_data).
+    void check(const vdb::io::GridDescriptor &gd, std::vector<uint64_t> *leaf_offsets = nullptr)
     {
         if (gd.isInstance()) return;
         const Mapping m(path_, size_);
-        check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false);
+        check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false, leaf_offsets);
+    }
+
+    // Grid `gd` (no instance) without its leaves' values: metadata, transform and topology, read
+    // as OpenVDB's io::File reads them. `meta` gets the stream's state after it (versions,
+    // compression, half floats, the tree's background), which reads of a leaf's values take on.
+    vdb::GridBase::Ptr read_topology(const vdb::io::GridDescriptor &gd, vdb::io::StreamMetadata::Ptr &meta)
+    {
+        Stream s;
+        start(s);
+        gd.seekToGrid(s.is);
+        vdb::GridBase::Ptr grid = new_grid(gd);
+        s.meta->setHalfFloat(gd.saveFloatAsHalf());
+        readGridCompression(s.is);
+        grid->readMeta(s.is);
+        if (vdb::io::getFormatVersion(s.is) >= vdb::OPENVDB_FILE_VERSION_GRID_INSTANCING) {
+            grid->readTransform(s.is);
+            grid->readTopology(s.is);
+        } else { // older files keep the transform after the topology
+            grid->readTopology(s.is);
+            grid->readTransform(s.is);
+        }
+        meta = s.meta;
+        return grid;
     }
 
     // Index of the instance parent of `gd` among `descs` (a grid that is no instance itself).
@@ -228,7 +252,7 @@ private:
     // check does not know is an error (a file without offsets is read whole) rather than
     // left unread.
     void check_tree(const Mapping &m, const vdb::io::GridDescriptor &gd, uint64_t grid_pos, uint64_t limit,
-                    const std::string &label, bool any_type)
+                    const std::string &label, bool any_type, std::vector<uint64_t> *leaf_offsets = nullptr)
     {
         const TreeFormat format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
         if (!format.full) {
@@ -246,7 +270,7 @@ private:
         meta->readMeta(s.is);
         meta->readTransform(s.is);
         Walker w(m, uint64_t(s.is.tellg()), limit, label + " ");
-        check_tree_data(w, format, compression);
+        check_tree_data(w, format, compression, leaf_offsets);
     }
 
     static vdb::GridBase::Ptr new_grid(const vdb::io::GridDescriptor &gd)
@@ -400,6 +424,9 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
     info.value_min = values.empty() ? bg : values.lo;
     info.value_max = values.empty() ? bg : values.hi;
     info.memory_bytes = tree.memUsage();
+    if (od)
+        info.memory_bytes += od->leaf_offsets.capacity() * sizeof(uint64_t) +
+                             od->leaf_order.capacity() * sizeof(decltype(od->leaf_order)::value_type);
 }
 
 } // namespace
@@ -597,17 +624,50 @@ int leap_vdb_find_grid(const leap_vdb_file *file, const char *name)
 
 namespace {
 
-// Grid `gi` with its leaf buffers left in the file (OpenVDB's delayed loading), after the
-// same checks of every byte of its tree as a full read.
-vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, std::unique_ptr<OnDemand> &od)
+// Numbers each leaf of the grid read on demand in leaf order (its index among `count` offsets);
+// returns the grid's leaf count (the numbers serve only when it is `count`).
+size_t order_leaves(const vdb::GridBase &base, size_t count, OnDemand &od)
+{
+    const vdb::FloatGrid *fg = dynamic_cast<const vdb::FloatGrid *>(&base);
+    if (!fg) return 0;
+    const size_t leaves = size_t(fg->tree().leafCount());
+    od.leaf_order.clear();
+    if (leaves != count || count > UINT32_MAX) return leaves;
+    od.leaf_order.reserve(count);
+    for (auto leaf = fg->tree().cbeginLeaf(); leaf; ++leaf)
+        od.leaf_order.emplace_back(leaf.getLeaf(), uint32_t(od.leaf_order.size()));
+    std::sort(od.leaf_order.begin(), od.leaf_order.end());
+    return leaves;
+}
+
+// Grid `gi` with its leaf buffers left in the file, after the same checks of every byte of its
+// tree as a full read (unless `checked`). With `leaf_offsets` (`leaf_count` of them, the file
+// checked before) only the topology is read, and leaves are read at their offsets later;
+// otherwise OpenVDB's delayed loading reads it, and the check's leaf offsets are kept.
+vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, const uint64_t *leaf_offsets,
+                                  uint64_t leaf_count, std::unique_ptr<OnDemand> &od)
 {
     const vdb::io::GridDescriptor &gd = file->descs[gi];
-    if (!checked) file->reader->check(gd);
-    if (!checked && gd.isInstance()) file->reader->check(file->descs[size_t(VdbReader::find_parent(file->descs, gd))]);
     od.reset(new OnDemand(file->path));
+    if (!checked) file->reader->check(gd, &od->leaf_offsets);
+    if (!checked && gd.isInstance()) file->reader->check(file->descs[size_t(VdbReader::find_parent(file->descs, gd))]);
     od->fd = ::open(file->path.c_str(), O_RDONLY | O_CLOEXEC);
     if (od->fd < 0 || ::fstat(od->fd, &od->opened) != 0)
         OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
+    if (checked && leaf_offsets && !gd.isInstance()) {
+        // Leaves are read one at a time, in the order rays need them: read-ahead would bring in
+        // their neighbours in the file, which no ray may need.
+        ::posix_fadvise(od->fd, 0, 0, POSIX_FADV_RANDOM);
+        vdb::GridBase::Ptr base = file->reader->read_topology(gd, od->stream_meta);
+        od->format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
+        od->compression = od->stream_meta->compression();
+        od->tree_end = uint64_t(gd.getEndPos());
+        const size_t leaves = order_leaves(*base, size_t(leaf_count), *od);
+        if (leaves != leaf_count || od->leaf_order.size() != leaf_count)
+            OPENVDB_THROW(vdb::IoError, "its index lists " << leaf_count << " leaves, the file " << leaves);
+        od->leaf_offsets.assign(leaf_offsets, leaf_offsets + leaf_count);
+        return base;
+    }
     od->file.setCopyMaxBytes(0); // map the file itself; OpenVDB would first copy a small one to /tmp
     od->file.open(/*delayLoad=*/true);
     // OpenVDB touches every page of the grid as it steps over the leaves' values (it reads each
@@ -638,12 +698,14 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
         auto leaf = fg->tree().cbeginLeaf();
         if (leaf && !leaf->buffer().isOutOfCore())
             OPENVDB_THROW(vdb::IoError, "OpenVDB read the voxels at once (is OPENVDB_DISABLE_DELAYED_LOAD set?)");
+        if (od->leaf_offsets.size() != fg->tree().leafCount()) od->leaf_offsets.clear();
+        od->leaf_offsets.shrink_to_fit(); // the budget counts what it holds
     }
     return base;
 }
 
-leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap_grid_scan *known, leap_grid **out,
-                      leap_error *err)
+leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap_grid_scan *known,
+                      const uint64_t *leaf_offsets, leap_grid **out, leap_error *err)
 {
     if (out) *out = nullptr;
     if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_load_grid: NULL argument");
@@ -668,7 +730,9 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap
         std::unique_ptr<OnDemand> od;
         {
             std::lock_guard<std::mutex> lock(file->mutex);
-            if (on_demand) base = read_on_demand(file, gi, known != nullptr, od);
+            if (on_demand)
+                base = read_on_demand(file, gi, known != nullptr, known ? leaf_offsets : nullptr,
+                                      known ? known->leaf_count : 0, od);
             else if (file->cached_index == index) base = std::move(file->cached_grid);
             else base = read_full_grid(file, gi);
             if (!on_demand || file->cached_index == index) {
@@ -715,13 +779,20 @@ extern "C" {
 
 leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
 {
-    return load_grid(file, index, false, nullptr, out, err);
+    return load_grid(file, index, false, nullptr, nullptr, out, err);
 }
 
 leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
-                                         leap_grid **out, leap_error *err)
+                                         const uint64_t *leaf_offsets, leap_grid **out, leap_error *err)
 {
-    return load_grid(file, index, true, known, out, err);
+    return load_grid(file, index, true, known, leaf_offsets, out, err);
+}
+
+const uint64_t *leap_grid_leaf_offsets(const leap_grid *grid)
+{
+    if (!grid || !grid->on_demand) return nullptr;
+    const std::vector<uint64_t> &o = grid->on_demand->leaf_offsets;
+    return !o.empty() && o.size() == grid->scan.leaf_count ? o.data() : nullptr;
 }
 
 void leap_grid_get_scan(const leap_grid *grid, leap_grid_scan *out)

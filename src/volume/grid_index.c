@@ -1,5 +1,5 @@
 /* Grid index files: a fixed header (identity of the .vdb, grid name, counts, checksum), then
- * the bricks' ranges and the atlas's cells. */
+ * the bricks' ranges, the atlas's cells and the leaves' offsets. */
 #define _GNU_SOURCE
 #include "leap/grid_index.h"
 #include "leap/files.h"
@@ -19,7 +19,7 @@
 
 #define INDEX_MAGIC "LEAPIDX"
 #define INDEX_SUFFIX ".leapidx"
-#define INDEX_VERSION 1u
+#define INDEX_VERSION 2u
 
 typedef struct index_header {
     char magic[8];
@@ -27,7 +27,7 @@ typedef struct index_header {
     leap_file_stamp stamp;
     char grid[128];
     leap_grid_scan scan;
-    uint64_t brick_count, cell_count;
+    uint64_t brick_count, cell_count, leaf_offset_count;
     uint64_t checksum; /* FNV-1a of the header (this field 0) and what follows it */
 } index_header;
 
@@ -46,7 +46,8 @@ static uint64_t index_checksum(const index_header *h, const leap_grid_index *x)
     uint64_t sum = fnv1a(FNV_START, &copy, sizeof copy);
     sum = fnv1a(sum, x->brick_ranges, x->brick_count * 2 * sizeof(float));
     sum = fnv1a(sum, x->cells.entries, x->cells.count * sizeof(uint32_t));
-    return fnv1a(sum, x->cells.ranges, x->cells.count * sizeof(uint32_t));
+    sum = fnv1a(sum, x->cells.ranges, x->cells.count * sizeof(uint32_t));
+    return x->leaf_offset_count ? fnv1a(sum, x->leaf_offsets, x->leaf_offset_count * sizeof(uint64_t)) : sum;
 }
 
 int leap_grid_index_dir(char *out, size_t cap)
@@ -89,6 +90,7 @@ void leap_grid_index_destroy(leap_grid_index *index)
 {
     if (!index) return;
     free(index->brick_ranges);
+    free(index->leaf_offsets);
     leap_atlas_cells_free(&index->cells);
     free(index);
 }
@@ -114,18 +116,24 @@ static int read_index(FILE *f, uint64_t file_bytes, const leap_file_stamp *stamp
         return stale(why, cap, "it belongs to another grid");
     const uint64_t unit = 2 * sizeof(float);
     if (h.brick_count > file_bytes / unit || h.cell_count > file_bytes / unit ||
-        file_bytes != sizeof h + (h.brick_count + h.cell_count) * unit)
+        h.leaf_offset_count > file_bytes / sizeof(uint64_t) ||
+        (h.leaf_offset_count && h.leaf_offset_count != h.scan.leaf_count) ||
+        file_bytes != sizeof h + (h.brick_count + h.cell_count) * unit + h.leaf_offset_count * sizeof(uint64_t))
         return stale(why, cap, "its size does not match its counts");
     x->scan = h.scan;
     x->brick_count = (size_t)h.brick_count;
     x->cells.count = (size_t)h.cell_count;
+    x->leaf_offset_count = (size_t)h.leaf_offset_count;
     x->brick_ranges = malloc(x->brick_count * unit + 1);
+    x->leaf_offsets = malloc(x->leaf_offset_count * sizeof(uint64_t) + 1);
     x->cells.entries = malloc(x->cells.count * sizeof(uint32_t) + 1);
     x->cells.ranges = malloc(x->cells.count * sizeof(uint32_t) + 1);
-    if (!x->brick_ranges || !x->cells.entries || !x->cells.ranges) return stale(why, cap, "out of memory");
+    if (!x->brick_ranges || !x->cells.entries || !x->cells.ranges || !x->leaf_offsets)
+        return stale(why, cap, "out of memory");
     if (fread(x->brick_ranges, unit, x->brick_count, f) != x->brick_count ||
         fread(x->cells.entries, sizeof(uint32_t), x->cells.count, f) != x->cells.count ||
-        fread(x->cells.ranges, sizeof(uint32_t), x->cells.count, f) != x->cells.count)
+        fread(x->cells.ranges, sizeof(uint32_t), x->cells.count, f) != x->cells.count ||
+        fread(x->leaf_offsets, sizeof(uint64_t), x->leaf_offset_count, f) != x->leaf_offset_count)
         return stale(why, cap, "it cannot be read");
     if (index_checksum(&h, x) != h.checksum) return stale(why, cap, "its checksum does not match");
     /* What the atlas and the occupancy would take on trust: finite ordered ranges, entries
@@ -137,6 +145,8 @@ static int read_index(FILE *f, uint64_t file_bytes, const leap_file_stamp *stamp
         if (!isfinite(x->brick_ranges[2 * i]) || !isfinite(x->brick_ranges[2 * i + 1]) ||
             x->brick_ranges[2 * i] > x->brick_ranges[2 * i + 1])
             return stale(why, cap, "it holds a brick range that is not a range");
+    for (size_t i = 0; i < x->leaf_offset_count; ++i)
+        if (x->leaf_offsets[i] >= stamp->size) return stale(why, cap, "it holds a leaf offset past the end of the file");
     for (size_t i = 0; i < x->cells.count; ++i) {
         const uint32_t e = x->cells.entries[i], r = x->cells.ranges[i];
         if (e ? !(e & LEAP_PAGE_CONST) || r : (r & 0xffff) > r >> 16)
@@ -247,6 +257,7 @@ leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, 
     h.scan = x->scan;
     h.brick_count = x->brick_count;
     h.cell_count = x->cells.count;
+    h.leaf_offset_count = x->leaf_offset_count;
     h.checksum = index_checksum(&h, x);
 
     char dir[4096];
@@ -258,7 +269,9 @@ leap_result leap_grid_index_write(const char *index_path, const char *vdb_path, 
     int ok = f && fwrite(&h, sizeof h, 1, f) == 1 &&
              fwrite(x->brick_ranges, 2 * sizeof(float), x->brick_count, f) == x->brick_count &&
              fwrite(x->cells.entries, sizeof(uint32_t), x->cells.count, f) == x->cells.count &&
-             fwrite(x->cells.ranges, sizeof(uint32_t), x->cells.count, f) == x->cells.count;
+             fwrite(x->cells.ranges, sizeof(uint32_t), x->cells.count, f) == x->cells.count &&
+             (!x->leaf_offset_count ||
+              fwrite(x->leaf_offsets, sizeof(uint64_t), x->leaf_offset_count, f) == x->leaf_offset_count);
     const int saved = errno;
     if (f && fclose(f) != 0) ok = 0;
     if (!ok) {
