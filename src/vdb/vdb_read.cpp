@@ -166,20 +166,33 @@ public:
         }
     }
 
-    // Grid `gd` of this file: everything, or only its metadata and transform.
-    vdb::GridBase::Ptr read(const vdb::io::GridDescriptor &gd, bool full)
+    enum class Part { meta, topology, all };
+
+    // Grid `gd` of this file: its metadata and transform, those and its topology (no leaf
+    // values; a grid that is no instance), or everything. After the topology, `stream` gets the
+    // stream's state (versions, compression, half floats, the tree's background), which reads of
+    // a leaf's values take on.
+    vdb::GridBase::Ptr read(const vdb::io::GridDescriptor &gd, Part part, vdb::io::StreamMetadata::Ptr *stream = nullptr)
     {
-        if (full) check(gd);
+        if (part == Part::all) check(gd);
         Stream s;
         start(s);
         gd.seekToGrid(s.is);
         vdb::GridBase::Ptr grid = new_grid(gd);
-        if (full) {
+        if (part == Part::all) {
             readGrid(grid, gd, s.is);
-        } else {
-            readGridCompression(s.is);
-            grid->readMeta(s.is);
-            grid->readTransform(s.is);
+            return grid;
+        }
+        s.meta->setHalfFloat(gd.saveFloatAsHalf());
+        readGridCompression(s.is);
+        grid->readMeta(s.is);
+        // Files older than grid instancing keep the transform after the topology.
+        const bool transform_first = vdb::io::getFormatVersion(s.is) >= vdb::OPENVDB_FILE_VERSION_GRID_INSTANCING;
+        if (transform_first || part == Part::meta) grid->readTransform(s.is);
+        if (part == Part::topology) {
+            grid->readTopology(s.is);
+            if (!transform_first) grid->readTransform(s.is);
+            if (stream) *stream = s.meta;
         }
         return grid;
     }
@@ -191,29 +204,6 @@ public:
         if (gd.isInstance()) return;
         const Mapping m(path_, size_);
         check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false, leaf_offsets);
-    }
-
-    // Grid `gd` (no instance) without its leaves' values: metadata, transform and topology, read
-    // as OpenVDB's io::File reads them. `meta` gets the stream's state after it (versions,
-    // compression, half floats, the tree's background), which reads of a leaf's values take on.
-    vdb::GridBase::Ptr read_topology(const vdb::io::GridDescriptor &gd, vdb::io::StreamMetadata::Ptr &meta)
-    {
-        Stream s;
-        start(s);
-        gd.seekToGrid(s.is);
-        vdb::GridBase::Ptr grid = new_grid(gd);
-        s.meta->setHalfFloat(gd.saveFloatAsHalf());
-        readGridCompression(s.is);
-        grid->readMeta(s.is);
-        if (vdb::io::getFormatVersion(s.is) >= vdb::OPENVDB_FILE_VERSION_GRID_INSTANCING) {
-            grid->readTransform(s.is);
-            grid->readTopology(s.is);
-        } else { // older files keep the transform after the topology
-            grid->readTopology(s.is);
-            grid->readTransform(s.is);
-        }
-        meta = s.meta;
-        return grid;
     }
 
     // Index of the instance parent of `gd` among `descs` (a grid that is no instance itself).
@@ -457,10 +447,10 @@ vdb::GridBase::Ptr read_full_grid(const leap_vdb_file *file, size_t index)
     if (file->in_memory) return file->streamed[index];
     if (!file->streamed.empty()) return file->streamed[index]->deepCopyGrid();
     const vdb::io::GridDescriptor &gd = file->descs[index];
-    vdb::GridBase::Ptr grid = file->reader->read(gd, true);
+    vdb::GridBase::Ptr grid = file->reader->read(gd, VdbReader::Part::all);
     if (gd.isInstance()) {
         const int parent = VdbReader::find_parent(file->descs, gd);
-        grid->setTree(file->reader->read(file->descs[size_t(parent)], true)->baseTreePtr());
+        grid->setTree(file->reader->read(file->descs[size_t(parent)], VdbReader::Part::all)->baseTreePtr());
     }
     return grid;
 }
@@ -498,7 +488,7 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
             f->plain.push_back(gd.gridName());
             leap_grid_info info;
             std::memset(&info, 0, sizeof info);
-            vdb::GridBase::ConstPtr meta = f->streamed.empty() ? f->reader->read(gd, false) : f->streamed[i];
+            vdb::GridBase::ConstPtr meta = f->streamed.empty() ? f->reader->read(gd, VdbReader::Part::meta) : f->streamed[i];
             meta_to_info(*meta, name, &info);
             f->infos.push_back(info);
             uint64_t bytes = uint64_t(gd.getEndPos() - gd.getGridPos()) * (gd.saveFloatAsHalf() ? 2 : 1);
@@ -658,7 +648,7 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
         // Leaves are read one at a time, in the order rays need them: read-ahead would bring in
         // their neighbours in the file, which no ray may need.
         ::posix_fadvise(od->fd, 0, 0, POSIX_FADV_RANDOM);
-        vdb::GridBase::Ptr base = file->reader->read_topology(gd, od->stream_meta);
+        vdb::GridBase::Ptr base = file->reader->read(gd, VdbReader::Part::topology, &od->stream_meta);
         od->format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
         od->compression = od->stream_meta->compression();
         od->tree_end = uint64_t(gd.getEndPos());
