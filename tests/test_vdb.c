@@ -1240,6 +1240,14 @@ static void test_on_demand(void)
         for (int i = 0; i < 40; ++i) leap_vdb_writer_set(w, g, i, i % 9, i / 3, i % 5 == 0 ? NAN : 0.25 * i);
         if (save(w, bg)) check_on_demand(bg, "g");
     }
+    /* A finite background other than 0: the file stores a leaf's inactive voxels as a flag, and
+     * a leaf read at its offset must take the tree's background for them. */
+    const char *raised = tmp_file("raised_background.vdb");
+    if ((w = new_writer()) != NULL) {
+        const int g = add_grid(w, "g", LEAP_VDB_FLOAT, 2.5, NULL, 1);
+        for (int i = 0; i < 40; ++i) leap_vdb_writer_set(w, g, i, i % 9, i / 3, 0.25 * i);
+        if (save(w, raised)) check_on_demand(raised, "g");
+    }
     /* What cannot be read on demand says so. */
     leap_error err = {{0}};
     leap_vdb_file *f = open_file(nf, &err);

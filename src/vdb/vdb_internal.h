@@ -312,14 +312,17 @@ struct OnDemand {
     // Where each leaf's values start in the file, in leaf order (leap_grid_leaf_offsets; empty:
     // not known).
     std::vector<uint64_t> leaf_offsets;
-    // A grid whose load read its topology alone (stream_meta set) reads a leaf's bytes (from its
+    // A grid whose load read its topology alone (by_offset) reads a leaf's bytes (from its
     // offset to the next leaf's mask, or to the tree's end) with pread(2), checks them, and
-    // decodes them with OpenVDB's reader in the stream state the topology was read in; no
-    // mapping of the file. leaf_order: each leaf's index in leaf_offsets, sorted by leaf.
+    // decodes them with OpenVDB's reader in the stream state the topology was read in (versions,
+    // compression, the tree's background); no mapping of the file. leaf_order: each leaf's index
+    // in leaf_offsets, sorted by leaf.
+    bool by_offset = false;
     std::vector<std::pair<const LeafT *, uint32_t>> leaf_order;
-    vdb::io::StreamMetadata::Ptr stream_meta;
     TreeFormat format;
-    uint32_t compression = 0;
+    uint32_t file_version = 0, compression = 0;
+    vdb::VersionId library_version;
+    const void *stored_background_ptr = nullptr; // the tree's background, which OpenVDB's reader takes
     uint64_t tree_end = 0;
 
     explicit OnDemand(const std::string &path) : file(path) {}

@@ -81,9 +81,9 @@ static void read_at_offset(const OnDemand &od, const LeafT &leaf, float *v)
     MemoryBuffer buffer(bytes.data(), bytes.size());
     std::istream is(&buffer);
     is.exceptions(std::ios_base::failbit | std::ios_base::badbit);
-    // A copy per read: handing it to a stream writes to it, and readers run side by side.
-    vdb::io::StreamMetadata::Ptr meta = std::make_shared<vdb::io::StreamMetadata>(*od.stream_meta);
-    vdb::io::setStreamMetadataPtr(is, meta, /*transfer=*/true);
+    vdb::io::setVersion(is, od.library_version, od.file_version);
+    vdb::io::setDataCompression(is, od.compression);
+    vdb::io::setGridBackgroundValuePtr(is, od.stored_background_ptr);
     vdb::io::readCompressedValues(is, v, LeafT::SIZE, leaf.getValueMask(), od.format.stored != od.format.full);
 }
 
@@ -110,7 +110,7 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
     try {
         copy.reset(new LeafT(leaf)); // the copy's buffer still points into the file, or is empty
         float *v = copy->buffer().data(); // reads it (OpenVDB's LeafBuffer::doLoad), or allocates it
-        if (stream_meta) read_at_offset(*this, leaf, v);
+        if (by_offset) read_at_offset(*this, leaf, v);
         if (reset_background) copy->resetBackground(stored_background, background);
         if (nonfinite)
             for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], background, finite);
@@ -122,13 +122,13 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
         // values' array, and its destructor would free that array as the file's bookkeeping
         // (OpenVDB 10): it is abandoned, one leaf's copy at most per reading thread, since no
         // read starts after a failure. One read at its offset holds an array of its own.
-        if (stream_meta) copy.reset();
+        if (by_offset) copy.reset();
         else (void)copy.release();
         copy.reset(new LeafT(leaf.origin(), background));
     }
     leaves_read.fetch_add(1, std::memory_order_relaxed);
     // A read maps the pages of the leaf's mask and of its values: count three.
-    if (!stream_meta && bytes_since_trim.fetch_add(3 * 4096, std::memory_order_relaxed) > TRIM_BYTES) trim();
+    if (!by_offset && bytes_since_trim.fetch_add(3 * 4096, std::memory_order_relaxed) > TRIM_BYTES) trim();
 }
 
 // Evicting the copy lowest in (z, y, x) order drops first what a pass sweeping cells in that

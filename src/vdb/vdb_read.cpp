@@ -648,11 +648,17 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
         // Leaves are read one at a time, in the order rays need them: read-ahead would bring in
         // their neighbours in the file, which no ray may need.
         ::posix_fadvise(od->fd, 0, 0, POSIX_FADV_RANDOM);
-        vdb::GridBase::Ptr base = file->reader->read(gd, VdbReader::Part::topology, &od->stream_meta);
+        vdb::io::StreamMetadata::Ptr stream;
+        vdb::GridBase::Ptr base = file->reader->read(gd, VdbReader::Part::topology, &stream);
+        od->by_offset = true;
         od->format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
-        od->compression = od->stream_meta->compression();
+        od->file_version = stream->fileVersion();
+        od->library_version = stream->libraryVersion();
+        od->compression = stream->compression();
         od->tree_end = uint64_t(gd.getEndPos());
         const size_t leaves = order_leaves(*base, size_t(leaf_count), *od);
+        if (const vdb::FloatGrid *fg = dynamic_cast<const vdb::FloatGrid *>(base.get()))
+            od->stored_background_ptr = &fg->tree().background(); // as the topology read tags its stream
         if (leaves != leaf_count || od->leaf_order.size() != leaf_count)
             OPENVDB_THROW(vdb::IoError, "its index lists " << leaf_count << " leaves, the file " << leaves);
         od->leaf_offsets.assign(leaf_offsets, leaf_offsets + leaf_count);
