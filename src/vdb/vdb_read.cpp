@@ -631,9 +631,10 @@ size_t order_leaves(const vdb::GridBase &base, size_t count, OnDemand &od)
 }
 
 // Grid `gi` with its leaf buffers left in the file, after the same checks of every byte of its
-// tree as a full read (unless `checked`). With `leaf_offsets` (`leaf_count` of them, the file
-// checked before) only the topology is read, and leaves are read at their offsets later;
-// otherwise OpenVDB's delayed loading reads it, and the check's leaf offsets are kept.
+// tree as a full read (unless `checked`). Where each leaf's values start is known (the index's
+// `leaf_offsets`, `leaf_count` of them, for a file checked before; else what the check found):
+// only the topology is read, and leaves are read at their offsets later. Otherwise (an instance,
+// or a tree whose check found no offsets) OpenVDB's delayed loading reads it.
 vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, const uint64_t *leaf_offsets,
                                   uint64_t leaf_count, std::unique_ptr<OnDemand> &od)
 {
@@ -644,24 +645,25 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
     od->fd = ::open(file->path.c_str(), O_RDONLY | O_CLOEXEC);
     if (od->fd < 0 || ::fstat(od->fd, &od->opened) != 0)
         OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
-    if (checked && leaf_offsets && !gd.isInstance()) {
+    if (checked && leaf_offsets) od->leaf_offsets.assign(leaf_offsets, leaf_offsets + leaf_count);
+    if (!gd.isInstance() && (checked ? leaf_offsets != nullptr : !od->leaf_offsets.empty())) {
         // Leaves are read one at a time, in the order rays need them: read-ahead would bring in
         // their neighbours in the file, which no ray may need.
         ::posix_fadvise(od->fd, 0, 0, POSIX_FADV_RANDOM);
         vdb::io::StreamMetadata::Ptr stream;
         vdb::GridBase::Ptr base = file->reader->read(gd, VdbReader::Part::topology, &stream);
-        od->by_offset = true;
         od->format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
         od->file_version = stream->fileVersion();
         od->library_version = stream->libraryVersion();
         od->compression = stream->compression();
         od->tree_end = uint64_t(gd.getEndPos());
-        const size_t leaves = order_leaves(*base, size_t(leaf_count), *od);
+        const size_t offsets = od->leaf_offsets.size(), leaves = order_leaves(*base, offsets, *od);
         if (const vdb::FloatGrid *fg = dynamic_cast<const vdb::FloatGrid *>(base.get()))
             od->stored_background_ptr = &fg->tree().background(); // as the topology read tags its stream
-        if (leaves != leaf_count || od->leaf_order.size() != leaf_count)
-            OPENVDB_THROW(vdb::IoError, "its index lists " << leaf_count << " leaves, the file " << leaves);
-        od->leaf_offsets.assign(leaf_offsets, leaf_offsets + leaf_count);
+        if (leaves != offsets || od->leaf_order.size() != offsets)
+            OPENVDB_THROW(vdb::IoError, "its " << (checked ? "index lists " : "structure check found ") << offsets
+                                               << " leaves, its topology " << leaves);
+        od->by_offset = true;
         return base;
     }
     od->file.setCopyMaxBytes(0); // map the file itself; OpenVDB would first copy a small one to /tmp
