@@ -75,7 +75,7 @@ struct leap_cell_cursor {
     uint block_entry;
     bool constant;
     float value;     // constant cells
-    vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q
+    vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q (leap_cursor_seek)
     uint slot;       // slot cells: the slot's index (LEAP_BINDING_SLOT_RANGES); missing ones: the host atlas's
     bool missing;    // slot cells not resident in the brick cache (LEAP_PAGE_MISSING)
     uint object;     // label volumes, constant cells: the object index
@@ -134,7 +134,15 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
         cur.value = float(entry & 0xffffu) * (1.0 / 65535.0);
     } else {
         uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
-        cur.texel_base = vec3(slot * uint(LEAP_SLOT)) - vec3(cell * LEAP_CELL) + 0.5;
+        // Along z the atlas's extent is a power of two (a cache's image, of fewer layers, too)
+        // and its sampler repeats: a texel coordinate the whole atlas's extent D above the
+        // slot's is the same place, and puts every slot cell's samples in [D, 2D), where floats
+        // lie on one grid (1/8192 of a texel apart for D = 1024). Rounded on that grid, a
+        // sample's offset in its cell does not depend on the slot's layer, and scaling by the
+        // extent is exact, so a brick cache of whole layers (its slots where the atlas has them
+        // along x and y) gives the whole atlas's image bit for bit.
+        cur.texel_base = vec3(slot * uint(LEAP_SLOT)) + vec3(0.5, 0.5, frame.atlas_inv_size.w + 0.5) -
+                         vec3(cell * LEAP_CELL);
         if (leap_mip) cur.slot = slot.x + frame.slot_dims.x * (slot.y + frame.slot_dims.y * slot.z);
         cur.missing = (entry & LEAP_PAGE_MISSING) != 0u;
         if (cur.missing) cur.slot = entry & (LEAP_PAGE_MISSING - 1u);

@@ -287,7 +287,10 @@ static long check_structure(const leap_atlas *a, const char *what)
     for (int i = 0; i < 3; ++i) {
         const uint32_t blocks = (a->cells[i] + (1u << a->block_shift) - 1) >> a->block_shift;
         CHECK_MSG(a->top_dims[i] == (blocks + (1u << nodes) - 1) >> nodes, "%s: top dims", what);
-        CHECK_MSG(a->texel_dims[i] == a->slot_dims[i] * LEAP_SLOT, "%s: texel dims", what);
+        /* Along z a power of two holding the layers, with fewer than LEAP_SLOT texels to spare. */
+        const uint32_t t = a->texel_dims[i];
+        CHECK_MSG(i < 2 ? t == a->slot_dims[i] * LEAP_SLOT : t >= 16 && (t & (t - 1)) == 0 && t / LEAP_SLOT == a->slot_dims[i],
+                  "%s: texel dims %u for %u slots", what, t, a->slot_dims[i]);
         CHECK_MSG(a->origin[i] % LEAP_CELL == 0, "%s: origin %d not a multiple of 8", what, a->origin[i]);
     }
     CHECK_MSG(a->block_shift >= LEAP_BLOCK_SHIFT_MIN && a->block_shift <= LEAP_BLOCK_SHIFT_MAX, "%s: block shift %u",

@@ -1,8 +1,8 @@
 /* The GPU brick cache (leap_renderer_desc.cache_bytes): with room for only a few dozen or a
  * few hundred of a volume's bricks, over several passes a frame that load the bricks rays
  * missed, every mode, plain and MIP, gives naive's image through the same cache bit for bit
- * (colour and depth), and the whole atlas's image within the float rounding of texel
- * addresses (bricks sit elsewhere in the image); a cache that holds every brick is no cache;
+ * (colour and depth), and the whole atlas's image bit for bit (bricks sit elsewhere in the
+ * image along z, which does not change their samples); a cache that holds every brick is no cache;
  * label volumes need none; shading refuses a cache with a clear error. */
 #define W 64 /* the frames' size (gpu_fixture.h's frame_out) */
 #define H 64
@@ -52,6 +52,8 @@ static void check_volume(leap_renderer *whole, leap_renderer *const *caches, int
                 if (!render(caches[k], s, c, modes[m], out)) continue;
                 const int same = !memcmp(naive[k].rgba, out->rgba, sizeof out->rgba) &&
                                  !memcmp(naive[k].depth, out->depth, sizeof out->depth);
+                const int whole_same = !memcmp(ref.rgba, out->rgba, sizeof out->rgba) &&
+                                       !memcmp(ref.depth, out->depth, sizeof out->depth);
                 const image_diff d = compare_rgba(ref.rgba, out->rgba, W * H);
                 printf("%-11s %-4s camera %d %-10s cache %4u of %4u bricks: %3u passes, %5llu misses, %5llu "
                        "loaded, %5llu evicted; %s naive's through it, against the whole atlas max abs %.1e\n", file,
@@ -61,9 +63,8 @@ static void check_volume(leap_renderer *whole, leap_renderer *const *caches, int
                        same ? "equals" : "DIFFERS FROM", d.max_abs);
                 CHECK_MSG(same, "%s %s camera %d %s: differs from naive through the same cache", file,
                           mip ? "mip" : "plain", c, mode_names[m]);
-                CHECK_MSG(d.nonfinite == 0 && d.max_abs <= 1e-4 && d.rmse <= 1e-6,
-                          "%s %s camera %d %s: rmse %g, max abs %g against the whole atlas", file,
-                          mip ? "mip" : "plain", c, mode_names[m], d.rmse, d.max_abs);
+                CHECK_MSG(whole_same, "%s %s camera %d %s: max abs %g against the whole atlas", file,
+                          mip ? "mip" : "plain", c, mode_names[m], d.max_abs);
                 const frame_out *o = out;
                 CHECK(o->st.cache_slots > 0 && o->st.cache_slots < s->atlas->slot_count);
                 /* a pass more for each service, each loading at least one missed brick */
@@ -80,7 +81,7 @@ int main(void)
 {
     leap_renderer *whole = make_renderer();
     /* a few dozen slots, and a few hundred */
-    const leap_renderer_desc small = {.cache_bytes = 200u << 10}, medium = {.cache_bytes = 1u << 20};
+    const leap_renderer_desc small = {.cache_bytes = 200u << 10}, medium = {.cache_bytes = 512u << 10};
     leap_renderer *caches[2] = {make_renderer_with(&small), make_renderer_with(&medium)};
     if (!whole || !caches[0] || !caches[1]) return 1;
 

@@ -76,7 +76,10 @@ typedef struct leap_atlas {
     size_t page_words;
     uint32_t slot_count;
     uint32_t slot_dims[3];     /* slots per atlas axis */
-    uint32_t texel_dims[3];    /* atlas texels per axis = slot_dims * LEAP_SLOT */
+    uint32_t texel_dims[3];    /* atlas texels per axis: slot_dims * LEAP_SLOT along x and y, a
+                                * power of two along z, so that a slot's layer does not change
+                                * its samples (leap_cursor_seek); a brick cache of whole layers
+                                * then gives the atlas's image bit for bit */
     uint16_t *slot_texels;     /* LEAP_SLOT^3 texels per slot (x fastest), for slots
                                 * d = x + slot_dims[0] * (y + slot_dims[1] * z) < slot_count (the
                                 * others are unused). Only the GPU image holds the 3D layout of

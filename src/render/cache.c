@@ -5,9 +5,10 @@
  * reaching it reports the slot and waits at that sample (composite.comp), and the frame's
  * next pass goes on once it is loaded. Each pass lets every waiting ray whose slot was loaded
  * take at least that cell, so a frame ends with every ray finished on any capacity of at
- * least one slot. A slot's place in the image depends on nothing but the slot, so every mode
- * reads the same texel addresses and gives the same image bit for bit; against the whole
- * atlas's image (other places) float rounding of the addresses may differ in the last bits. */
+ * least one slot. The image holds whole layers of the atlas's slots (cache_shape): a slot lies
+ * where it lies in the atlas's own image along x and y, and along z, where the extent is a power
+ * of two and the sampler repeats, its place does not change its samples (leap_cursor_seek); so
+ * every mode, through a cache of any size, gives the whole atlas's image bit for bit. */
 #include "renderer_internal.h"
 
 #include <stdlib.h>
@@ -15,19 +16,35 @@
 
 #include "leap/atlas.h"
 
-/* Image slots per axis for `capacity` slots: a near cube, each side within the page entry's
- * LEAP_SLOT_BITS (capacity is below the host atlas's slots, which fit them). */
-static void cache_dims(uint32_t capacity, uint32_t dims[3])
+/* The image of a cache of `layers` of the atlas's layers of slots: the atlas's slots along x
+ * and y, so that host slot h (the atlas's slot numbering) lies in image slot h % capacity at
+ * the place it has in the atlas's own image along x and y; along z, a power-of-two extent. */
+static void cache_shape(const leap_atlas *atlas, uint32_t layers, uint32_t slot_dims[3], uint32_t texel_dims[3])
 {
-    uint32_t side = 1;
-    while (side * side * side < capacity) ++side;
-    dims[0] = dims[1] = side;
-    dims[2] = (capacity + side * side - 1) / (side * side);
+    uint32_t extent = 16;
+    while (extent / LEAP_SLOT < layers) extent *= 2;
+    for (int a = 0; a < 2; ++a) slot_dims[a] = atlas->slot_dims[a], texel_dims[a] = atlas->texel_dims[a];
+    slot_dims[2] = layers;
+    texel_dims[2] = extent;
 }
 
-static uint64_t cache_texel_bytes(const leap_renderer *r)
+/* Slots of the whole layers of the atlas that a power-of-two extent along z holds within
+ * `room` bytes at `bytes` a texel: at least one layer, which may exceed a room smaller. */
+static uint64_t cache_slots(const leap_atlas *atlas, uint64_t room, uint64_t bytes)
 {
-    return r->cache_room <= r->float_atlas_max_bytes ? sizeof(float) : sizeof(uint16_t);
+    const uint64_t layer = (uint64_t)atlas->slot_dims[0] * atlas->slot_dims[1],
+                   layer_bytes = layer * LEAP_SLOT * LEAP_SLOT * bytes;
+    uint64_t extent = 16;
+    while (extent * 2 <= LEAP_ATLAS_DEPTH_MAX && extent * 2 * layer_bytes <= room) extent *= 2;
+    return extent / LEAP_SLOT * layer;
+}
+
+/* Float texels filter faster, 16-bit ones (the same values) hold twice the slots: float only
+ * when it holds every slot. */
+static uint64_t cache_texel_bytes(const leap_renderer *r, const leap_atlas *atlas)
+{
+    const int float_holds_all = cache_slots(atlas, r->cache_room, sizeof(float)) >= atlas->slot_count;
+    return r->cache_room <= r->float_atlas_max_bytes && float_holds_all ? sizeof(float) : sizeof(uint16_t);
 }
 
 static uint32_t pack_slot(const uint32_t dims[3], uint32_t slot)
@@ -73,9 +90,9 @@ uint32_t renderer_cache_capacity(leap_renderer *r, const leap_atlas *atlas, uint
     if (streamed && stream_bytes && (!r->cache_room || stream_bytes < r->cache_room)) r->cache_room = stream_bytes;
     if (atlas->labels || atlas->slot_count == 0) return 0;
     if (!r->cache_room) return streamed ? atlas->slot_count : 0;
-    const uint64_t slots = r->cache_room / (LEAP_SLOT_TEXELS * cache_texel_bytes(r));
+    const uint64_t slots = cache_slots(atlas, r->cache_room, cache_texel_bytes(r, atlas));
     if (slots >= atlas->slot_count) return streamed ? atlas->slot_count : 0;
-    return (uint32_t)(slots ? slots : 1);
+    return (uint32_t)slots;
 }
 
 void renderer_cache_release(leap_renderer *r)
@@ -108,10 +125,10 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
     const uint32_t resident = atlas->slot_texels ? capacity : 0;
     for (uint32_t i = 0; i < capacity; ++i) c->host_of[i] = i < resident ? i : CACHE_NONE;
     for (uint32_t h = 0; h < atlas->slot_count; ++h) c->image_of[h] = h < resident ? h : CACHE_NONE;
-    r->texel_bytes = (uint32_t)cache_texel_bytes(r);
+    r->texel_bytes = (uint32_t)cache_texel_bytes(r, atlas);
     const int as_float = r->texel_bytes == sizeof(float);
-    cache_dims(capacity, r->slot_dims);
-    for (int a = 0; a < 3; ++a) r->texel_dims[a] = r->slot_dims[a] * LEAP_SLOT;
+    const uint32_t layer = atlas->slot_dims[0] * atlas->slot_dims[1];
+    cache_shape(atlas, (capacity + layer - 1) / layer, r->slot_dims, r->texel_dims);
     const cache_fill fill = {r, as_float};
     leap_result lr = leap_gpu_image_fill(r->gpu, as_float ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM, r->texel_dims,
                                          r->texel_bytes, fill_texels, &fill, &r->atlas, err);

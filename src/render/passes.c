@@ -124,9 +124,9 @@ static void write_descriptors(leap_renderer *r)
     const int shading = r->value_gradients_serial == r->atlas_serial && r->value_gradients.view;
     VkDescriptorImageInfo img[3] = {
         /* A shaded scene may have no values image: shaded pipelines never read that binding. */
-        {r->linear_sampler, r->atlas.view ? r->atlas.view : r->value_gradients.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        {r->atlas_sampler, r->atlas.view ? r->atlas.view : r->value_gradients.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
         {r->linear_sampler, r->tf.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
-        {r->linear_sampler, shading ? r->value_gradients.view : r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
+        {r->atlas_sampler, shading ? r->value_gradients.view : r->atlas.view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL},
     };
     VkWriteDescriptorSet w[BINDING_COUNT];
     for (uint32_t i = 0; i < BINDING_COUNT; ++i) {

@@ -81,6 +81,7 @@ void leap_renderer_destroy(leap_renderer *r)
         leap_gpu_buffer_destroy(gpu, &r->frame);
         if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
         if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
+        if (r->atlas_sampler) vkDestroySampler(dev, r->atlas_sampler, NULL);
         if (r->events) vkDestroyPipeline(dev, r->events, NULL);
         for (int s = 0; s < 2; ++s)
             for (int c = 0; c < 2; ++c)
@@ -209,6 +210,7 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
     if (capacity && !values)
         return shading_refuses_cache(r, atlas, err);
     leap_result lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
+    r->atlas_depth = atlas->texel_dims[2];
     if (!lr && capacity) {
         lr = renderer_cache_upload(r, atlas, capacity, err);
     } else if (!lr) {

@@ -85,7 +85,8 @@ struct leap_renderer {
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
-    VkSampler linear_sampler;
+    VkSampler linear_sampler;        /* clamped: the transfer function table */
+    VkSampler atlas_sampler;         /* repeating along z: the atlas and gradient images */
     VkDescriptorPool pool;
     VkDescriptorSet set;
     leap_buffer frame;
@@ -93,6 +94,7 @@ struct leap_renderer {
     leap_image value_gradients;      /* shading: leap_value_gradients_fill of the atlas with the serial */
     uint64_t value_gradients_serial; /* 0: none */
     uint32_t texel_dims[3];          /* the volume's atlas texels per axis (the images' extent) */
+    uint32_t atlas_depth;            /* the whole atlas's texels along z (a cache's image may hold fewer) */
     leap_buffer pages;
     leap_buffer slot_ranges;   /* scalar atlases: per slot, its smallest | largest stored value << 16 */
     leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */

@@ -13,7 +13,8 @@
 
 #include "shared.h"
 
-#define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT)
+#define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT) /* along x and y; along z LEAP_ATLAS_DEPTH_MAX */
+#define MAX_SLOTS_DEEP (LEAP_ATLAS_DEPTH_MAX / LEAP_SLOT)
 /* The page table is built before any device is chosen, so it keeps within the storage-buffer
  * range every Vulkan device guarantees (maxStorageBufferRange >= 2^27); the renderer checks
  * its own buffers against the device's actual limit. */
@@ -248,18 +249,49 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
     return LEAP_OK;
 }
 
+/* Texels of an image of `slots` slots in layers (x, y) as square as may be, `extent` texels
+ * deep; 0 when a side exceeds the 3D image limit, or when the extent is more than four times
+ * the layer's longer side (the shader's coordinates along z lie on a float grid as coarse as
+ * the extent, see leap_cursor_seek: no coarser than four times those along x and y). */
+static uint64_t layered_texels(uint64_t slots, uint64_t extent, uint64_t *sx, uint64_t *sy)
+{
+    const uint64_t layer = (slots + extent / LEAP_SLOT - 1) / (extent / LEAP_SLOT);
+    *sx = (uint64_t)ceil(sqrt((double)layer));
+    if (*sx > MAX_SLOTS_PER_AXIS) *sx = MAX_SLOTS_PER_AXIS;
+    *sy = (layer + *sx - 1) / *sx;
+    if (*sy > MAX_SLOTS_PER_AXIS || (extent > 16 && extent > 4 * *sx * LEAP_SLOT)) return 0;
+    return *sx * *sy * LEAP_SLOT * LEAP_SLOT * extent;
+}
+
+/* The atlas image's shape for `slots` slots: layers of slots along x and y stacked along z in a
+ * power-of-two extent, the deepest whose texels are within 1/16 of the fewest (small layers let
+ * a brick cache of whole layers come in small steps). 0 when they exceed the 3D image limit. */
+static int image_shape(uint64_t slots, uint32_t slot_dims[3], uint32_t texel_dims[3])
+{
+    uint64_t fewest = 0, sx, sy;
+    if (slots == 0) slots = 1;
+    for (uint32_t extent = 16; extent <= LEAP_ATLAS_DEPTH_MAX; extent *= 2) {
+        const uint64_t texels = layered_texels(slots, extent, &sx, &sy);
+        if (texels && (!fewest || texels < fewest)) fewest = texels;
+    }
+    if (!fewest) return 0;
+    for (uint32_t extent = LEAP_ATLAS_DEPTH_MAX; extent >= 16; extent /= 2) {
+        const uint64_t texels = layered_texels(slots, extent, &sx, &sy);
+        if (!texels || texels * 16 > fewest * 17) continue;
+        slot_dims[0] = (uint32_t)sx, slot_dims[1] = (uint32_t)sy, slot_dims[2] = extent / LEAP_SLOT;
+        texel_dims[0] = (uint32_t)sx * LEAP_SLOT, texel_dims[1] = (uint32_t)sy * LEAP_SLOT, texel_dims[2] = extent;
+        break;
+    }
+    return 1;
+}
+
 /* Atlas texels placed for n slots, as finish() lays them out (0 if they exceed the 3D
  * texture limit). */
 static uint64_t atlas_texels_for(uint64_t n)
 {
-    if (n == 0) n = 1;
-    uint64_t sx = (uint64_t)ceil(cbrt((double)n));
-    if (sx > MAX_SLOTS_PER_AXIS) sx = MAX_SLOTS_PER_AXIS;
-    uint64_t sy = (n + sx - 1) / sx;
-    if (sy > MAX_SLOTS_PER_AXIS) sy = MAX_SLOTS_PER_AXIS;
-    uint64_t sz = (n + sx * sy - 1) / (sx * sy);
-    if (sz > MAX_SLOTS_PER_AXIS) return 0;
-    return sx * sy * sz * LEAP_SLOT_TEXELS;
+    uint32_t slot_dims[3], texel_dims[3];
+    if (!image_shape(n, slot_dims, texel_dims)) return 0;
+    return (uint64_t)texel_dims[0] * texel_dims[1] * texel_dims[2];
 }
 
 /* The most slots whose 16-bit atlas fits one device allocation, and whose texels fit the host
@@ -267,8 +299,8 @@ static uint64_t atlas_texels_for(uint64_t n)
  * neither holds them all, only the page entries' slot numbers bound them. */
 static uint64_t slot_budget(int stream_texels)
 {
-    if (stream_texels) return (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
-    uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
+    if (stream_texels) return (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_DEEP;
+    uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_DEEP;
     long pages = sysconf(_SC_AVPHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     double host = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
     while (lo < hi) { /* largest n that fits (texels grow with n) */
@@ -706,17 +738,13 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
             perm[i] = perm[j];
             perm[j] = t;
         }
-    uint32_t sx = (uint32_t)ceil(cbrt((double)n));
-    if (sx > MAX_SLOTS_PER_AXIS) sx = MAX_SLOTS_PER_AXIS;
-    uint32_t sy = (n + sx - 1) / sx;
-    if (sy > MAX_SLOTS_PER_AXIS) sy = MAX_SLOTS_PER_AXIS;
-    uint32_t sz = (n + sx * sy - 1) / (sx * sy);
-    if (sz > MAX_SLOTS_PER_AXIS) {
+    uint32_t texel_dims[3];
+    if (!image_shape(n, a->slot_dims, texel_dims)) {
         free(perm);
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: %u bricks exceed the 3D texture limit", n);
     }
-    a->slot_dims[0] = sx, a->slot_dims[1] = sy, a->slot_dims[2] = sz;
-    for (int i = 0; i < 3; ++i) a->texel_dims[i] = a->slot_dims[i] * LEAP_SLOT;
+    for (int i = 0; i < 3; ++i) a->texel_dims[i] = texel_dims[i];
+    const uint32_t sx = a->slot_dims[0], sy = a->slot_dims[1], sz = a->slot_dims[2];
     /* The slots keep their build order: unshuffled, the build's buffer is the atlas's. */
     a->slot_ranges = calloc((size_t)sx * sy * sz, sizeof(uint32_t));
     const size_t slot_bytes = (size_t)(a->slot_count ? a->slot_count : 1) * LEAP_SLOT_TEXELS * sizeof(uint16_t);
@@ -1038,7 +1066,7 @@ void leap_atlas_texels(const leap_atlas *a, size_t first, size_t count, uint16_t
         const uint16_t *in_slot = a->slot_texels + LEAP_SLOT * (y % LEAP_SLOT + LEAP_SLOT * (z % LEAP_SLOT));
         for (size_t d = row_slot + x / LEAP_SLOT, l = x % LEAP_SLOT; x < end; ++d, l = 0) {
             const uint16_t *src = in_slot + d * LEAP_SLOT_TEXELS;
-            const int used = d < a->slot_count;
+            const int used = d < a->slot_count; /* also false past the last layer of slots */
             for (; l < LEAP_SLOT && x < end; ++l, ++x) *out++ = used ? src[l] : 0;
         }
         if (x == row) {

@@ -99,7 +99,7 @@ void leap_value_gradients_destroy(leap_value_gradients *vg)
 
 /* Texels first .. first + count - 1 (x fastest): per slot texel, the voxel's stored value and
  * the half differences v[+1] - v[-1] of its neighbours, read from the slot where both lie in
- * it, else through the page table; 0 in unused slots. */
+ * it, else through the page table; 0 in unused slots and spare texels. */
 void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, size_t count, uint16_t *out)
 {
     const leap_atlas *a = vg->atlas;
@@ -112,9 +112,10 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
             ++t[2];
         }
         const size_t slot = t[0] / LEAP_SLOT + a->slot_dims[0] * (t[1] / LEAP_SLOT + a->slot_dims[1] * (t[2] / LEAP_SLOT));
-        const int32_t *cell = vg->slot_cell[slot];
+        const int spare = t[2] / LEAP_SLOT >= a->slot_dims[2]; /* past the last layer of slots */
+        const int32_t *cell = spare ? NULL : vg->slot_cell[slot];
         uint16_t *o = out + 4 * i;
-        if (cell[0] == INT32_MIN) {
+        if (spare || cell[0] == INT32_MIN) {
             o[0] = o[1] = o[2] = o[3] = 0;
             continue;
         }
