@@ -13,6 +13,7 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 static const char *tmp_file(const char *name)
 {
@@ -1265,6 +1266,36 @@ static void test_on_demand(void)
     }
 }
 
+/* A file cut short after it was opened, before its grid is read (in memory, and on demand):
+ * the checks read the file with pread, so the load fails with the reason, not with SIGBUS from
+ * a mapping read past the file's new end. */
+static void test_cut_after_open(void)
+{
+    char src[1024];
+    snprintf(src, sizeof src, "%s/cloud.vdb", LEAP_VOLUMES);
+    long size = 0;
+    unsigned char *data = read_whole_file(src, &size);
+    CHECK(data != NULL && size > 1024);
+    const char *cut = tmp_file("cut_after_open.vdb");
+    for (int on_demand = 0; data && on_demand < 2; ++on_demand) {
+        write_all(cut, data, (size_t)size);
+        leap_vdb_file *f = NULL;
+        leap_grid *g = NULL;
+        leap_error err = {{0}};
+        CHECK_OK(leap_vdb_open(cut, &f, &err), &err);
+        if (!f) continue;
+        CHECK(truncate(cut, (off_t)(size / 2 / 4096 * 4096)) == 0); /* at a page's start */
+        const leap_result r = on_demand ? leap_vdb_load_grid_on_demand(f, 0, NULL, NULL, &g, &err)
+                                        : leap_vdb_load_grid(f, 0, &g, &err);
+        printf("cut after open, %s: %s\n", on_demand ? "on demand" : "in memory", err.msg);
+        CHECK_MSG(r == LEAP_ERR_FORMAT && g == NULL && strstr(err.msg, "changed while read"), "%s: %s",
+                  leap_result_name(r), err.msg);
+        leap_grid_destroy(g);
+        leap_vdb_close(f);
+    }
+    free(data);
+}
+
 int main(void)
 {
     if (mkdir(LEAP_TEST_TMP, 0755) != 0 && errno != EEXIST) {
@@ -1285,5 +1316,6 @@ int main(void)
     test_shipped_volumes();
     test_histogram();
     test_on_demand();
+    test_cut_after_open();
     return check_exit_code();
 }

@@ -106,22 +106,21 @@ typedef struct leap_grid_scan {
     int32_t unused;                 /* 0 (the size is a multiple of 8 bytes) */
 } leap_grid_scan;
 
-/* Like leap_vdb_load_grid, but the leaves' voxel values stay in the file (OpenVDB's delayed
- * loading, after the same checks of every byte of the grid's tree): memory holds the tree's
- * topology and tiles; readers, leap_grid_bricks and leap_grid_histogram read each leaf they
- * need into a short-lived copy (a reader keeps the last few hundred). The load itself reads
+/* Like leap_vdb_load_grid, but the leaves' voxel values stay in the file: after the same checks
+ * of every byte of the grid's tree, which find where each leaf's values start, the load reads
+ * the grid's topology alone; readers, leap_grid_bricks and leap_grid_histogram read each leaf
+ * they need at its offset into a short-lived copy (a reader keeps the last few hundred;
+ * OpenVDB's reader of a leaf's values decodes it). An instance of another grid, whose leaves the
+ * check does not number, goes through OpenVDB's delayed loading instead. The load itself reads
  * every leaf once, for the info's value range, unless `known` gives what that read found
  * (leap_grid_get_scan of an earlier load of the same, unchanged file: a grid index): then the
- * file's checks are taken as passed, and no leaf is read. OpenVDB's delayed loading still steps
- * over every leaf's values in the file (it reads each one's size), so the whole file comes
- * from storage, unless `leaf_offsets` (known->leaf_count of them, leap_grid_leaf_offsets of that
- * earlier load) say where each leaf's values start: then the load reads the grid's topology
- * alone, and each leaf read later reads its own bytes (OpenVDB's reader of a leaf's values, at
- * that offset). Values read are those leap_vdb_load_grid gives. Float grids in .vdb files with
- * grid offsets only (LEAP_ERR_UNSUPPORTED otherwise). A leaf that cannot be read (a corrupt
- * file, or one that changed while open: leap_grid_check_source) reads as the background and is
- * reported by leap_grid_read_status. A `known` or `leaf_offsets` that does not fit the grid is
- * LEAP_ERR_FORMAT naming the index. */
+ * file's checks are taken as passed, and no leaf is read; with `leaf_offsets` too
+ * (known->leaf_count of them, leap_grid_leaf_offsets of that earlier load) nothing but the
+ * topology comes from storage. Values read are those leap_vdb_load_grid gives. Float grids in
+ * .vdb files with grid offsets only (LEAP_ERR_UNSUPPORTED otherwise). A leaf that cannot be read
+ * (a corrupt file, or one that changed while open: leap_grid_check_source) reads as the
+ * background and is reported by leap_grid_read_status. A `known` or `leaf_offsets` that does not
+ * fit the grid is LEAP_ERR_FORMAT naming the index. */
 leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
                                          const uint64_t *leaf_offsets, leap_grid **out, leap_error *err);
 

@@ -87,27 +87,23 @@ struct Corrupt : std::runtime_error {
 // A name read from a file, made safe for a one-line message.
 std::string printable(const std::string &s);
 
-// The file's bytes, mapped read-only for the checks below.
-class Mapping {
+// The file the checks below read, open for pread(2): a file cut short while they read it is a
+// short read and an error, where reading a mapping past its end would raise SIGBUS.
+class FileBytes {
 public:
-    Mapping(const std::string &path, uint64_t size) : size_(size)
+    FileBytes(const std::string &path, uint64_t size) : size_(size)
     {
-        const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-        if (fd < 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
-        void *p = size ? ::mmap(nullptr, size, PROT_READ, MAP_PRIVATE, fd, 0) : MAP_FAILED;
-        const int saved = errno;
-        ::close(fd);
-        if (p == MAP_FAILED) OPENVDB_THROW(vdb::IoError, "cannot map the file: " << std::strerror(saved));
-        data_ = static_cast<const unsigned char *>(p);
+        fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+        if (fd_ < 0) OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
     }
-    ~Mapping() { ::munmap(const_cast<unsigned char *>(data_), size_); }
-    Mapping(const Mapping &) = delete;
-    Mapping &operator=(const Mapping &) = delete;
-    const unsigned char *data() const { return data_; }
-    uint64_t size() const { return size_; }
+    ~FileBytes() { ::close(fd_); }
+    FileBytes(const FileBytes &) = delete;
+    FileBytes &operator=(const FileBytes &) = delete;
+    int fd() const { return fd_; }
+    uint64_t size() const { return size_; } // as the file was opened
 
 private:
-    const unsigned char *data_ = nullptr;
+    int fd_ = -1;
     uint64_t size_;
 };
 
@@ -116,16 +112,18 @@ private:
 // chunks whose sizes it takes from the file, before it notices that the file is shorter or
 // that a size is wrong: one flipped byte costs gigabytes, minutes, or a write past a buffer.
 // The checks below walk the same structures first and reject what does not fit. Messages
-// are `prefix` followed by the `what` of the read that failed.
+// are `prefix` followed by the `what` of the read that failed. A file is read through a window
+// of WINDOW_BYTES (more for a longer read), so a walk holds little of it in memory; what
+// bytes() returns stays valid until the next read.
 class Walker {
 public:
-    Walker(const Mapping &m, uint64_t pos, uint64_t limit, std::string prefix = "")
-        : data_(m.data()), pos_(pos), limit_(std::min(limit, m.size())), prefix_(std::move(prefix))
+    Walker(const FileBytes &f, uint64_t pos, uint64_t limit, std::string prefix = "")
+        : file_(&f), pos_(pos), limit_(std::min(limit, f.size())), prefix_(std::move(prefix))
     {
     }
-    // The `size` bytes at `data` (copied from the file), which it never releases.
+    // The `size` bytes at `data` (copied from the file).
     Walker(const unsigned char *data, uint64_t size, std::string prefix)
-        : data_(data), pos_(0), limit_(size), walked_(UINT64_MAX - RELEASE_BYTES), prefix_(std::move(prefix))
+        : data_(data), pos_(0), limit_(size), prefix_(std::move(prefix))
     {
     }
     uint64_t pos() const { return pos_; }
@@ -146,9 +144,8 @@ public:
     const unsigned char *bytes(uint64_t n, const W &what)
     {
         need(n, what);
-        const unsigned char *p = data_ + pos_;
+        const unsigned char *p = file_ ? in_window(n, what) : data_ + pos_;
         pos_ += n;
-        if (pos_ > walked_ + RELEASE_BYTES) release();
         return p;
     }
     template <typename W>
@@ -166,7 +163,8 @@ public:
     template <typename W>
     void skip(uint64_t n, const W &what)
     {
-        bytes(n, what);
+        need(n, what);
+        pos_ += n;
     }
     // OpenVDB's string: a uint32 length, then the bytes.
     template <typename W>
@@ -178,19 +176,36 @@ public:
     }
 
 private:
-    // The pages walked past are dropped from the process as the walk goes on, so checking a
-    // large file does not hold it all in memory (a page read again is mapped again).
-    static constexpr uint64_t RELEASE_BYTES = 4u << 20;
-    void release()
+    static constexpr uint64_t WINDOW_BYTES = 1u << 20;
+    // The n bytes at pos_, read into the window unless it holds them.
+    template <typename W>
+    const unsigned char *in_window(uint64_t n, const W &what)
     {
-        const uint64_t page = uint64_t(::sysconf(_SC_PAGESIZE)), end = pos_ / page * page;
-        if (end > walked_) ::madvise(const_cast<unsigned char *>(data_) + walked_, end - walked_, MADV_DONTNEED);
-        walked_ = end;
+        if (pos_ < window_pos_ || pos_ + n > window_pos_ + window_.size()) {
+            const uint64_t want = std::min(std::max(n, WINDOW_BYTES), limit_ - pos_);
+            window_.resize(size_t(want));
+            window_pos_ = pos_;
+            size_t got = 0;
+            while (got < want) {
+                const ssize_t r = ::pread(file_->fd(), window_.data() + got, size_t(want) - got, off_t(pos_ + got));
+                if (r < 0 && errno == EINTR) continue;
+                if (r < 0) fail(what, std::string("cannot be read: ") + std::strerror(errno));
+                if (r == 0) {
+                    window_.clear();
+                    fail(what, "the file ends at byte " + std::to_string(pos_ + got) + ", before the " +
+                                   std::to_string(file_->size()) + " bytes it had when opened (changed while read)");
+                }
+                got += size_t(r);
+            }
+        }
+        return window_.data() + (pos_ - window_pos_);
     }
 
-    const unsigned char *data_;
+    const FileBytes *file_ = nullptr;
+    const unsigned char *data_ = nullptr;
     uint64_t pos_, limit_;
-    uint64_t walked_ = 0; // page-aligned: pages before it were released
+    std::vector<unsigned char> window_; // file bytes from window_pos_
+    uint64_t window_pos_ = 0;
     std::string prefix_;
 };
 

@@ -106,7 +106,7 @@ public:
     // grid offsets (written to a stream), every grid.
     void open(std::vector<vdb::io::GridDescriptor> &descs, std::vector<vdb::GridBase::Ptr> &streamed)
     {
-        const Mapping m(path_, size_);
+        const FileBytes m(path_, size_);
         Walker w(m, 0, size_);
         uint32_t version = 0;
         const bool offsets = walk_header(w, &version);
@@ -202,7 +202,7 @@ public:
     void check(const vdb::io::GridDescriptor &gd, std::vector<uint64_t> *leaf_offsets = nullptr)
     {
         if (gd.isInstance()) return;
-        const Mapping m(path_, size_);
+        const FileBytes m(path_, size_);
         check_tree(m, gd, uint64_t(gd.getGridPos()), uint64_t(gd.getEndPos()), "tree", false, leaf_offsets);
     }
 
@@ -241,7 +241,7 @@ private:
     // finds by reading them (already checked by walk_grid_prefix). `any_type`: a tree this
     // check does not know is an error (a file without offsets is read whole) rather than
     // left unread.
-    void check_tree(const Mapping &m, const vdb::io::GridDescriptor &gd, uint64_t grid_pos, uint64_t limit,
+    void check_tree(const FileBytes &m, const vdb::io::GridDescriptor &gd, uint64_t grid_pos, uint64_t limit,
                     const std::string &label, bool any_type, std::vector<uint64_t> *leaf_offsets = nullptr)
     {
         const TreeFormat format = tree_format(gd.gridType(), gd.saveFloatAsHalf());
