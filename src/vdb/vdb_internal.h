@@ -87,6 +87,21 @@ struct Corrupt : std::runtime_error {
 // A name read from a file, made safe for a one-line message.
 std::string printable(const std::string &s);
 
+// Reads up to n bytes at `offset` into buf, going on after interrupted and partial reads;
+// returns the bytes read (fewer only where the file ends), or -1 with errno set.
+inline ssize_t pread_full(int fd, void *buf, size_t n, uint64_t offset)
+{
+    size_t got = 0;
+    while (got < n) {
+        const ssize_t r = ::pread(fd, static_cast<char *>(buf) + got, n - got, off_t(offset + got));
+        if (r < 0 && errno == EINTR) continue;
+        if (r < 0) return -1;
+        if (r == 0) break;
+        got += size_t(r);
+    }
+    return ssize_t(got);
+}
+
 // The file the checks below read, open for pread(2): a file cut short while they read it is a
 // short read and an error, where reading a mapping past its end would raise SIGBUS.
 class FileBytes {
@@ -185,17 +200,12 @@ private:
             const uint64_t want = std::min(std::max(n, WINDOW_BYTES), limit_ - pos_);
             window_.resize(size_t(want));
             window_pos_ = pos_;
-            size_t got = 0;
-            while (got < want) {
-                const ssize_t r = ::pread(file_->fd(), window_.data() + got, size_t(want) - got, off_t(pos_ + got));
-                if (r < 0 && errno == EINTR) continue;
-                if (r < 0) fail(what, std::string("cannot be read: ") + std::strerror(errno));
-                if (r == 0) {
-                    window_.clear();
-                    fail(what, "the file ends at byte " + std::to_string(pos_ + got) + ", before the " +
-                                   std::to_string(file_->size()) + " bytes it had when opened (changed while read)");
-                }
-                got += size_t(r);
+            const ssize_t got = pread_full(file_->fd(), window_.data(), size_t(want), pos_);
+            if (got < 0) fail(what, std::string("cannot be read: ") + std::strerror(errno));
+            if (uint64_t(got) < want) {
+                window_.clear();
+                fail(what, "the file ends at byte " + std::to_string(pos_ + uint64_t(got)) + ", before the " +
+                               std::to_string(file_->size()) + " bytes it had when opened (changed while read)");
             }
         }
         return window_.data() + (pos_ - window_pos_);

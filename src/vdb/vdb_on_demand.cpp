@@ -69,13 +69,9 @@ static void read_at_offset(const OnDemand &od, const LeafT &leaf, float *v)
     if (!(begin < end && end - begin <= LEAF_MAX_BYTES))
         throw std::runtime_error("its offsets in the grid index are not those of a leaf");
     std::vector<char> bytes(size_t(end - begin));
-    size_t got = 0;
-    while (got < bytes.size()) {
-        const ssize_t n = ::pread(od.fd, bytes.data() + got, bytes.size() - got, off_t(begin + got));
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) throw std::runtime_error(n < 0 ? std::strerror(errno) : "the file ends before the leaf");
-        got += size_t(n);
-    }
+    const ssize_t got = pread_full(od.fd, bytes.data(), bytes.size(), begin);
+    if (got < 0) throw std::runtime_error(std::strerror(errno));
+    if (size_t(got) < bytes.size()) throw std::runtime_error("the file ends before the leaf");
     Walker w(reinterpret_cast<const unsigned char *>(bytes.data()), bytes.size(), "");
     check_leaf_values(w, od.format, od.compression, leaf.getValueMask().countOn());
     MemoryBuffer buffer(bytes.data(), bytes.size());

@@ -634,7 +634,7 @@ size_t order_leaves(const vdb::GridBase &base, size_t count, OnDemand &od)
 // tree as a full read (unless `checked`). Where each leaf's values start is known (the index's
 // `leaf_offsets`, `leaf_count` of them, for a file checked before; else what the check found):
 // only the topology is read, and leaves are read at their offsets later. Otherwise (an instance,
-// or a tree whose check found no offsets) OpenVDB's delayed loading reads it.
+// or a tree whose check found no leaves) OpenVDB's delayed loading reads it, no offsets kept.
 vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, const uint64_t *leaf_offsets,
                                   uint64_t leaf_count, std::unique_ptr<OnDemand> &od)
 {
@@ -645,8 +645,8 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
     od->fd = ::open(file->path.c_str(), O_RDONLY | O_CLOEXEC);
     if (od->fd < 0 || ::fstat(od->fd, &od->opened) != 0)
         OPENVDB_THROW(vdb::IoError, "cannot open the file: " << std::strerror(errno));
-    if (checked && leaf_offsets) od->leaf_offsets.assign(leaf_offsets, leaf_offsets + leaf_count);
     if (!gd.isInstance() && (checked ? leaf_offsets != nullptr : !od->leaf_offsets.empty())) {
+        if (checked) od->leaf_offsets.assign(leaf_offsets, leaf_offsets + leaf_count);
         // Leaves are read one at a time, in the order rays need them: read-ahead would bring in
         // their neighbours in the file, which no ray may need.
         ::posix_fadvise(od->fd, 0, 0, POSIX_FADV_RANDOM);
@@ -696,8 +696,6 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
         auto leaf = fg->tree().cbeginLeaf();
         if (leaf && !leaf->buffer().isOutOfCore())
             OPENVDB_THROW(vdb::IoError, "OpenVDB read the voxels at once (is OPENVDB_DISABLE_DELAYED_LOAD set?)");
-        if (od->leaf_offsets.size() != fg->tree().leafCount()) od->leaf_offsets.clear();
-        od->leaf_offsets.shrink_to_fit(); // the budget counts what it holds
     }
     return base;
 }
