@@ -454,54 +454,67 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
     int leaf_size = 0;
     uint leaf_class = LEAP_CLASS_NONEMPTY;
     while (more) {
-        // No clamp: q stays within float rounding of the domain box, and the page grid has
-        // at least one spare cell on every side of it (see leap_atlas). Voxel centres sit at
-        // integer q; a slot cell's samples read the atlas at texel_base + q.
-        vec3 q = r.origin + t * r.dir;
-        ivec3 cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
-        if (leap_mode == LEAP_MODE_OCTREE) {
-            // The octree mode skips every sample of an EMPTY leaf, up to the leaf's exit. The
-            // sample at t lies in the leaf, so the skip makes progress unless the exit rounds to
-            // t or before; then the sample is taken, as naive takes it.
-            if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
-                leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
-            float b0, b1;
-            if (leaf_class == LEAP_CLASS_EMPTY &&
-                leap_clip_box(r, vec3(leaf_lo * LEAP_CELL), vec3((leaf_lo + leaf_size) * LEAP_CELL), b0, b1) && b1 > t) {
-                j = max(leap_lattice_first(lat, b1), j + 1.0);
-                t = lat.t0 + j * lat.dt;
-                more = t <= tb;
-                continue;
-            }
-        }
-        leap_cursor_seek(cur, cell);
-        if (cur.missing) { // a data miss: report the slot; the ray waits at sample j for a later pass
-            atomicOr(misses[1u + cur.slot / 32u], 1u << (cur.slot % 32u));
-            misses[0] = 1u;
-            acc.waiting = true;
-            break;
-        }
-        bool constant = cur.constant;
+        // Cells whose samples cannot change the pixel are passed whole, and a ray passes all it
+        // meets before its next samples, so the lanes of a SIMD vector pass cells side by side
+        // and take samples side by side (lavapipe runs every lane through every branch any lane
+        // takes: a lane taking samples while its neighbours pass held them all).
+        vec3 q;
+        ivec3 cell;
+        bool constant = true, opaque = false, found = false;
         vec4 c = vec4(0.0);
-        if (!leap_mip) c = leap_labels ? objects[cur.object] : leap_tf_lookup(tf, cur.value);
-        float alpha = leap_sample_alpha(c);
-        bool opaque = c.a > frame.limits.y;
-        float x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
-        // A cell whose samples cannot change the pixel is passed whole. MIP: one none of whose
-        // samples can raise the extreme above what the ray holds (a tie keeps the first t),
-        // constant or not. Compositing: a constant cell of zero opacity, whose samples add
-        // nothing; they are lattice samples the ray takes, so they are counted.
-        float bound = 0.0;
-        if (leap_mip) bound = constant ? (frame.image.z != 0u ? -x : x) : leap_mip_cell_bound(cur, tf);
-        bool pass = leap_mip ? bound <= acc.color.r : constant && c.a == 0.0;
-        // Two inner loops rather than one with a branch per sample: see above.
-        if (pass) {
+        float alpha = 0.0, x = 0.0, bound = 0.0;
+        while (more) {
+            // No clamp: q stays within float rounding of the domain box, and the page grid has
+            // at least one spare cell on every side of it (see leap_atlas). Voxel centres sit at
+            // integer q; a slot cell's samples read the atlas at texel_base + q.
+            q = r.origin + t * r.dir;
+            cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
+            if (leap_mode == LEAP_MODE_OCTREE) {
+                // The octree mode skips every sample of an EMPTY leaf, up to the leaf's exit. The
+                // sample at t lies in the leaf, so the skip makes progress unless the exit rounds
+                // to t or before; then the sample is taken, as naive takes it.
+                if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
+                    leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
+                float b0, b1;
+                if (leaf_class == LEAP_CLASS_EMPTY &&
+                    leap_clip_box(r, vec3(leaf_lo * LEAP_CELL), vec3((leaf_lo + leaf_size) * LEAP_CELL), b0, b1) && b1 > t) {
+                    j = max(leap_lattice_first(lat, b1), j + 1.0);
+                    t = lat.t0 + j * lat.dt;
+                    more = t <= tb;
+                    continue;
+                }
+            }
+            leap_cursor_seek(cur, cell);
+            if (cur.missing) { // a data miss: report the slot; the ray waits at sample j for a later pass
+                atomicOr(misses[1u + cur.slot / 32u], 1u << (cur.slot % 32u));
+                misses[0] = 1u;
+                acc.waiting = true;
+                more = false;
+                break;
+            }
+            constant = cur.constant;
+            if (!leap_mip) c = leap_labels ? objects[cur.object] : leap_tf_lookup(tf, cur.value);
+            alpha = leap_sample_alpha(c);
+            opaque = c.a > frame.limits.y;
+            x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
+            // MIP passes a cell none of whose samples can raise the extreme above what the ray
+            // holds (a tie keeps the first t), constant or not. Compositing passes a constant
+            // cell of zero opacity, whose samples add nothing; they are lattice samples the ray
+            // takes, so they are counted.
+            if (leap_mip) bound = constant ? (frame.image.z != 0u ? -x : x) : leap_mip_cell_bound(cur, tf);
+            if (!(leap_mip ? bound <= acc.color.r : constant && c.a == 0.0)) {
+                found = true;
+                break;
+            }
             float k = leap_cell_run_end(r, lat, j, cell, exit_side, inv_dir);
             if (!leap_mip) acc.samples += uint(min(k, leap_lattice_end(lat, tb)) - j);
             j = k;
             t = lat.t0 + j * lat.dt;
             more = t <= tb;
-        } else if (constant) {
+        }
+        if (!found) break;
+        // Two inner loops rather than one with a branch per sample: see above.
+        if (constant) {
             for (;;) {
                 if (leap_mip) leap_mip_sample(acc, x, t, tf);
                 else leap_composite(acc, c.rgb, alpha, opaque, t);
