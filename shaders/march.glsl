@@ -80,6 +80,7 @@ struct leap_cell_cursor {
     bool missing;    // slot cells not resident in the brick cache (LEAP_PAGE_MISSING)
     uint object;     // label volumes, constant cells: the object index
     uint record;     // label volumes, other cells: the record's first word in pages[]
+    uint header;     // and that word, read once per cell rather than at every sample
 };
 
 leap_cell_cursor leap_cursor_init()
@@ -95,6 +96,7 @@ leap_cell_cursor leap_cursor_init()
     c.missing = false;
     c.object = 0u;
     c.record = 0u;
+    c.header = 0u;
     return c;
 }
 
@@ -130,6 +132,7 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
     if (leap_labels) {
         cur.object = entry & LEAP_LABEL_INDEX_MASK;
         cur.record = frame.labels.x + entry;
+        if (!cur.constant) cur.header = pages[cur.record];
     } else if (cur.constant) {
         cur.value = float(entry & 0xffffu) * (1.0 / 65535.0);
     } else {
@@ -286,7 +289,7 @@ uint leap_label_at(leap_cell_cursor cur, vec3 q)
 {
     ivec3 v = ivec3(floor(q + 0.5)) - cur.cell * LEAP_CELL;
     uint index = uint(v.x + LEAP_SLOT * (v.y + LEAP_SLOT * v.z));
-    uint header = pages[cur.record];
+    uint header = cur.header;
     uint bits = header & 0xffu, palette = cur.record + uint(LEAP_LABEL_HEADER);
     uint bit = index * bits;
     uint word = pages[palette + (header >> 8) + (bit >> 5)];
