@@ -331,7 +331,16 @@ int main(void)
         CHECK_MSG(cache && cJSON_GetObjectItem(cache, "passes")->valuedouble > 1 &&
                       cJSON_GetObjectItem(cache, "slots")->valuedouble < cJSON_GetObjectItem(cache, "bricks")->valuedouble,
                   "%s", json);
+        /* The cache holds whole layers of the sphere's bricks (7 x 7 of them, 127,008 bytes in
+         * 16 bits), so the 64 KiB asked for is exceeded, and the warning says by how much. */
+        const cJSON *image = cache ? cJSON_GetObjectItem(cache, "image_bytes") : NULL;
+        CHECK_MSG(cJSON_IsNumber(image) && image->valuedouble == 127008, "%s", json);
+        CHECK_MSG(strstr(out_text, "warning: the GPU brick cache takes 124.0 KiB, more than the 64.0 KiB --gpu-cache "
+                                   "gives: it holds at least one whole layer of the volume's bricks (49 of them)"),
+                  "%s", out_text);
         cJSON_Delete(st);
+        snprintf(args, sizeof args, "render %s -o %s --size 64x48 --gpu-cache 1M -q", sphere, cached);
+        CHECK_MSG(run(args) == 0 && !strstr(out_text, "warning"), "%s", out_text);
         snprintf(args, sizeof args, "render %s -o %s --gpu-cache 64K --shade", sphere, out);
         remove(out);
         EXPECT_FAIL(1, args, "cache", out);

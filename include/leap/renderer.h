@@ -84,8 +84,10 @@ typedef struct leap_frame_stats {
     uint32_t width, height;
     /* The GPU brick cache (leap_renderer_desc.cache_bytes): slots it holds (0: no cache), and
      * in this frame its composite passes, the misses rays reported over them (a slot once per
-     * pass), the slots loaded and those evicted for them. */
+     * pass), the slots loaded and those evicted for them; the bytes of its image, which holds
+     * whole layers of the volume's slots, so at least one layer whatever the room given. */
     uint32_t cache_slots, cache_passes;
+    uint64_t cache_image_bytes;
     uint64_t cache_misses, cache_loaded, cache_evicted;
     /* Rays still waiting for bricks: 0 in a finished frame; > 0 in the pictures given to a
      * leap_renderer_set_partial callback and in a frame it ended (an incomplete frame). */

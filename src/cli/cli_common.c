@@ -76,6 +76,14 @@ void cli_warn_scene(const leap_scene *scene, int legend)
                         "(LEAP_INDEX_DIR chooses another directory)\n", scene->index.path, scene->index.note);
 }
 
+void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked)
+{
+    if (asked && fs->cache_image_bytes > asked)
+        fprintf(stderr, "leap: warning: the GPU brick cache takes %.1f KiB, more than the %.1f KiB --gpu-cache gives: "
+                        "it holds at least one whole layer of the volume's bricks (%u of them)\n",
+                (double)fs->cache_image_bytes / 1024, (double)asked / 1024, fs->cache_slots);
+}
+
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)
 {
     if (r == LEAP_ERR_USAGE || starts_with_path(msg, volume) || starts_with_path(msg, tf))

@@ -35,6 +35,8 @@ int cli_input_error(const char *volume, const char *tf, leap_result r, const cha
  * blank, and the user learns why rather than finding a black file; and when a legend was asked
  * for a segmentation (it has none). */
 void cli_warn_scene(const leap_scene *scene, int legend);
+/* The brick cache's image exceeds the room --gpu-cache gave (`asked`; 0: none given). */
+void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked);
 /* Exit code for a library error: usage errors are 2, everything else 1. */
 int cli_exit_code(leap_result r);
 

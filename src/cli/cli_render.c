@@ -231,6 +231,7 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
         if (fs->cache_slots) {
             cJSON *c = cJSON_AddObjectToObject(root, "gpu_cache");
             cJSON_AddNumberToObject(c, "slots", fs->cache_slots);
+            cJSON_AddNumberToObject(c, "image_bytes", (double)fs->cache_image_bytes);
             cJSON_AddNumberToObject(c, "bricks", s->atlas->slot_count);
             cJSON_AddNumberToObject(c, "passes", fs->cache_passes);
             cJSON_AddNumberToObject(c, "misses", (double)fs->cache_misses);
@@ -486,6 +487,7 @@ int cli_render(int argc, char **argv)
             cli_input_error(o.input, o.scene.tf, r, err.msg);
             goto done;
         }
+        cli_warn_cache(&fs, o.gpu_cache_bytes);
         times.upload += fs.upload_ms - fs.order_ms;
         times.order = fs.order_ms;
         times.render = fs.render_ms;
