@@ -94,6 +94,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
  * and its sampler repeats along z, so the shader may address a texel one whole atlas's extent
  * above its place (see leap_cursor_seek; the larger, the coarser its float grid there). */
 #define LEAP_ATLAS_DEPTH_MAX 1024
+#define LEAP_ATLAS_DEPTH_MIN 16 /* the least power of two that holds one layer of slots */
 
 /* Label atlases (segmentations). A constant cell's entry is LEAP_PAGE_CONST | object index
  * (31 bits); any other cell's entry is the offset of its record among the label words, which

@@ -21,7 +21,7 @@
  * the place it has in the atlas's own image along x and y; along z, a power-of-two extent. */
 static void cache_shape(const leap_atlas *atlas, uint32_t layers, uint32_t slot_dims[3], uint32_t texel_dims[3])
 {
-    uint32_t extent = 16;
+    uint32_t extent = LEAP_ATLAS_DEPTH_MIN;
     while (extent / LEAP_SLOT < layers) extent *= 2;
     for (int a = 0; a < 2; ++a) slot_dims[a] = atlas->slot_dims[a], texel_dims[a] = atlas->texel_dims[a];
     slot_dims[2] = layers;
@@ -34,7 +34,7 @@ static uint64_t cache_slots(const leap_atlas *atlas, uint64_t room, uint64_t byt
 {
     const uint64_t layer = (uint64_t)atlas->slot_dims[0] * atlas->slot_dims[1],
                    layer_bytes = layer * LEAP_SLOT * LEAP_SLOT * bytes;
-    uint64_t extent = 16;
+    uint64_t extent = LEAP_ATLAS_DEPTH_MIN;
     while (extent * 2 <= LEAP_ATLAS_DEPTH_MAX && extent * 2 * layer_bytes <= room) extent *= 2;
     return extent / LEAP_SLOT * layer;
 }

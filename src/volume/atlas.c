@@ -259,7 +259,7 @@ static uint64_t layered_texels(uint64_t slots, uint64_t extent, uint64_t *sx, ui
     *sx = (uint64_t)ceil(sqrt((double)layer));
     if (*sx > MAX_SLOTS_PER_AXIS) *sx = MAX_SLOTS_PER_AXIS;
     *sy = (layer + *sx - 1) / *sx;
-    if (*sy > MAX_SLOTS_PER_AXIS || (extent > 16 && extent > 4 * *sx * LEAP_SLOT)) return 0;
+    if (*sy > MAX_SLOTS_PER_AXIS || (extent > LEAP_ATLAS_DEPTH_MIN && extent > 4 * *sx * LEAP_SLOT)) return 0;
     return *sx * *sy * LEAP_SLOT * LEAP_SLOT * extent;
 }
 
@@ -270,12 +270,12 @@ static int image_shape(uint64_t slots, uint32_t slot_dims[3], uint32_t texel_dim
 {
     uint64_t fewest = 0, sx, sy;
     if (slots == 0) slots = 1;
-    for (uint32_t extent = 16; extent <= LEAP_ATLAS_DEPTH_MAX; extent *= 2) {
+    for (uint32_t extent = LEAP_ATLAS_DEPTH_MIN; extent <= LEAP_ATLAS_DEPTH_MAX; extent *= 2) {
         const uint64_t texels = layered_texels(slots, extent, &sx, &sy);
         if (texels && (!fewest || texels < fewest)) fewest = texels;
     }
     if (!fewest) return 0;
-    for (uint32_t extent = LEAP_ATLAS_DEPTH_MAX; extent >= 16; extent /= 2) {
+    for (uint32_t extent = LEAP_ATLAS_DEPTH_MAX; extent >= LEAP_ATLAS_DEPTH_MIN; extent /= 2) {
         const uint64_t texels = layered_texels(slots, extent, &sx, &sy);
         if (!texels || texels * 16 > fewest * 17) continue;
         slot_dims[0] = (uint32_t)sx, slot_dims[1] = (uint32_t)sy, slot_dims[2] = extent / LEAP_SLOT;
