@@ -1146,6 +1146,11 @@ static void check_on_demand(const char *path, const char *name)
     size_t na = 0, nb = 0;
     leap_brick *ba = get_bricks(whole, &na), *bb = get_bricks(lazy, &nb);
     CHECK_MSG(na == nb && !memcmp(ba, bb, na * sizeof *ba), "%s: bricks differ", path);
+    /* A leaf's brick takes its range from what the load's scan gathered: listing the bricks
+     * reads leaves only for the aprons of tiles. */
+    const int tiles = b->active_tiles[0] || b->active_tiles[1] || b->active_tiles[2];
+    CHECK_MSG(tiles || leap_grid_leaves_read(lazy) == b->leaf_count, "%s: listing the bricks read %llu leaves", path,
+              (unsigned long long)(leap_grid_leaves_read(lazy) - b->leaf_count));
     uint64_t ha[64], hb[64];
     const double lo = a->value_min, hi = a->value_max > lo ? a->value_max : lo + 1;
     CHECK_OK(leap_grid_histogram(whole, lo, hi, 64, ha, &err), &err);
@@ -1231,6 +1236,12 @@ static void test_on_demand(void)
         snprintf(path, sizeof path, "%s/%s", LEAP_VOLUMES, volumes[v][0]);
         check_on_demand(path, volumes[v][1]);
     }
+    /* Tiles of every level beside leaves, leaves at negative and at the farthest coordinates
+     * (their neighbours would lie past the index range), and a raised background. */
+    static const char *const made[][2] = {{"tiles.vdb", "density"}, {"tile_apron.vdb", "mid"},
+                                          {"leaf_apron.vdb", "density"}, {"ordering.vdb", "density"},
+                                          {"far.vdb", "density"}};
+    for (size_t v = 0; v < sizeof made / sizeof *made; ++v) check_on_demand(tmp_file(made[v][0]), made[v][1]);
     /* Non-finite values (mapped as they are read), and a non-finite background. */
     const char *nf = tmp_file("nonfinite.vdb");
     check_on_demand(nf, "f");

@@ -306,6 +306,21 @@ struct TileRec {
 
 float sanitize(float v, float bg, const Range &finite);
 
+// A brick's range gathered from the leaves as the load-time scan reads them (a grid read on
+// demand), so that listing the bricks reads no leaf again: each leaf adds its values to its own
+// brick and its sides to the bricks of the neighbour leaves whose one-voxel apron reaches them.
+// Finite values as order-preserving keys (atomic min/max from every scanning thread), and which
+// non-finite ones were met, mapped when the scan is done (range). Tiles and the background in
+// the apron are found from the topology when the bricks are listed.
+struct LeafShell {
+    static constexpr uint32_t NAN_SEEN = 1, PINF_SEEN = 2, NINF_SEEN = 4;
+    std::atomic<uint32_t> lo{~0u}, hi{0u}, seen{0u};
+    static uint32_t key(float v);
+    static float value(uint32_t key);
+    void add(const Range &finite_part, uint32_t seen_part);
+    Range range(float bg, const Range &finite) const; // with non-finite values mapped (sanitize)
+};
+
 // The file behind a grid read on demand (leap_vdb_load_grid_on_demand): OpenVDB's delayed
 // loading keeps each leaf's buffer in the file; a leaf is read into a copy, never into the
 // tree, so what was read can be dropped again.
@@ -337,6 +352,8 @@ struct OnDemand {
     // Where each leaf's values start in the file, in leaf order (leap_grid_leaf_offsets; empty:
     // not known).
     std::vector<uint64_t> leaf_offsets;
+    // Each leaf's LeafShell, in leaf order (null: the scan was known, as from a grid index).
+    std::unique_ptr<LeafShell[]> shells;
     // A grid whose load read its topology alone (by_offset) reads a leaf's bytes (from its
     // offset to the next leaf's mask, or to the tree's end) with pread(2), checks them, and
     // decodes them with OpenVDB's reader in the stream state the topology was read in (versions,
@@ -380,6 +397,8 @@ class LeafValues {
 public:
     static constexpr size_t KEPT = 1024;
     explicit LeafValues(const leap_grid *grid);
+    LeafValues() = default; // reads no leaf: range_in passes leaves by (the topology alone)
+    bool topology_only() const { return topology_only_; }
     const float *get(const LeafT &leaf)
     {
         if (!on_demand_) return leaf.buffer().data();
@@ -398,7 +417,8 @@ private:
         bool used = false;
     };
     Slot *load(const LeafT &leaf);
-    OnDemand *on_demand_;
+    OnDemand *on_demand_ = nullptr;
+    bool topology_only_ = true;
     std::vector<Slot> slots_;
     std::unordered_map<const LeafT *, size_t> index_;
     size_t hand_ = 0;

@@ -11,6 +11,44 @@ float sanitize(float v, float bg, const Range &finite)
     return v;
 }
 
+uint32_t LeafShell::key(float v)
+{
+    uint32_t bits;
+    std::memcpy(&bits, &v, sizeof bits);
+    return bits & 0x80000000u ? ~bits : bits | 0x80000000u;
+}
+
+float LeafShell::value(uint32_t key)
+{
+    const uint32_t bits = key & 0x80000000u ? key & 0x7fffffffu : ~key;
+    float v;
+    std::memcpy(&v, &bits, sizeof v);
+    return v;
+}
+
+void LeafShell::add(const Range &finite_part, uint32_t seen_part)
+{
+    if (!finite_part.empty()) {
+        const uint32_t l = key(finite_part.lo), h = key(finite_part.hi);
+        uint32_t now = lo.load(std::memory_order_relaxed);
+        while (l < now && !lo.compare_exchange_weak(now, l, std::memory_order_relaxed)) {}
+        now = hi.load(std::memory_order_relaxed);
+        while (h > now && !hi.compare_exchange_weak(now, h, std::memory_order_relaxed)) {}
+    }
+    if (seen_part) seen.fetch_or(seen_part, std::memory_order_relaxed);
+}
+
+Range LeafShell::range(float bg, const Range &finite) const
+{
+    Range r;
+    const uint32_t l = lo.load(), h = hi.load(), s = seen.load();
+    if (l <= h) r.add(value(l)), r.add(value(h));
+    if (s & NAN_SEEN) r.add(bg);
+    if (s & PINF_SEEN) r.add(finite.hi);
+    if (s & NINF_SEEN) r.add(finite.lo);
+    return r;
+}
+
 // OpenVDB maps the whole file and keeps every page it touched mapped; past about this many
 // bytes of pages read, they are dropped from the process (the kernel still caches them).
 static constexpr uint64_t TRIM_BYTES = 4u << 20;
@@ -191,7 +229,7 @@ void OnDemand::trim()
     for (const auto &range : mapped) ::madvise(reinterpret_cast<void *>(range.first), range.second, MADV_DONTNEED);
 }
 
-LeafValues::LeafValues(const leap_grid *grid) : on_demand_(grid->on_demand.get())
+LeafValues::LeafValues(const leap_grid *grid) : on_demand_(grid->on_demand.get()), topology_only_(false)
 {
     if (on_demand_) slots_.resize(KEPT);
 }

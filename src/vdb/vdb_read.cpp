@@ -292,6 +292,109 @@ Scan scan_from(const leap_grid_scan &k)
     return s;
 }
 
+// The leaf order (the tree's: by internal node, then by offset in it) of the leaf at a
+// position, from the nodes above the leaves: each keeps its first leaf's number and how many
+// leaves come before each word of its child mask.
+class LeafNumbers {
+public:
+    explicit LeafNumbers(const FloatTree &tree)
+    {
+        uint32_t number = 0;
+        for (auto it = tree.cbeginLeaf(); it; ++it, ++number) {
+            const vdb::Coord o = it->origin() & ~(Node1T::DIM - 1);
+            if (!nodes_.empty() && nodes_.back().node->origin() == o) continue;
+            Node n{tree.root().probeConstNode<Node1T>(o), number, {}};
+            const auto &mask = n.node->getChildMask();
+            for (uint32_t w = 1; w < WORDS; ++w)
+                n.before[w] = n.before[w - 1] + uint32_t(vdb::util::CountOn(mask.getWord<uint64_t>(w - 1)));
+            nodes_.push_back(n);
+        }
+        std::sort(nodes_.begin(), nodes_.end(), [](const Node &a, const Node &b) { return a.node < b.node; });
+    }
+    // The number of the leaf at `c`, or -1 where there is none.
+    int64_t at(const RootT &root, const vdb::Coord &c) const
+    {
+        const Node1T *node = root.probeConstNode<Node1T>(c);
+        if (!node) return -1;
+        const vdb::Index n = Node1T::coordToOffset(c);
+        const uint64_t word = node->getChildMask().getWord<uint64_t>(n / 64);
+        if (!(word >> (n % 64) & 1u)) return -1;
+        auto at = std::lower_bound(nodes_.begin(), nodes_.end(), node,
+                                   [](const Node &a, const Node1T *b) { return a.node < b; });
+        return at->first + at->before[n / 64] + vdb::util::CountOn(word & ((uint64_t(1) << (n % 64)) - 1));
+    }
+
+private:
+    static constexpr uint32_t WORDS = Node1T::NUM_VALUES / 64;
+    struct Node {
+        const Node1T *node;
+        uint32_t first;
+        uint32_t before[WORDS];
+    };
+    std::vector<Node> nodes_; // by address
+};
+
+// Adds a leaf's values to its LeafShell and its sides to those of its neighbour leaves whose
+// bricks' aprons reach them.
+// Parts are bins by (x, y, z) class: 0 the first layer, 2 the last, 1 between; a neighbour at
+// offset d in {-1, 0, 1}^3 leaves by takes class 0 on an axis where d is -1, 2 where +1, any
+// where 0.
+void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &leaf, uint32_t number,
+                   const float *v, LeafShell *shells)
+{
+    Range part[27];
+    uint32_t seen[27] = {0};
+    constexpr int last = int(LeafT::DIM) - 1;
+    auto cls = [](int i) { return i == 0 ? 0 : i == last ? 2 : 1; };
+    bool finite = true;
+    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) finite &= std::fabs(v[n]) <= std::numeric_limits<float>::max();
+    for (int x = 0; x <= last; ++x)
+        for (int y = 0; y <= last; ++y) {
+            const int bin_xy = cls(x) * 9 + cls(y) * 3;
+            const float *row = v + (x << (2 * LeafT::LOG2DIM)) + (y << LeafT::LOG2DIM);
+            if (finite) { // the common case, without a branch per value
+                float lo = row[1], hi = row[1];
+                for (int z = 2; z < last; ++z) lo = std::min(lo, row[z]), hi = std::max(hi, row[z]);
+                part[bin_xy].add(row[0]);
+                part[bin_xy + 1].add(Range{lo, hi});
+                part[bin_xy + 2].add(row[last]);
+                continue;
+            }
+            for (int z = 0; z <= last; ++z) {
+                const int bin = bin_xy + cls(z);
+                const float f = row[z];
+                if (std::isfinite(f)) part[bin].add(f);
+                else seen[bin] |= std::isnan(f) ? LeafShell::NAN_SEEN : f > 0 ? LeafShell::PINF_SEEN : LeafShell::NINF_SEEN;
+            }
+        }
+    const vdb::Coord o = leaf.origin();
+    for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+                const int d[3] = {dx, dy, dz};
+                int64_t to = number;
+                if (dx || dy || dz) {
+                    int64_t c[3];
+                    bool inside = true;
+                    for (int a = 0; a < 3; ++a) {
+                        c[a] = int64_t(o[a]) + int64_t(d[a]) * LeafT::DIM;
+                        inside &= c[a] >= std::numeric_limits<int32_t>::min() && c[a] <= std::numeric_limits<int32_t>::max();
+                    }
+                    to = inside ? numbers.at(root, vdb::Coord(int(c[0]), int(c[1]), int(c[2]))) : -1;
+                    if (to < 0) continue; // a tile or the background: from the topology when listed
+                }
+                Range r;
+                uint32_t s = 0;
+                for (int b = 0; b < 27; ++b) {
+                    const int bc[3] = {b / 9, b / 3 % 3, b % 3};
+                    bool in = true;
+                    for (int a = 0; a < 3; ++a) in &= d[a] == 0 || bc[a] == (d[a] < 0 ? 0 : 2);
+                    if (in) r.add(part[b]), s |= seen[b];
+                }
+                shells[to].add(r, s);
+            }
+}
+
 // Completes a loaded grid: maps non-finite values, finds the value ranges, tiles, counts and
 // bounds. A grid read on demand reads each leaf once here, into a copy, unless `known` says
 // what that finds.
@@ -329,6 +432,13 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
     if (known && known->leaf_count != leaves.size())
         OPENVDB_THROW(vdb::IoError, "its index lists " << known->leaf_count << " leaves, the file " << leaves.size());
     using Blocks = tbb::blocked_range<size_t>;
+    // A first open on demand gathers the bricks' ranges as it reads (LeafShell).
+    std::unique_ptr<LeafNumbers> numbers;
+    if (od && !known) {
+        od->shells.reset(new LeafShell[leaves.size() ? leaves.size() : 1]);
+        numbers.reset(new LeafNumbers(tree));
+    }
+    const RootT &root = tree.root();
     Scan scan = known ? scan_from(*known) : tbb::parallel_reduce(
         Blocks(0, leaves.size(), 64), Scan(),
         [&](const Blocks &r, Scan s) {
@@ -339,6 +449,7 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
                 const float *v = od ? copy->buffer().data() : leaf.buffer().data();
                 const auto &mask = leaf.getValueMask();
                 for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+                if (od) add_to_shells(root, *numbers, leaf, uint32_t(i), v, od->shells.get());
             }
             return s;
         },
@@ -415,7 +526,8 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
     info.value_max = values.empty() ? bg : values.hi;
     info.memory_bytes = tree.memUsage();
     if (od)
-        info.memory_bytes += od->leaf_offsets.capacity() * sizeof(uint64_t) +
+        info.memory_bytes += (od->shells ? leaves.size() * sizeof(LeafShell) : 0) +
+                             od->leaf_offsets.capacity() * sizeof(uint64_t) +
                              od->leaf_order.capacity() * sizeof(decltype(od->leaf_order)::value_type);
 }
 
@@ -864,26 +976,40 @@ void leap_grid_reader_destroy(leap_grid_reader *reader)
 
 namespace {
 
-// Rows are read in runs that stay inside one 8-voxel block: one lookup per run, then either the
-// leaf's values or the single value of a block that has no leaf.
+// The box is read in blocks that stay inside one leaf's 8^3 voxels: one lookup per block (a
+// cell's box of 9^3 voxels meets at most eight), then either the leaf's values or the single
+// value of a block that has no leaf.
 template <typename Accessor>
 void reader_box(Accessor &acc, LeafValues &values, const int32_t min[3], const int32_t dim[3], float *out)
 {
-    size_t n = 0;
-    for (int32_t z = 0; z < dim[2]; ++z)
-        for (int32_t y = 0; y < dim[1]; ++y)
-            for (int32_t x = 0; x < dim[0];) {
-                const vdb::Coord c(min[0] + x, min[1] + y, min[2] + z);
-                const int32_t run = std::min(dim[0] - x, int32_t(LeafT::DIM) - (c.x() & int32_t(LeafT::DIM - 1)));
-                if (const LeafT *leaf = acc.probeConstLeaf(c)) {
-                    const float *v = values.get(*leaf) + LeafT::coordToOffset(c);
-                    for (int32_t k = 0; k < run; ++k) out[n++] = v[k << (2 * LeafT::LOG2DIM)];
-                } else {
-                    const float v = acc.getValue(c);
-                    for (int32_t k = 0; k < run; ++k) out[n++] = v;
-                }
-                x += run;
+    constexpr int32_t D = int32_t(LeafT::DIM);
+    auto run = [](int32_t at, int32_t left) { return std::min(left, D - (at & (D - 1))); };
+    for (int32_t bz = 0, nz; bz < dim[2]; bz += nz) {
+        const int32_t z0 = min[2] + bz;
+        nz = run(z0, dim[2] - bz);
+        for (int32_t by = 0, ny; by < dim[1]; by += ny) {
+            const int32_t y0 = min[1] + by;
+            ny = run(y0, dim[1] - by);
+            for (int32_t bx = 0, nx; bx < dim[0]; bx += nx) {
+                const int32_t x0 = min[0] + bx;
+                nx = run(x0, dim[0] - bx);
+                const vdb::Coord c(x0, y0, z0);
+                const LeafT *leaf = acc.probeConstLeaf(c);
+                const float *v = leaf ? values.get(*leaf) : nullptr;
+                const float tile = leaf ? 0.0f : acc.getValue(c);
+                for (int32_t z = 0; z < nz; ++z)
+                    for (int32_t y = 0; y < ny; ++y) {
+                        float *o = out + (size_t(bz + z) * size_t(dim[1]) + size_t(by + y)) * size_t(dim[0]) + size_t(bx);
+                        if (!v) {
+                            std::fill(o, o + nx, tile);
+                            continue;
+                        }
+                        const float *src = v + LeafT::coordToOffset(vdb::Coord(x0, y0 + y, z0 + z));
+                        for (int32_t x = 0; x < nx; ++x) o[x] = src[x << (2 * LeafT::LOG2DIM)];
+                    }
             }
+        }
+    }
 }
 
 } // namespace

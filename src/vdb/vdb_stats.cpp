@@ -10,6 +10,7 @@ namespace {
 
 void range_in(LeafValues &values, const LeafT &leaf, const vdb::CoordBBox &b, Range &r)
 {
+    if (values.topology_only()) return;
     const float *data = values.get(leaf);
     const vdb::Coord o = leaf.origin();
     // Offsets inside the leaf, so that a leaf at the end of the index range cannot overflow.
@@ -115,8 +116,13 @@ leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *o
         for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
         const size_t nl = leaves.size(), nt = grid->tiles.size();
 
-        // Each thread keeps the leaves it read last: a brick's apron reads its neighbours.
+        // Each thread keeps the leaves it read last: a brick's apron reads its neighbours. A leaf's
+        // brick after a first open on demand: what its scan gathered (LeafShell), and the tiles
+        // and background its apron reaches.
+        const OnDemand *od = grid->on_demand.get();
+        const LeafShell *shells = od && !known ? od->shells.get() : nullptr;
         tbb::enumerable_thread_specific<LeafValues> values(grid);
+        LeafValues topology;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, nl + nt, 16), [&](const tbb::blocked_range<size_t> &r) {
             LeafValues &mine = values.local();
             for (size_t i = r.begin(); i != r.end(); ++i) {
@@ -127,7 +133,10 @@ leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *o
                 if (i < nl) {
                     o = leaves[i]->origin();
                     b.size = int32_t(LeafT::DIM);
-                    if (!known) v = brick_range(mine, root, o, b.size, false, 0.0f);
+                    if (shells) {
+                        v = brick_range(topology, root, o, b.size, false, 0.0f);
+                        v.add(shells[i].range(od->background, od->finite));
+                    } else if (!known) v = brick_range(mine, root, o, b.size, false, 0.0f);
                 } else {
                     const TileRec &t = grid->tiles[i - nl];
                     o = t.origin;
