@@ -136,6 +136,47 @@ static void check_without_naive(void)
     free(md);
 }
 
+/* A GPU cache smaller than one layer of the sphere's bricks: the cache's slots and passes in
+ * every row, the cache in the report, and a note on a line of its own that it takes more than
+ * --gpu-cache gives (leap render's warning). */
+static void check_cache(void)
+{
+    char cmd[4096], path[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf %s/cached && %s bench %s/sphere.vdb --sizes 32x24 --views 1 --steps 1 "
+             "--modes naive,sparseleap --repeats 1 --warmup 0 --no-reference --gpu-cache 64K -o %s/cached 2>%s/cached.err",
+             LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    check_succeeds(cmd, "cached.err", "bench --gpu-cache 64K");
+    snprintf(path, sizeof path, "%s/cached.err", LEAP_TEST_TMP);
+    char *err = read_whole_file(path, NULL);
+    const char *note = err ? strstr(err, "sphere.vdb: the GPU brick cache takes 124.0 KiB, more than the 64.0 KiB "
+                                         "--gpu-cache gives") : NULL;
+    const char *line = note;
+    while (line && line > err && line[-1] != '\n' && line[-1] != '\r') --line;
+    CHECK_MSG(note && !strncmp(line, "leap bench: ", 12) && line > err && line[-1] == '\n',
+              "no note of the cache's size on a line of its own: %s", err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/cached/results.csv", LEAP_TEST_TMP);
+    char *csv = read_whole_file(path, NULL);
+    int rows = 0, cached = 0;
+    if (csv) {
+        char *save = NULL, *header = strtok_r(csv, "\n", &save), f[64];
+        const int slots = csv_column(header, "gpu_cache_slots"), passes = csv_column(header, "gpu_cache_passes");
+        CHECK(slots >= 0 && passes >= 0);
+        for (char *line = strtok_r(NULL, "\n", &save); line; line = strtok_r(NULL, "\n", &save), ++rows) {
+            csv_field(line, slots, f, sizeof f);
+            const int s = atoi(f);
+            csv_field(line, passes, f, sizeof f);
+            cached += s == 49 && atoi(f) > 1; /* 49 of the sphere's bricks per layer, more than one pass */
+        }
+    }
+    CHECK_MSG(rows == 2 && cached == 2, "%d rows, %d through the cache", rows, cached);
+    free(csv);
+    snprintf(path, sizeof path, "%s/cached/report.md", LEAP_TEST_TMP);
+    char *md = read_whole_file(path, NULL);
+    CHECK(md && strstr(md, "GPU brick cache: 49 slots") && strstr(md, "more than the 64.0 KiB --gpu-cache gives"));
+    free(md);
+}
+
 /* An image buffer that cannot be allocated fails the bench with an out-of-memory error
  * (exit 1, no results.csv) instead of leaving the size out. The address space is capped
  * below one 16384x16384 RGBA float image (4 GiB). AddressSanitizer needs more. */
@@ -327,6 +368,7 @@ int main(void)
     check_config_bad_option();
     check_config_large_and_nested_output();
     check_without_naive();
+    check_cache();
     check_image_out_of_memory();
 
     /* --vs-vdb-render */

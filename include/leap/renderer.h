@@ -204,6 +204,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *rays, const 
                                  leap_mode mode, float *rgba, float *depth, float *samples,
                                  leap_frame_stats *stats, leap_error *err);
 
+/* Whether a frame's GPU brick cache took more than the `asked` bytes (--gpu-cache; 0: none
+ * asked) that its renderer was given: it holds at least one whole layer of the volume's slots.
+ * 1 with the sentence that says so in `out`, else 0. */
+int leap_frame_cache_over(const leap_frame_stats *stats, uint64_t asked, char *out, size_t out_size);
+
 #ifdef __cplusplus
 }
 #endif

@@ -18,6 +18,8 @@ typedef struct run_result {
     uint32_t overflow;
     double rmse, psnr, max_abs;
     double trace_ms; /* vdb_render rows: its own ray-tracing time (median); NaN otherwise */
+    uint32_t cache_slots, cache_passes; /* the GPU brick cache (0: none): slots, most passes a frame took */
+    uint64_t cache_image_bytes;
 } run_result;
 
 /* Fixed per-pixel cost, per volume x size x mode: the composite pass of a frame in which no

@@ -76,6 +76,27 @@ static summary summarize(const bench_row *rows, size_t nrows, int vol, int size,
     return s;
 }
 
+/* The GPU brick cache of one volume and size, if any: its slots and image, the most passes a
+ * frame took, and whether it took more than --gpu-cache. */
+static void report_cache(FILE *md, const leap_bench_desc *o, const bench_row *rows, size_t nrows, int v, int si)
+{
+    leap_frame_stats most = {0};
+    for (size_t i = 0; i < nrows; ++i) {
+        const bench_row *r = &rows[i];
+        if (r->volume != v || r->size != si || r->mode == VDB_MODE || !r->r.cache_slots) continue;
+        most.cache_slots = r->r.cache_slots;
+        most.cache_image_bytes = r->r.cache_image_bytes;
+        if (r->r.cache_passes > most.cache_passes) most.cache_passes = r->r.cache_passes;
+    }
+    if (!most.cache_slots) return;
+    fprintf(md, "\nGPU brick cache: %u slots in a %.1f MiB image; a frame took up to %u passes (a pass more for each "
+                "set of bricks rays needed that the cache did not hold).", most.cache_slots,
+            (double)most.cache_image_bytes / (1 << 20), most.cache_passes);
+    char over[256];
+    if (leap_frame_cache_over(&most, o->gpu_cache_bytes, over, sizeof over)) fprintf(md, " Note: %s.", over);
+    fprintf(md, "\n");
+}
+
 /* The fastest leap mode of one group (for the vdb_render comparison); -1 if none. */
 static int fastest_mode(const leap_bench_desc *o, const bench_row *rows, size_t nrows, int v, int si, int st,
                         summary *best)
@@ -191,6 +212,7 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
                             VDB_NAME, o->steps[st], s.frame_ms, speed);
                 }
             }
+            report_cache(md, o, rows, nrows, v, si);
             if (fixed) {
                 fprintf(md, "\nFixed per-pixel cost: composite pass of a frame in which no ray takes a sample (every "
                             "value transparent; first view, step %g). No ray meets a non-empty cell, so the skipping "

@@ -61,6 +61,7 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_r
         if (i < o->warmup) continue;
         int k = i - o->warmup;
         frames[k] = st.upload_ms + st.render_ms;
+        if (st.cache_passes > r.cache_passes) r.cache_passes = st.cache_passes;
         r.raster_ms += st.gpu_raster_ms / o->repeats;
         r.resolve_ms += st.gpu_resolve_ms / o->repeats;
         r.composite_ms += st.gpu_composite_ms / o->repeats;
@@ -79,6 +80,8 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_r
     r.events = st.events_mean;
     r.segments = st.segments_mean;
     r.overflow = st.overflow_pixels;
+    r.cache_slots = st.cache_slots;
+    r.cache_image_bytes = st.cache_image_bytes;
     if (ref) errors(img, ref, pixels, &r);
     else r.rmse = r.psnr = r.max_abs = NAN;
     *out = r;
@@ -131,13 +134,15 @@ typedef struct bench_state {
     int done, total;
     leap_bench_outcome *outcome;
     char toggles_md[8192];   /* segmentations: the object toggle table for the report */
+    int cache_noted;         /* the current volume's cache above --gpu-cache was reported */
 } bench_state;
 
 static void csv_header(FILE *csv)
 {
     fprintf(csv, "volume,grid,mode,step,view,width,height,repeats,frame_ms_median,frame_ms_min,frame_ms_max,"
                  "raster_ms,resolve_ms,composite_ms,order_ms,samples_per_pixel,naive_samples_per_pixel,"
-                 "events_per_pixel,segments_per_pixel,overflow_pixels,speedup_vs_naive,rmse,psnr,max_abs,trace_ms\n");
+                 "events_per_pixel,segments_per_pixel,overflow_pixels,speedup_vs_naive,rmse,psnr,max_abs,trace_ms,"
+                 "gpu_cache_slots,gpu_cache_passes\n");
 }
 
 /* vdb_render on one view and step; a failure is reported and skips the volume's other
@@ -170,7 +175,7 @@ static void run_vdb(bench_state *b, const leap_scene *s, const leap_camera *cam,
         return;
     }
     b->rows[b->nrows++] = (bench_row){vi, si, VDB_MODE, st, view_i, r};
-    fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,nan,nan,nan,nan,nan,nan,nan,nan,nan,%.4f,nan,nan,nan,%.4f\n",
+    fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,nan,nan,nan,nan,nan,nan,nan,nan,nan,%.4f,nan,nan,nan,%.4f,nan,nan\n",
             leap__base_name(o->volumes[vi]), s->info->name, VDB_NAME, o->steps[st], view_i, w, h, o->repeats,
             r.frame_ms[0], r.frame_ms[1], r.frame_ms[2], isfinite(naive_ms) ? naive_ms / r.frame_ms[0] : NAN,
             r.trace_ms);
@@ -218,12 +223,20 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
             run_result r;
             if (time_run(b->renderer, s, &view, o->modes[mi], o, img, refp, 0, &r, err)) return LEAP_ERR_IO;
             if (o->modes[mi] == LEAP_RENDER_NAIVE) naive_ms = r.frame_ms[0];
+            const leap_frame_stats cache = {.cache_slots = r.cache_slots, .cache_image_bytes = r.cache_image_bytes};
+            char over[256], note[4400];
+            if (!b->cache_noted && leap_frame_cache_over(&cache, o->gpu_cache_bytes, over, sizeof over)) {
+                b->cache_noted = 1;
+                snprintf(note, sizeof note, "%s: %s", o->volumes[vi], over);
+                bench_message(o, LEAP_BENCH_NOTE, note);
+            }
             b->rows[b->nrows++] = (bench_row){vi, si, mi, st, view_i, r};
-            fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%u,%.4f,%.6g,%.4f,%.6g,nan\n",
+            fprintf(b->csv, "%s,%s,%s,%g,%d,%d,%d,%d,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%u,%.4f,%.6g,%.4f,%.6g,nan,%u,%u\n",
                     leap__base_name(o->volumes[vi]), s->info->name, leap_mode_name((leap_mode)o->modes[mi]),
                     o->steps[st], view_i, w, h, o->repeats, r.frame_ms[0], r.frame_ms[1], r.frame_ms[2], r.raster_ms,
                     r.resolve_ms, r.composite_ms, r.order_ms, r.spp, r.naive_spp, r.events, r.segments, r.overflow,
-                    isfinite(naive_ms) ? naive_ms / r.frame_ms[0] : NAN, r.rmse, r.psnr, r.max_abs);
+                    isfinite(naive_ms) ? naive_ms / r.frame_ms[0] : NAN, r.rmse, r.psnr, r.max_abs, r.cache_slots,
+                    r.cache_passes);
             ++b->done;
         }
         if (b->vdb && b->vdb->ok[vi]) run_vdb(b, s, &cam, vi, si, view_i, st, naive_ms);
@@ -291,6 +304,7 @@ static leap_result run_volume(bench_state *b, int vi, leap_error *err)
     leap_scene *s = NULL;
     leap_result lr;
     b->outcome->failed_volume = vi;
+    b->cache_noted = 0;
     if ((lr = leap_scene_create(&sd, &s, err)) || (lr = leap_renderer_bind_scene(b->renderer, s, err))) {
         leap_scene_destroy(s);
         return lr;

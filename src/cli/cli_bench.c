@@ -64,10 +64,13 @@ static const char *bench_help =
     "                      leap render --help)\n"
     "  --memory-budget SIZE  memory each volume may take (see leap render --help)\n";
 
+static int bar_drawn; /* a progress bar's line is open: a message starts a line of its own */
+
 static void progress(int done, int total, const char *what, void *user)
 {
     (void)user;
     cli_progress(done, total, what);
+    bar_drawn = done < total;
 }
 
 static void message(leap_bench_message_kind kind, const char *text, void *user)
@@ -75,12 +78,12 @@ static void message(leap_bench_message_kind kind, const char *text, void *user)
     (void)user;
     if (kind == LEAP_BENCH_TOOL) {
         fputs(text, stderr);
-    } else if (kind == LEAP_BENCH_FAILURE) {
-        fputc('\n', stderr); /* after the progress bar's line */
-        cli_runtime_error("%s", text);
-    } else {
-        fprintf(stderr, "leap bench: %s\n", text);
+        return;
     }
+    if (bar_drawn) fputc('\n', stderr);
+    bar_drawn = 0;
+    if (kind == LEAP_BENCH_FAILURE) cli_runtime_error("%s", text);
+    else fprintf(stderr, "leap bench: %s\n", text);
 }
 
 /* A library failure: usage errors name the verb (exit 2), the rest exit 1. */

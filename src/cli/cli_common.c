@@ -78,10 +78,8 @@ void cli_warn_scene(const leap_scene *scene, int legend)
 
 void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked)
 {
-    if (asked && fs->cache_image_bytes > asked)
-        fprintf(stderr, "leap: warning: the GPU brick cache takes %.1f KiB, more than the %.1f KiB --gpu-cache gives: "
-                        "it holds at least one whole layer of the volume's bricks (%u of them)\n",
-                (double)fs->cache_image_bytes / 1024, (double)asked / 1024, fs->cache_slots);
+    char why[256];
+    if (leap_frame_cache_over(fs, asked, why, sizeof why)) fprintf(stderr, "leap: warning: %s\n", why);
 }
 
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)

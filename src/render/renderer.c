@@ -412,6 +412,15 @@ uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
     return n;
 }
 
+int leap_frame_cache_over(const leap_frame_stats *stats, uint64_t asked, char *out, size_t out_size)
+{
+    if (!asked || stats->cache_image_bytes <= asked) return 0;
+    snprintf(out, out_size, "the GPU brick cache takes %.1f KiB, more than the %.1f KiB --gpu-cache gives: it holds at "
+             "least one whole layer of the volume's bricks (%u of them)", (double)stats->cache_image_bytes / 1024,
+             (double)asked / 1024, stats->cache_slots);
+    return 1;
+}
+
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
 {
     if (!r->has_volume) return 0;

@@ -22,6 +22,8 @@ typedef struct frame_figures {
     int scale;
     int refining;     /* 1 while a refinement pass is under way */
     uint64_t waiting; /* rays still waiting for bricks: a frame ended early */
+    uint32_t cache_slots;       /* the GPU brick cache (0: none) */
+    uint64_t cache_image_bytes;
     double progress;  /* of the refinement pass, 0..1 */
     char heat[96];
 } frame_figures;
@@ -41,6 +43,8 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
     acc->segments += f->segments;
     acc->overflowed += f->overflowed;
     acc->waiting += f->waiting;
+    acc->cache_slots = f->cache_slots;
+    acc->cache_image_bytes = f->cache_image_bytes;
     acc->scale = f->scale;
     memcpy(acc->heat, f->heat, sizeof acc->heat);
 }
@@ -299,6 +303,13 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     leap_renderer_set_partial(s->renderer, NULL, NULL, 0);
     if (r) return r;
     ff->waiting = fs.waiting_pixels;
+    ff->cache_slots = fs.cache_slots;
+    ff->cache_image_bytes = fs.cache_image_bytes;
+    char over[256];
+    if (!s->cache_warned && leap_frame_cache_over(&fs, s->desc.cache_bytes, over, sizeof over)) {
+        s->cache_warned = 1;
+        session_note(s, LEAP_VIEWER_NOTE_STATUS, "warning: %s", over);
+    }
     double t1 = leap__now_ms();
     ff->render_ms = t1 - t0;
     ff->raster_ms = fs.gpu_raster_ms;
@@ -472,6 +483,9 @@ static void publish_figures(leap_viewer_session *s, const frame_figures *ff, con
         .height = (unsigned)s->height,
         .scale = ff->scale,
         .gpu_bytes = leap_renderer_volume_bytes(s->renderer),
+        .cache_slots = ff->cache_slots,
+        .cache_bytes = ff->cache_image_bytes,
+        .cache_asked = s->desc.cache_bytes,
         .frames = p->frames,
     };
     snprintf(p->blank, sizeof p->blank, "%s", blank_why);

@@ -73,6 +73,7 @@ struct leap_viewer_session {
     int64_t picked_id, picked_index;
     char pick_text[160];       /* for the title: the last pick's outcome */
     int device_announced;      /* the device line went out with the first swapchain */
+    int cache_warned;          /* the brick cache's size above --gpu-cache was reported */
     uint8_t *layer;            /* the panel as last taken from the main thread (RGBA) */
     size_t layer_cap;
     int layer_w, layer_h, layer_on;
