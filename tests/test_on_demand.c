@@ -687,46 +687,50 @@ static void test_program(void)
     remove(fog);
 }
 
-/* The streamed atlas of a grid read on demand, built with room for the leaves its threads share
- * (leap_atlas_desc.share_bytes, as the scene builds it) and without: the same pages, slots and
- * recorded cells; shared, the cells read each leaf about once. */
+/* The streamed atlas of a grid read on demand: from the cells' footprints its load gathered
+ * (leap_grid_cell_range: no leaf read), and, once those are dropped, built by reading with room
+ * for the leaves its threads share (leap_atlas_desc.share_bytes, as the scene builds it) and
+ * without: the same pages, slots and recorded cells; shared, the cells read each leaf about once. */
 static void test_shared_leaves(const char *fog)
 {
     leap_error err = {{0}};
     leap_vdb_file *file = NULL;
     leap_grid *grid = NULL;
     leap_brick *bricks = NULL;
-    leap_atlas *atlas[2] = {NULL, NULL};
-    leap_atlas_cells cells[2] = {{0}, {0}};
-    uint64_t reads[2] = {0, 0};
+    leap_atlas *atlas[3] = {NULL, NULL, NULL};
+    leap_atlas_cells cells[3] = {{0}, {0}, {0}};
+    uint64_t reads[3] = {0, 0, 0};
     CHECK_OK(leap_vdb_open(fog, &file, &err), &err);
     if (file) CHECK_OK(leap_vdb_load_grid_on_demand(file, 0, NULL, NULL, &grid, &err), &err);
     const size_t n = grid ? leap_grid_brick_count(grid) : 0;
     if (grid) bricks = malloc(n * sizeof *bricks);
     if (!bricks || leap_grid_bricks(grid, bricks, &err)) goto done;
-    for (int shared = 0; shared < 2; ++shared) {
+    for (int k = 0; k < 3; ++k) { /* gathered, read per thread, read shared */
+        if (k == 1) leap_grid_release_scan(grid);
         const uint64_t before = leap_grid_leaves_read(grid);
-        leap_atlas_desc ad = {.grid = grid, .stream_texels = 1, .share_bytes = shared ? (uint64_t)64 << 20 : 0,
-                              .bricks = bricks, .brick_count = n, .record_cells = &cells[shared]};
-        CHECK_OK(leap_atlas_create(&ad, &atlas[shared], &err), &err);
-        reads[shared] = leap_grid_leaves_read(grid) - before;
+        leap_atlas_desc ad = {.grid = grid, .stream_texels = 1, .share_bytes = k == 2 ? (uint64_t)64 << 20 : 0,
+                              .bricks = bricks, .brick_count = n, .record_cells = &cells[k]};
+        CHECK_OK(leap_atlas_create(&ad, &atlas[k], &err), &err);
+        reads[k] = leap_grid_leaves_read(grid) - before;
     }
     const uint64_t leaves = leap_grid_get_info(grid)->leaf_count;
-    printf("shared leaves: the atlas read %llu leaves of %llu shared, %llu with per-thread copies\n",
-           (unsigned long long)reads[1], (unsigned long long)leaves, (unsigned long long)reads[0]);
-    CHECK_MSG(reads[1] >= leaves && reads[1] * 20 <= leaves * 21 && reads[0] > reads[1],
-              "shared: %llu reads, per thread: %llu, %llu leaves", (unsigned long long)reads[1],
-              (unsigned long long)reads[0], (unsigned long long)leaves);
-    if (atlas[0] && atlas[1]) {
-        check_same_streamed(atlas[0], atlas[1]);
-        CHECK(cells[0].count == cells[1].count);
-        if (cells[0].count == cells[1].count) {
-            CHECK(!memcmp(cells[0].entries, cells[1].entries, cells[0].count * 4));
-            CHECK(!memcmp(cells[0].ranges, cells[1].ranges, cells[0].count * 4));
+    printf("atlas cells: %zu; from the open's scan %llu leaves read; read again, %llu of %llu leaves shared, %llu with "
+           "per-thread copies\n", cells[0].count, (unsigned long long)reads[0], (unsigned long long)reads[2],
+           (unsigned long long)leaves, (unsigned long long)reads[1]);
+    CHECK_MSG(reads[0] == 0 && reads[2] >= leaves && reads[2] * 20 <= leaves * 21 && reads[1] > reads[2],
+              "gathered: %llu reads, shared: %llu, per thread: %llu, %llu leaves", (unsigned long long)reads[0],
+              (unsigned long long)reads[2], (unsigned long long)reads[1], (unsigned long long)leaves);
+    for (int k = 1; k < 3; ++k) {
+        if (!atlas[0] || !atlas[k]) continue;
+        check_same_streamed(atlas[0], atlas[k]);
+        CHECK(cells[0].count == cells[k].count);
+        if (cells[0].count == cells[k].count) {
+            CHECK(!memcmp(cells[0].entries, cells[k].entries, cells[0].count * 4));
+            CHECK(!memcmp(cells[0].ranges, cells[k].ranges, cells[0].count * 4));
         }
     }
 done:
-    for (int i = 0; i < 2; ++i) {
+    for (int i = 0; i < 3; ++i) {
         leap_atlas_destroy(atlas[i]);
         leap_atlas_cells_free(&cells[i]);
     }

@@ -1151,6 +1151,28 @@ static void check_on_demand(const char *path, const char *name)
     const int tiles = b->active_tiles[0] || b->active_tiles[1] || b->active_tiles[2];
     CHECK_MSG(tiles || leap_grid_leaves_read(lazy) == b->leaf_count, "%s: listing the bricks read %llu leaves", path,
               (unsigned long long)(leap_grid_leaves_read(lazy) - b->leaf_count));
+    /* The footprints of the atlas cells at and below each brick's corner (9^3 voxels from it) as
+     * the load's scan gathered them: the range of the values read from the grid in memory. */
+    leap_grid_reader *rw = NULL;
+    CHECK_OK(leap_grid_reader_create(whole, &rw, &err), &err);
+    size_t gathered = 0, wrong = 0;
+    for (size_t k = 0; rw && k < na; ++k)
+        for (int d = 0; d < 8; ++d) {
+            enum { F = 9 };
+            const int32_t min[3] = {ba[k].origin[0] - 8 * (d & 1), ba[k].origin[1] - 8 * (d >> 1 & 1),
+                                    ba[k].origin[2] - 8 * (d >> 2 & 1)}, dim[3] = {F, F, F};
+            if (min[0] > ba[k].origin[0] || min[1] > ba[k].origin[1] || min[2] > ba[k].origin[2]) continue; /* wrapped */
+            float vals[F * F * F], lo, hi;
+            if (!leap_grid_cell_range(lazy, min, &lo, &hi)) continue;
+            ++gathered;
+            leap_grid_reader_box(rw, min, dim, vals);
+            float rlo = vals[0], rhi = vals[0];
+            for (int i = 1; i < F * F * F; ++i) rlo = fminf(rlo, vals[i]), rhi = fmaxf(rhi, vals[i]);
+            wrong += lo != rlo || hi != rhi;
+        }
+    leap_grid_reader_destroy(rw);
+    CHECK_MSG(wrong == 0 && (gathered > 0 || a->nonfinite_values > 0 || na == 0),
+              "%s: %zu of %zu cell footprints gathered wrongly", path, wrong, gathered);
     uint64_t ha[64], hb[64];
     const double lo = a->value_min, hi = a->value_max > lo ? a->value_max : lo + 1;
     CHECK_OK(leap_grid_histogram(whole, lo, hi, 64, ha, &err), &err);

@@ -145,6 +145,11 @@ uint64_t leap_grid_leaves_read(const leap_grid *grid);
 void leap_grid_share_leaves(const leap_grid *grid, size_t leaves);
 uint64_t leap_grid_shared_leaf_bytes(void);
 
+/* A grid read on demand: drops what its load gathered from the leaves for the bricks' ranges
+ * (leap_grid_bricks) and the atlas cells' footprints (leap_grid_cell_range), about 80 bytes a
+ * leaf, once they are built; later calls read the leaves instead. */
+void leap_grid_release_scan(leap_grid *grid);
+
 /* LEAP_ERR_FORMAT naming the first leaf a grid read on demand failed to read, else LEAP_OK. */
 leap_result leap_grid_read_status(const leap_grid *grid, leap_error *err);
 
@@ -180,6 +185,12 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
  * brick i's value_min, value_max, from an earlier leap_grid_bricks of the same grid): reads no
  * voxel. */
 leap_result leap_grid_bricks_known(const leap_grid *grid, const float *ranges, leap_brick *out, leap_error *err);
+
+/* The range of the values in the box of 9^3 voxels from `min` (a corner on the leaves' 8-voxel
+ * lattice: an atlas cell's footprint), from what the load of a grid read on demand gathered as it
+ * read every leaf: no voxel is read. 0 when that is not known (a grid in memory, one loaded with
+ * a known scan, one with values that are not finite, or a corner off the lattice): read them. */
+int leap_grid_cell_range(const leap_grid *grid, const int32_t min[3], float *lo, float *hi);
 
 /* Histogram of the active values (an active tile counts once per voxel it covers): value v
  * in [lo, hi] falls in bin floor((v - lo) / (hi - lo) * bins), in double, hi in the last bin;

@@ -579,6 +579,7 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         if (!r) s->atlas_ms = s->atlas->build_ms;
         if (!r && ad.stream_texels) r = share_budget(s, err);
     }
+    leap_grid_release_scan(s->grid); /* the bricks and the atlas are built */
     if (!r && cells.entries) save_index(s, desc->path, bricks, brick_count, &cells);
     leap_atlas_cells_free(&cells);
     leap_grid_index_destroy(s->index.index);

@@ -321,6 +321,56 @@ struct LeafShell {
     Range range(float bg, const Range &finite) const; // with non-finite values mapped (sanitize)
 };
 
+// The leaf order (the tree's: by internal node, then by offset in it) of the leaf at a
+// position, from the nodes above the leaves: each keeps its first leaf's number and how many
+// leaves come before each word of its child mask.
+class LeafNumbers {
+public:
+    explicit LeafNumbers(const FloatTree &tree)
+    {
+        uint32_t number = 0;
+        for (auto it = tree.cbeginLeaf(); it; ++it, ++number) {
+            const vdb::Coord o = it->origin() & ~(Node1T::DIM - 1);
+            if (!nodes_.empty() && nodes_.back().node->origin() == o) continue;
+            Node n{tree.root().probeConstNode<Node1T>(o), number, {}};
+            const auto &mask = n.node->getChildMask();
+            for (uint32_t w = 1; w < WORDS; ++w)
+                n.before[w] = n.before[w - 1] + uint32_t(vdb::util::CountOn(mask.getWord<uint64_t>(w - 1)));
+            nodes_.push_back(n);
+        }
+        std::sort(nodes_.begin(), nodes_.end(), [](const Node &a, const Node &b) { return a.node < b.node; });
+    }
+    // The number of the leaf at `c`, or -1 where there is none.
+    int64_t at(const RootT &root, const vdb::Coord &c) const
+    {
+        const Node1T *node = root.probeConstNode<Node1T>(c);
+        if (!node) return -1;
+        const vdb::Index n = Node1T::coordToOffset(c);
+        const uint64_t word = node->getChildMask().getWord<uint64_t>(n / 64);
+        if (!(word >> (n % 64) & 1u)) return -1;
+        auto at = std::lower_bound(nodes_.begin(), nodes_.end(), node,
+                                   [](const Node &a, const Node1T *b) { return a.node < b; });
+        return at->first + at->before[n / 64] + vdb::util::CountOn(word & ((uint64_t(1) << (n % 64)) - 1));
+    }
+
+private:
+    static constexpr uint32_t WORDS = Node1T::NUM_VALUES / 64;
+    struct Node {
+        const Node1T *node;
+        uint32_t first;
+        uint32_t before[WORDS];
+    };
+    std::vector<Node> nodes_; // by address
+};
+
+// A leaf's values and its low sides (CellParts::part[e], e = x + 2y + 4z over {0, 1}^3: the
+// first layer on each axis whose bit is set, the whole leaf along the others; e = 0 the whole
+// leaf), as the load-time scan found them: an atlas cell's footprint (the block of 9^3 voxels
+// from a corner on the leaves' lattice) is the union of the blocks at +{0, 1}^3 leaves' parts.
+struct CellParts {
+    Range part[8];
+};
+
 // The file behind a grid read on demand (leap_vdb_load_grid_on_demand): OpenVDB's delayed
 // loading keeps each leaf's buffer in the file; a leaf is read into a copy, never into the
 // tree, so what was read can be dropped again.
@@ -354,6 +404,10 @@ struct OnDemand {
     std::vector<uint64_t> leaf_offsets;
     // Each leaf's LeafShell, in leaf order (null: the scan was known, as from a grid index).
     std::unique_ptr<LeafShell[]> shells;
+    // Each leaf's CellParts, in leaf order (empty: the scan was known, or met a value that was
+    // not finite), and the numbers that find a leaf's (leap_grid_cell_range).
+    std::vector<CellParts> cell_parts;
+    std::unique_ptr<LeafNumbers> numbers;
     // A grid whose load read its topology alone (by_offset) reads a leaf's bytes (from its
     // offset to the next leaf's mask, or to the tree's end) with pread(2), checks them, and
     // decodes them with OpenVDB's reader in the stream state the topology was read in (versions,

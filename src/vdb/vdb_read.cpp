@@ -292,55 +292,13 @@ Scan scan_from(const leap_grid_scan &k)
     return s;
 }
 
-// The leaf order (the tree's: by internal node, then by offset in it) of the leaf at a
-// position, from the nodes above the leaves: each keeps its first leaf's number and how many
-// leaves come before each word of its child mask.
-class LeafNumbers {
-public:
-    explicit LeafNumbers(const FloatTree &tree)
-    {
-        uint32_t number = 0;
-        for (auto it = tree.cbeginLeaf(); it; ++it, ++number) {
-            const vdb::Coord o = it->origin() & ~(Node1T::DIM - 1);
-            if (!nodes_.empty() && nodes_.back().node->origin() == o) continue;
-            Node n{tree.root().probeConstNode<Node1T>(o), number, {}};
-            const auto &mask = n.node->getChildMask();
-            for (uint32_t w = 1; w < WORDS; ++w)
-                n.before[w] = n.before[w - 1] + uint32_t(vdb::util::CountOn(mask.getWord<uint64_t>(w - 1)));
-            nodes_.push_back(n);
-        }
-        std::sort(nodes_.begin(), nodes_.end(), [](const Node &a, const Node &b) { return a.node < b.node; });
-    }
-    // The number of the leaf at `c`, or -1 where there is none.
-    int64_t at(const RootT &root, const vdb::Coord &c) const
-    {
-        const Node1T *node = root.probeConstNode<Node1T>(c);
-        if (!node) return -1;
-        const vdb::Index n = Node1T::coordToOffset(c);
-        const uint64_t word = node->getChildMask().getWord<uint64_t>(n / 64);
-        if (!(word >> (n % 64) & 1u)) return -1;
-        auto at = std::lower_bound(nodes_.begin(), nodes_.end(), node,
-                                   [](const Node &a, const Node1T *b) { return a.node < b; });
-        return at->first + at->before[n / 64] + vdb::util::CountOn(word & ((uint64_t(1) << (n % 64)) - 1));
-    }
-
-private:
-    static constexpr uint32_t WORDS = Node1T::NUM_VALUES / 64;
-    struct Node {
-        const Node1T *node;
-        uint32_t first;
-        uint32_t before[WORDS];
-    };
-    std::vector<Node> nodes_; // by address
-};
-
 // Adds a leaf's values to its LeafShell and its sides to those of its neighbour leaves whose
 // bricks' aprons reach them.
 // Parts are bins by (x, y, z) class: 0 the first layer, 2 the last, 1 between; a neighbour at
 // offset d in {-1, 0, 1}^3 leaves by takes class 0 on an axis where d is -1, 2 where +1, any
 // where 0.
 void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &leaf, uint32_t number,
-                   const float *v, LeafShell *shells)
+                   const float *v, LeafShell *shells, CellParts &cell)
 {
     Range part[27];
     uint32_t seen[27] = {0};
@@ -366,6 +324,13 @@ void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &l
                 if (std::isfinite(f)) part[bin].add(f);
                 else seen[bin] |= std::isnan(f) ? LeafShell::NAN_SEEN : f > 0 ? LeafShell::PINF_SEEN : LeafShell::NINF_SEEN;
             }
+        }
+    for (int e = 0; e < 8; ++e) // the low sides: class 0 where e has the axis's bit
+        for (int b = 0; b < 27; ++b) {
+            const int bc[3] = {b / 9, b / 3 % 3, b % 3};
+            bool in = true;
+            for (int a = 0; a < 3; ++a) in &= !(e >> a & 1) || bc[a] == 0;
+            if (in) cell.part[e].add(part[b]);
         }
     const vdb::Coord o = leaf.origin();
     for (int dx = -1; dx <= 1; ++dx)
@@ -433,10 +398,10 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
         OPENVDB_THROW(vdb::IoError, "its index lists " << known->leaf_count << " leaves, the file " << leaves.size());
     using Blocks = tbb::blocked_range<size_t>;
     // A first open on demand gathers the bricks' ranges as it reads (LeafShell).
-    std::unique_ptr<LeafNumbers> numbers;
     if (od && !known) {
         od->shells.reset(new LeafShell[leaves.size() ? leaves.size() : 1]);
-        numbers.reset(new LeafNumbers(tree));
+        od->cell_parts.resize(leaves.size());
+        od->numbers.reset(new LeafNumbers(tree));
     }
     const RootT &root = tree.root();
     Scan scan = known ? scan_from(*known) : tbb::parallel_reduce(
@@ -449,7 +414,7 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
                 const float *v = od ? copy->buffer().data() : leaf.buffer().data();
                 const auto &mask = leaf.getValueMask();
                 for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
-                if (od) add_to_shells(root, *numbers, leaf, uint32_t(i), v, od->shells.get());
+                if (od) add_to_shells(root, *od->numbers, leaf, uint32_t(i), v, od->shells.get(), od->cell_parts[i]);
             }
             return s;
         },
@@ -458,6 +423,7 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
             return a;
         });
 
+    if (od && scan.nonfinite) od->cell_parts = std::vector<CellParts>(); // footprints read, values mapped
     if (od) {
         leap_grid_scan &k = g.scan;
         k.leaf_count = leaves.size();
@@ -526,8 +492,7 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
     info.value_max = values.empty() ? bg : values.hi;
     info.memory_bytes = tree.memUsage();
     if (od)
-        info.memory_bytes += (od->shells ? leaves.size() * sizeof(LeafShell) : 0) +
-                             od->leaf_offsets.capacity() * sizeof(uint64_t) +
+        info.memory_bytes += od->leaf_offsets.capacity() * sizeof(uint64_t) +
                              od->leaf_order.capacity() * sizeof(decltype(od->leaf_order)::value_type);
 }
 
@@ -911,6 +876,15 @@ void leap_grid_get_scan(const leap_grid *grid, leap_grid_scan *out)
 int leap_grid_on_demand(const leap_grid *grid)
 {
     return grid && grid->on_demand;
+}
+
+void leap_grid_release_scan(leap_grid *grid)
+{
+    OnDemand *od = grid ? grid->on_demand.get() : nullptr;
+    if (!od) return;
+    od->shells.reset();
+    od->cell_parts = std::vector<CellParts>();
+    od->numbers.reset();
 }
 
 uint64_t leap_grid_leaves_read(const leap_grid *grid)

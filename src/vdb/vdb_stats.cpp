@@ -172,6 +172,27 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
     return list_bricks(grid, nullptr, out, err);
 }
 
+int leap_grid_cell_range(const leap_grid *grid, const int32_t min[3], float *lo, float *hi)
+{
+    const OnDemand *od = grid ? grid->on_demand.get() : nullptr;
+    if (!od || od->cell_parts.empty() || !od->numbers) return 0;
+    for (int a = 0; a < 3; ++a)
+        if ((min[a] & int32_t(LeafT::DIM - 1)) || int64_t(min[a]) + int64_t(LeafT::DIM) > std::numeric_limits<int32_t>::max())
+            return 0;
+    const RootT &root = grid->grid->constTree().root();
+    Range r;
+    for (int e = 0; e < 8; ++e) {
+        const vdb::Coord c(min[0] + (e & 1) * int32_t(LeafT::DIM), min[1] + (e >> 1 & 1) * int32_t(LeafT::DIM),
+                           min[2] + (e >> 2 & 1) * int32_t(LeafT::DIM));
+        const int64_t n = od->numbers->at(root, c);
+        if (n >= 0) r.add(od->cell_parts[size_t(n)].part[e]);
+        else r.add(root.getValue(c)); // a tile or the background: one value over the block
+    }
+    *lo = r.lo;
+    *hi = r.hi;
+    return 1;
+}
+
 leap_result leap_grid_bricks_known(const leap_grid *grid, const float *ranges, leap_brick *out, leap_error *err)
 {
     if (!ranges) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_bricks_known: NULL ranges");

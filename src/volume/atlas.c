@@ -357,6 +357,24 @@ static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32
     return uniform && !dense;
 }
 
+/* A streamed atlas's cell from the value range of its footprint that a first open's scan
+ * gathered (leap_grid_cell_range), without reading it: quantising is monotonic, so the
+ * footprint's quantised extremes are its extremes quantised, and it is uniform when they are
+ * equal (read_cell's entry and range). 0 when the grid does not know the range. */
+static int scanned_cell(const leap_atlas *a, const leap_grid *grid, const uint32_t c[3], int dense, uint32_t *entry,
+                        uint32_t *range, int *constant)
+{
+    int32_t min[3];
+    for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
+    float lo, hi;
+    if (a->wide || !leap_grid_cell_range(grid, min, &lo, &hi)) return 0;
+    const uint16_t ql = quantize(a, lo), qh = quantize(a, hi);
+    *entry = const_entry(ql);
+    *range = (uint32_t)ql | (uint32_t)qh << 16;
+    *constant = ql == qh && !dense;
+    return 1;
+}
+
 /* Before the candidate cells are read (about 12 us each): when they are more than the slot
  * budget, a fixed pseudo-random sample of them estimates how many will need slots, and a
  * grid whose estimate exceeds the budget by more than the sampling error is refused in
@@ -378,7 +396,10 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
         seed ^= seed << 13, seed ^= seed >> 17, seed ^= seed << 5;
         uint32_t c[3];
         key_cell(a, unique[(uint64_t)seed * n >> 32], c);
-        hits += !read_cell(a, reader, c, 0, q, &entry, &range);
+        int constant;
+        if (!b->stream_texels || !scanned_cell(a, grid, c, 0, &entry, &range, &constant))
+            constant = read_cell(a, reader, c, 0, q, &entry, &range);
+        hits += !constant;
     }
     leap_grid_reader_destroy(reader);
     double p = (double)hits / BUDGET_SAMPLES, sigma = sqrt(p * (1 - p) / BUDGET_SAMPLES);
@@ -474,6 +495,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
 
 typedef struct fill_shared {
     builder *b;
+    const leap_grid *grid;
     const key_list *keys;
     int dense;
     uint64_t budget;
@@ -555,8 +577,9 @@ static void *fill_run(void *arg)
                 constant = (w->entries[i] & LEAP_PAGE_CONST) != 0;
             } else {
                 key_cell(a, sh->keys->keys[first + i], c);
-                constant = read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS, &w->entries[i],
-                                     &range);
+                if (!sh->b->stream_texels || !scanned_cell(a, sh->grid, c, sh->dense, &w->entries[i], &range, &constant))
+                    constant = read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS,
+                                         &w->entries[i], &range);
             }
             if (!constant) {
                 w->entries[i] = 0; /* a slot: numbered when committed */
@@ -591,7 +614,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (i == 0 || l->keys[i] != l->keys[i - 1]) l->keys[unique++] = l->keys[i];
     l->count = unique;
     if (a->labels) return fill_label_cells(b, l, dense, err);
-    fill_shared sh = {.b = b, .keys = l, .dense = dense, .budget = slot_budget(b->stream_texels), .err = err,
+    fill_shared sh = {.b = b, .grid = grid, .keys = l, .dense = dense, .budget = slot_budget(b->stream_texels), .err = err,
                       .chunk_count = (unique + FILL_CHUNK_KEYS - 1) / FILL_CHUNK_KEYS};
     if (b->known && b->known->count != unique)
         return leap_fail(err, LEAP_ERR_FORMAT, "atlas: %zu cells were given for %zu cells next to data", b->known->count,
