@@ -1046,6 +1046,18 @@ static void test_histogram(void)
 
 /* ---- grids read on demand --------------------------------------------------------- */
 
+/* The box of edge^3 voxels from a brick's origin less back[] on each axis: 0 when it would
+ * leave the index range (a brick at the farthest coordinates). */
+static int box_from(const leap_brick *b, const int back[3], int edge, int32_t min[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        const int64_t m = (int64_t)b->origin[a] - back[a];
+        if (m < INT32_MIN || m + edge - 1 > INT32_MAX) return 0;
+        min[a] = (int32_t)m;
+    }
+    return 1;
+}
+
 /* A grid loaded again with the leaf offsets its first load found reads its topology alone and
  * then every leaf at its offset: the same values as the grid loaded whole (`whole`'s reader, its
  * bricks `bricks`), every box read. Offsets of another count are refused; one that points
@@ -1088,8 +1100,9 @@ static void check_leaf_offsets(const char *path, const char *name, const leap_gr
     float va[E * E * E], vb[E * E * E];
     size_t differ = 0;
     for (size_t k = 0; rg && k < count; ++k) {
-        const int32_t min[3] = {bricks[k].origin[0] - 1, bricks[k].origin[1] - 1, bricks[k].origin[2] - 1},
-                      dim[3] = {E, E, E};
+        int32_t min[3];
+        const int32_t dim[3] = {E, E, E};
+        if (!box_from(&bricks[k], (const int[3]){1, 1, 1}, E, min)) continue;
         leap_grid_reader_box(whole, min, dim, va);
         leap_grid_reader_box(rg, min, dim, vb);
         differ += memcmp(va, vb, sizeof va) != 0;
@@ -1098,9 +1111,8 @@ static void check_leaf_offsets(const char *path, const char *name, const leap_gr
     if (g) CHECK_OK(leap_grid_read_status(g, &err), &err);
     if (wrong && leap_grid_reader_create(wrong, &rw, &err) == LEAP_OK) {
         for (size_t k = 0; k < count; ++k) {
-            const int32_t min[3] = {bricks[k].origin[0] - 1, bricks[k].origin[1] - 1, bricks[k].origin[2] - 1},
-                          dim[3] = {E, E, E};
-            leap_grid_reader_box(rw, min, dim, vb);
+            const int32_t dim[3] = {8, 8, 8}; /* each leaf's own voxels: every leaf is read */
+            leap_grid_reader_box(rw, bricks[k].origin, dim, vb);
         }
         /* The leaf's bytes are checked before OpenVDB decodes them. */
         const leap_result status = leap_grid_read_status(wrong, &err);
@@ -1159,9 +1171,9 @@ static void check_on_demand(const char *path, const char *name)
     for (size_t k = 0; rw && k < na; ++k)
         for (int d = 0; d < 8; ++d) {
             enum { F = 9 };
-            const int32_t min[3] = {ba[k].origin[0] - 8 * (d & 1), ba[k].origin[1] - 8 * (d >> 1 & 1),
-                                    ba[k].origin[2] - 8 * (d >> 2 & 1)}, dim[3] = {F, F, F};
-            if (min[0] > ba[k].origin[0] || min[1] > ba[k].origin[1] || min[2] > ba[k].origin[2]) continue; /* wrapped */
+            int32_t min[3];
+            const int32_t dim[3] = {F, F, F};
+            if (!box_from(&ba[k], (const int[3]){8 * (d & 1), 8 * (d >> 1 & 1), 8 * (d >> 2 & 1)}, F, min)) continue;
             float vals[F * F * F], lo, hi;
             if (!leap_grid_cell_range(lazy, min, &lo, &hi)) continue;
             ++gathered;
@@ -1187,7 +1199,9 @@ static void check_on_demand(const char *path, const char *name)
     for (int pass = 0; pass < 2 && ra && rb; ++pass) /* forward, then backward: other leaves kept */
         for (size_t k = 0; k < na; ++k) {
             const leap_brick *br = &ba[pass ? na - 1 - k : k];
-            const int32_t min[3] = {br->origin[0] - 1, br->origin[1] - 1, br->origin[2] - 1}, dim[3] = {E, E, E};
+            int32_t min[3];
+            const int32_t dim[3] = {E, E, E};
+            if (!box_from(br, (const int[3]){1, 1, 1}, E, min)) continue;
             leap_grid_reader_box(ra, min, dim, va);
             leap_grid_reader_box(rb, min, dim, vb);
             differ += memcmp(va, vb, sizeof va) != 0;
@@ -1229,7 +1243,9 @@ static void check_on_demand(const char *path, const char *name)
         leap_grid_reader *rk = NULL;
         CHECK_OK(leap_grid_reader_create(known, &rk, &err), &err);
         for (size_t k = 0; rk && ra && k < na; k += 1 + na / 64) {
-            const int32_t min[3] = {ba[k].origin[0] - 1, ba[k].origin[1] - 1, ba[k].origin[2] - 1}, dim[3] = {E, E, E};
+            int32_t min[3];
+            const int32_t dim[3] = {E, E, E};
+            if (!box_from(&ba[k], (const int[3]){1, 1, 1}, E, min)) continue;
             leap_grid_reader_box(ra, min, dim, va);
             leap_grid_reader_box(rk, min, dim, vb);
             differ += memcmp(va, vb, sizeof va) != 0;

@@ -293,10 +293,9 @@ Scan scan_from(const leap_grid_scan &k)
 }
 
 // Adds a leaf's values to its LeafShell and its sides to those of its neighbour leaves whose
-// bricks' aprons reach them.
-// Parts are bins by (x, y, z) class: 0 the first layer, 2 the last, 1 between; a neighbour at
-// offset d in {-1, 0, 1}^3 leaves by takes class 0 on an axis where d is -1, 2 where +1, any
-// where 0.
+// bricks' aprons reach them, and keeps its low sides for the atlas cells' footprints (CellParts).
+// The values are binned by (x, y, z) class (0 the first layer, 2 the last, 1 between); the side
+// facing the neighbour at offset d in {-1, 0, 1}^3 is the union of some bins.
 void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &leaf, uint32_t number,
                    const float *v, LeafShell *shells, CellParts &cell)
 {
@@ -325,18 +324,21 @@ void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &l
                 else seen[bin] |= std::isnan(f) ? LeafShell::NAN_SEEN : f > 0 ? LeafShell::PINF_SEEN : LeafShell::NINF_SEEN;
             }
         }
-    for (int e = 0; e < 8; ++e) // the low sides: class 0 where e has the axis's bit
-        for (int b = 0; b < 27; ++b) {
-            const int bc[3] = {b / 9, b / 3 % 3, b % 3};
-            bool in = true;
-            for (int a = 0; a < 3; ++a) in &= !(e >> a & 1) || bc[a] == 0;
-            if (in) cell.part[e].add(part[b]);
-        }
+    // The side facing offset d: class 0 on an axis where d is -1, 2 where +1, any where 0.
     const vdb::Coord o = leaf.origin();
     for (int dx = -1; dx <= 1; ++dx)
         for (int dy = -1; dy <= 1; ++dy)
             for (int dz = -1; dz <= 1; ++dz) {
                 const int d[3] = {dx, dy, dz};
+                Range r;
+                uint32_t s = 0;
+                for (int b = 0; b < 27; ++b) {
+                    const int bc[3] = {b / 9, b / 3 % 3, b % 3};
+                    bool in = true;
+                    for (int a = 0; a < 3; ++a) in &= d[a] == 0 || bc[a] == (d[a] < 0 ? 0 : 2);
+                    if (in) r.add(part[b]), s |= seen[b];
+                }
+                if (dx <= 0 && dy <= 0 && dz <= 0) cell.part[-dx - 2 * dy - 4 * dz] = r; // the low sides
                 int64_t to = number;
                 if (dx || dy || dz) {
                     int64_t c[3];
@@ -347,14 +349,6 @@ void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &l
                     }
                     to = inside ? numbers.at(root, vdb::Coord(int(c[0]), int(c[1]), int(c[2]))) : -1;
                     if (to < 0) continue; // a tile or the background: from the topology when listed
-                }
-                Range r;
-                uint32_t s = 0;
-                for (int b = 0; b < 27; ++b) {
-                    const int bc[3] = {b / 9, b / 3 % 3, b % 3};
-                    bool in = true;
-                    for (int a = 0; a < 3; ++a) in &= d[a] == 0 || bc[a] == (d[a] < 0 ? 0 : 2);
-                    if (in) r.add(part[b]), s |= seen[b];
                 }
                 shells[to].add(r, s);
             }
