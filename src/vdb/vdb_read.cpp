@@ -296,7 +296,7 @@ Scan scan_from(const leap_grid_scan &k)
 // bricks' aprons reach them, and keeps its low sides for the atlas cells' footprints (CellParts).
 // The values are binned by (x, y, z) class (0 the first layer, 2 the last, 1 between); the side
 // facing the neighbour at offset d in {-1, 0, 1}^3 is the union of some bins.
-void add_to_shells(const RootT &root, const LeafNumbers &numbers, const LeafT &leaf, uint32_t number,
+void gather_sides(const RootT &root, const LeafNumbers &numbers, const LeafT &leaf, uint32_t number,
                    const float *v, LeafShell *shells, CellParts &cell)
 {
     Range part[27];
@@ -391,7 +391,8 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
     if (known && known->leaf_count != leaves.size())
         OPENVDB_THROW(vdb::IoError, "its index lists " << known->leaf_count << " leaves, the file " << leaves.size());
     using Blocks = tbb::blocked_range<size_t>;
-    // A first open on demand gathers the bricks' ranges as it reads (LeafShell).
+    // A first open on demand gathers the bricks' ranges (LeafShell) and the atlas cells'
+    // footprints (CellParts) as it reads.
     if (od && !known) {
         od->shells.reset(new LeafShell[leaves.size() ? leaves.size() : 1]);
         od->cell_parts.resize(leaves.size());
@@ -408,7 +409,7 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
                 const float *v = od ? copy->buffer().data() : leaf.buffer().data();
                 const auto &mask = leaf.getValueMask();
                 for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
-                if (od) add_to_shells(root, *od->numbers, leaf, uint32_t(i), v, od->shells.get(), od->cell_parts[i]);
+                if (od) gather_sides(root, *od->numbers, leaf, uint32_t(i), v, od->shells.get(), od->cell_parts[i]);
             }
             return s;
         },

@@ -175,7 +175,7 @@ leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error 
 int leap_grid_cell_range(const leap_grid *grid, const int32_t min[3], float *lo, float *hi)
 {
     const OnDemand *od = grid ? grid->on_demand.get() : nullptr;
-    if (!od || od->cell_parts.empty() || !od->numbers) return 0;
+    if (!od || od->cell_parts.empty()) return 0; // its numbers go with the parts
     for (int a = 0; a < 3; ++a)
         if ((min[a] & int32_t(LeafT::DIM - 1)) || int64_t(min[a]) + int64_t(LeafT::DIM) > std::numeric_limits<int32_t>::max())
             return 0;

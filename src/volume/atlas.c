@@ -360,14 +360,16 @@ static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32
 /* A streamed atlas's cell from the value range of its footprint that a first open's scan
  * gathered (leap_grid_cell_range), without reading it: quantising is monotonic, so the
  * footprint's quantised extremes are its extremes quantised, and it is uniform when they are
- * equal (read_cell's entry and range). 0 when the grid does not know the range. */
-static int scanned_cell(const leap_atlas *a, const leap_grid *grid, const uint32_t c[3], int dense, uint32_t *entry,
+ * equal (read_cell's entry and range). 0 when the grid does not know the range, or the atlas
+ * keeps texels (then read_cell). */
+static int scanned_cell(const builder *b, const leap_grid *grid, const uint32_t c[3], int dense, uint32_t *entry,
                         uint32_t *range, int *constant)
 {
+    const leap_atlas *a = b->a;
     int32_t min[3];
     for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
     float lo, hi;
-    if (a->wide || !leap_grid_cell_range(grid, min, &lo, &hi)) return 0;
+    if (!b->stream_texels || a->wide || !leap_grid_cell_range(grid, min, &lo, &hi)) return 0;
     const uint16_t ql = quantize(a, lo), qh = quantize(a, hi);
     *entry = const_entry(ql);
     *range = (uint32_t)ql | (uint32_t)qh << 16;
@@ -397,7 +399,7 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
         uint32_t c[3];
         key_cell(a, unique[(uint64_t)seed * n >> 32], c);
         int constant;
-        if (!b->stream_texels || !scanned_cell(a, grid, c, 0, &entry, &range, &constant))
+        if (!scanned_cell(b, grid, c, 0, &entry, &range, &constant))
             constant = read_cell(a, reader, c, 0, q, &entry, &range);
         hits += !constant;
     }
@@ -577,7 +579,7 @@ static void *fill_run(void *arg)
                 constant = (w->entries[i] & LEAP_PAGE_CONST) != 0;
             } else {
                 key_cell(a, sh->keys->keys[first + i], c);
-                if (!sh->b->stream_texels || !scanned_cell(a, sh->grid, c, sh->dense, &w->entries[i], &range, &constant))
+                if (!scanned_cell(sh->b, sh->grid, c, sh->dense, &w->entries[i], &range, &constant))
                     constant = read_cell(a, w->reader, c, sh->dense, w->slots + used * LEAP_SLOT_TEXELS,
                                          &w->entries[i], &range);
             }
