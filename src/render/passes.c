@@ -464,8 +464,7 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     lr = leap_gpu_submit_wait(gpu, err);
     /* The brick cache: more passes while rays wait on missed slots, each after loading them. */
     st.cache_slots = r->cache.capacity;
-    if (r->cache.capacity)
-        st.cache_image_bytes = (uint64_t)r->texel_dims[0] * r->texel_dims[1] * r->texel_dims[2] * r->texel_bytes;
+    if (r->cache.capacity) st.cache_image_bytes = renderer_texels(r) * r->texel_bytes;
     st.cache_passes = 1;
     double partial_at = 0; /* the first picture at once: a first sight of the volume */
     while (!lr && renderer_cache_missed(r)) {

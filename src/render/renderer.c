@@ -424,7 +424,7 @@ int leap_frame_cache_over(const leap_frame_stats *stats, uint64_t asked, char *o
 uint64_t leap_renderer_volume_bytes(const leap_renderer *r)
 {
     if (!r->has_volume) return 0;
-    const uint64_t texels = (uint64_t)r->texel_dims[0] * r->texel_dims[1] * r->texel_dims[2];
+    const uint64_t texels = renderer_texels(r);
     return (r->atlas.view ? texels * r->texel_bytes : 0) + r->pages.size +
            (r->value_gradients_serial == r->atlas_serial ? texels * 8 : 0);
 }

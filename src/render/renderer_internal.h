@@ -138,6 +138,12 @@ struct leap_renderer {
     chunk_rect drawn; /* the pixels the last frame composited; the others are transparent, no sample */
 };
 
+/* Texels of the bound volume's image (the atlas, or the brick cache holding part of it). */
+static inline uint64_t renderer_texels(const leap_renderer *r)
+{
+    return (uint64_t)r->texel_dims[0] * r->texel_dims[1] * r->texel_dims[2];
+}
+
 /* frame.c: the pixels whose rays may meet the frame's box of non-empty cells (f->bbox_*; a
  * projection grown beyond float error), the whole image when the box reaches behind the eye.
  * Rays outside it take no sample in a skipping mode. */

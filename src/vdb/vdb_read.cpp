@@ -297,14 +297,12 @@ Scan scan_from(const leap_grid_scan &k)
 // The values are binned by (x, y, z) class (0 the first layer, 2 the last, 1 between); the side
 // facing the neighbour at offset d in {-1, 0, 1}^3 is the union of some bins.
 void gather_sides(const RootT &root, const LeafNumbers &numbers, const LeafT &leaf, uint32_t number,
-                   const float *v, LeafShell *shells, CellParts &cell)
+                   const float *v, bool finite, LeafShell *shells, CellParts &cell)
 {
     Range part[27];
     uint32_t seen[27] = {0};
     constexpr int last = int(LeafT::DIM) - 1;
     auto cls = [](int i) { return i == 0 ? 0 : i == last ? 2 : 1; };
-    bool finite = true;
-    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) finite &= std::fabs(v[n]) <= std::numeric_limits<float>::max();
     for (int x = 0; x <= last; ++x)
         for (int y = 0; y <= last; ++y) {
             const int bin_xy = cls(x) * 9 + cls(y) * 3;
@@ -408,8 +406,11 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
                 if (od) od->read(leaf, copy);
                 const float *v = od ? copy->buffer().data() : leaf.buffer().data();
                 const auto &mask = leaf.getValueMask();
+                const uint64_t nonfinite = s.nonfinite;
                 for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
-                if (od) gather_sides(root, *od->numbers, leaf, uint32_t(i), v, od->shells.get(), od->cell_parts[i]);
+                if (od)
+                    gather_sides(root, *od->numbers, leaf, uint32_t(i), v, s.nonfinite == nonfinite, od->shells.get(),
+                                 od->cell_parts[i]);
             }
             return s;
         },

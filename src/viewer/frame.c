@@ -24,6 +24,7 @@ typedef struct frame_figures {
     uint64_t waiting; /* rays still waiting for bricks: a frame ended early */
     uint32_t cache_slots;       /* the GPU brick cache (0: none) */
     uint64_t cache_image_bytes;
+    int cache_over;             /* it takes more than --gpu-cache gave (leap_frame_cache_over) */
     double progress;  /* of the refinement pass, 0..1 */
     char heat[96];
 } frame_figures;
@@ -45,6 +46,7 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
     acc->waiting += f->waiting;
     acc->cache_slots = f->cache_slots;
     acc->cache_image_bytes = f->cache_image_bytes;
+    acc->cache_over = f->cache_over;
     acc->scale = f->scale;
     memcpy(acc->heat, f->heat, sizeof acc->heat);
 }
@@ -306,7 +308,8 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     ff->cache_slots = fs.cache_slots;
     ff->cache_image_bytes = fs.cache_image_bytes;
     char over[256];
-    if (!s->cache_warned && leap_frame_cache_over(&fs, s->desc.cache_bytes, over, sizeof over)) {
+    ff->cache_over = leap_frame_cache_over(&fs, s->desc.cache_bytes, over, sizeof over);
+    if (ff->cache_over && !s->cache_warned) {
         s->cache_warned = 1;
         session_note(s, LEAP_VIEWER_NOTE_STATUS, "warning: %s", over);
     }
@@ -485,7 +488,7 @@ static void publish_figures(leap_viewer_session *s, const frame_figures *ff, con
         .gpu_bytes = leap_renderer_volume_bytes(s->renderer),
         .cache_slots = ff->cache_slots,
         .cache_bytes = ff->cache_image_bytes,
-        .cache_asked = s->desc.cache_bytes,
+        .cache_over = ff->cache_over,
         .frames = p->frames,
     };
     snprintf(p->blank, sizeof p->blank, "%s", blank_why);

@@ -27,8 +27,9 @@ typedef struct leap_ui_figures {
     unsigned boxes, overflowed, width, height;
     int scale;               /* resolution divisor of the shown image */
     uint64_t gpu_bytes;      /* the volume on the device */
-    uint32_t cache_slots;    /* the GPU brick cache: slots (0: none), its image's bytes, and the */
-    uint64_t cache_bytes, cache_asked; /* room --gpu-cache gave (0: none given) */
+    uint32_t cache_slots;    /* the GPU brick cache: slots (0: none), its image's bytes, and */
+    uint64_t cache_bytes;    /* whether they are more than --gpu-cache gave */
+    int cache_over;
     uint64_t frames;
 } leap_ui_figures;
 

@@ -315,7 +315,7 @@ void figures_text(const leap_ui_model *m, bool wrap)
     ImGui::Text("overflowed pixels %u  volume on GPU %.1f MiB", f.overflowed, f.gpu_bytes / 1048576.0);
     if (f.cache_slots)
         ImGui::Text("brick cache %u slots, %.1f MiB%s", f.cache_slots, f.cache_bytes / 1048576.0,
-                    f.cache_asked && f.cache_bytes > f.cache_asked ? " (above --gpu-cache: one whole layer at least)" : "");
+                    f.cache_over ? " (above --gpu-cache: one whole layer at least)" : "");
     // the panel wraps; the figures window alone sizes itself to its text, so it must not
     if (m->hover && m->hover[0] && wrap) ImGui::TextWrapped("cursor: %s", m->hover);
     else if (m->hover && m->hover[0]) ImGui::Text("cursor: %s", m->hover);

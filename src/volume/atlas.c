@@ -323,6 +323,12 @@ static leap_result slots_too_many(uint64_t slots, const char *how, leap_error *e
 }
 
 /* Reads cell c's footprint: 1 and *entry for a constant cell, else 0 with its texels in q. */
+/* The index corner of cell c's footprint, `back` voxels below the cell's own corner. */
+static void cell_corner(const leap_atlas *a, const uint32_t c[3], int back, int32_t min[3])
+{
+    for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL - back);
+}
+
 static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32_t c[3], int dense, uint16_t *q,
                      uint32_t *entry, uint32_t *range)
 {
@@ -331,7 +337,7 @@ static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32
     float vals[WIDE * WIDE * WIDE];
     const int32_t edge = LEAP_SLOT + 2 * a->wide;
     int32_t min[3], dim[3] = {edge, edge, edge};
-    for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL - a->wide);
+    cell_corner(a, c, a->wide, min);
     leap_grid_reader_box(reader, min, dim, vals);
     int uniform = 1;
     const uint16_t first = quantize(a, vals[0]);
@@ -367,7 +373,7 @@ static int scanned_cell(const builder *b, const leap_grid *grid, const uint32_t 
 {
     const leap_atlas *a = b->a;
     int32_t min[3];
-    for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
+    cell_corner(a, c, 0, min);
     float lo, hi;
     if (!b->stream_texels || a->wide || !leap_grid_cell_range(grid, min, &lo, &hi)) return 0;
     const uint16_t ql = quantize(a, lo), qh = quantize(a, hi);
@@ -423,7 +429,7 @@ static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_err
         uint32_t c[3];
         key_cell(a, k, c);
         int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
-        for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL);
+        cell_corner(a, c, 0, min);
         leap_grid_reader_labels(b->label_reader, min, dim, ids);
         /* Object indices, and the distinct ones in a small unsorted palette (cells hold few). */
         int64_t last_id = 0;
