@@ -228,7 +228,8 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 clip_z;         /* 304 */
     LEAP_VEC4 clip_w;         /* 320 */
     LEAP_VEC4 raster;         /* 336: x = pixel size per unit distance (perspective) or per
-                                 pixel (ortho), y = box growth in pixels for raster coverage */
+                                 pixel (ortho), y = box growth in pixels for raster coverage,
+                                 z = the largest point size in pixels (events.vert) */
     LEAP_VEC4 bbox_min;       /* 352: xyz, non-empty bounds (bbox mode) */
     LEAP_VEC4 bbox_max;       /* 368: w = the farthest t of any sample a skipping mode may take (naive: inf) */
     LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,

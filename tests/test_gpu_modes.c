@@ -571,6 +571,43 @@ static leap_scene *load_scene(const char *file, const char *grid, const char *tf
     return s;
 }
 
+/* The raster draws a box as a point when its screen rectangle fits the device's largest point
+ * (255 pixels on lavapipe) and as two triangles otherwise (events.vert): in an image wider than
+ * that, close cameras give boxes of both kinds, some cut by the screen's edges, and sparseleap
+ * still equals naive. */
+static void check_large_rectangles(leap_renderer *renderer)
+{
+    enum { LW = 600, LH = 320 };
+    float *naive = malloc((size_t)LW * LH * 4 * sizeof(float)), *img = malloc((size_t)LW * LH * 4 * sizeof(float));
+    static const char *files[] = {"blobs.vdb", "shell.vdb"};
+    static const double dists[] = {0.45, 0.8, 1.4}; /* sphere radii from the centre */
+    leap_error err = {{0}};
+    for (int f = 0; f < 2 && naive && img; ++f) {
+        leap_scene *s = load_scene(files[f], NULL, "viridis", 1);
+        if (!s) continue;
+        CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+        for (int k = 0; k < 3; ++k) {
+            leap_camera cam;
+            CHECK_OK(leap_camera_orbit(s->center, s->radius, 30 + 40 * k, 15, dists[k], 70, 0, &cam, &err), &err);
+            leap_rays view;
+            CHECK_OK(leap_scene_rays(s, &cam, LW, LH, &view, &err), &err);
+            leap_frame_stats st;
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err),
+                     &err);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err),
+                     &err);
+            image_diff d = compare_rgba(img, naive, (size_t)LW * LH);
+            printf("large rectangles: %s at %.2f radii, %u boxes, max abs %.2e\n", files[f], dists[k], st.boxes,
+                   d.max_abs);
+            CHECK_MSG(st.boxes > 1 && d.nonfinite == 0 && d.max_abs <= TOL, "large rectangles: %s at %.2f radii: max "
+                      "abs %g vs naive (%u boxes)", files[f], dists[k], d.max_abs, st.boxes);
+        }
+        leap_scene_destroy(s);
+    }
+    free(naive);
+    free(img);
+}
+
 /* Local maxima of brightness (r + g + b, premultiplied) among the pixels with opacity above
  * 0.3: pixels brighter than every other pixel within 2 pixels. */
 static int bright_peaks(const float *rgba, int w, int h)
@@ -763,6 +800,7 @@ int main(void)
     check_shading_sphere(renderer);
     check_cloud_structure(renderer);
     check_box_pixels(renderer);
+    check_large_rectangles(renderer);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");

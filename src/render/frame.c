@@ -391,6 +391,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     f->slot_dims = (leap_uvec4){r->slot_dims[0], r->slot_dims[1], r->slot_dims[2], r->block_shift};
     f->image = (leap_uvec4){(uint32_t)view->width, (uint32_t)view->height, m->mip < 0, (uint32_t)view->ortho};
     clip_matrix(view, f);
+    f->raster.z = r->gpu->props.limits.pointSizeRange[1];
     double lo[3] = {1, 1, 1}, hi[3] = {0, 0, 0}; /* empty unless the occupancy says otherwise */
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
     f->bbox_min = v4(lo, 0);

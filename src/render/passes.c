@@ -241,9 +241,13 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
     VkRect2D sc = {{0, 0}, {(uint32_t)view->width, (uint32_t)view->height}};
     vkCmdSetViewport(cmd, 0, 1, &vp);
     vkCmdSetScissor(cmd, 0, 1, &sc);
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    if (box_count) vkCmdDraw(cmd, 6 * box_count, 1, 0, 0); /* not instanced: see events.vert */
+    if (box_count) { /* each box is drawn by one of the two (events.vert) */
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events[1]);
+        vkCmdDraw(cmd, box_count, 1, 0, 0);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events[0]);
+        vkCmdDraw(cmd, 6 * box_count, 1, 0, 0);
+    }
     vkCmdEndRenderPass(cmd);
     if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);
     shader_barrier(cmd, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,

@@ -33,8 +33,8 @@ static VkResult make_module(VkDevice dev, const uint32_t *code, size_t bytes, Vk
     return vr;
 }
 
-/* The ray-event pass: boxes as instances, back faces only (chosen in the vertex shader),
- * no attachments: fragments only append to storage buffers. */
+/* The ray-event pass's two pipelines (events.vert: screen rectangles as triangles, and
+ * points), no attachments: fragments only append to storage buffers. */
 static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
 {
     VkDevice dev = r->gpu->device;
@@ -48,9 +48,12 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
     VkShaderModule vs = VK_NULL_HANDLE, fs = VK_NULL_HANDLE;
     VkResult vr = make_module(dev, events_vert_spv, sizeof events_vert_spv, &vs);
     if (vr == VK_SUCCESS) vr = make_module(dev, events_frag_spv, sizeof events_frag_spv, &fs);
+    VkBool32 points = VK_FALSE; /* constant_id 8 of events.vert */
+    const VkSpecializationMapEntry points_entry = {8, 0, sizeof points};
+    const VkSpecializationInfo points_spec = {1, &points_entry, sizeof points, &points};
     VkPipelineShaderStageCreateInfo stages[2] = {
         {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_VERTEX_BIT,
-         .module = vs, .pName = "main"},
+         .module = vs, .pName = "main", .pSpecializationInfo = &points_spec},
         {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_FRAGMENT_BIT,
          .module = fs, .pName = "main"},
     };
@@ -97,7 +100,11 @@ static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
         .layout = r->pipeline_layout,
         .renderPass = r->render_pass,
     };
-    if (vr == VK_SUCCESS) vr = vkCreateGraphicsPipelines(dev, r->gpu->pipeline_cache, 1, &gpci, NULL, &r->events);
+    for (int i = 0; i < 2 && vr == VK_SUCCESS; ++i) {
+        points = i == 1;
+        assembly.topology = points ? VK_PRIMITIVE_TOPOLOGY_POINT_LIST : VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;
+        vr = vkCreateGraphicsPipelines(dev, r->gpu->pipeline_cache, 1, &gpci, NULL, &r->events[i]);
+    }
     if (vs) vkDestroyShaderModule(dev, vs, NULL);
     if (fs) vkDestroyShaderModule(dev, fs, NULL);
     if (vr != VK_SUCCESS)

@@ -82,7 +82,8 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->pool) vkDestroyDescriptorPool(dev, r->pool, NULL);
         if (r->linear_sampler) vkDestroySampler(dev, r->linear_sampler, NULL);
         if (r->atlas_sampler) vkDestroySampler(dev, r->atlas_sampler, NULL);
-        if (r->events) vkDestroyPipeline(dev, r->events, NULL);
+        for (int i = 0; i < 2; ++i)
+            if (r->events[i]) vkDestroyPipeline(dev, r->events[i], NULL);
         for (int s = 0; s < 2; ++s)
             for (int c = 0; c < 2; ++c)
                 if (r->resolve[s][c]) vkDestroyPipeline(dev, r->resolve[s][c], NULL);

@@ -71,7 +71,7 @@ struct leap_renderer {
     leap_partial_fn partial;   /* leap_renderer_set_partial */
     void *partial_user;
     double partial_interval_ms;
-    VkPipeline events;
+    VkPipeline events[2]; /* the ray-event raster (events.vert): rectangles, points */
     /* The resolve pass's two stages (resolve.comp), with and without the naive count; created
      * on first use from resolve_module. */
     VkShaderModule resolve_module;
