@@ -24,7 +24,6 @@ void main()
 {
     uint box = leap_points ? uint(gl_VertexIndex) : uint(gl_VertexIndex / 6);
     box_index = box;
-    gl_PointSize = 1.0;
     leap_box_gpu b = boxes[box];
     vec3 centre = 0.5 * (b.lo.xyz + b.hi.xyz);
     float grow_px = frame.raster.y;
