@@ -328,15 +328,7 @@ void gather_sides(const RootT &root, const LeafNumbers &numbers, const LeafT &le
         for (int dy = -1; dy <= 1; ++dy)
             for (int dz = -1; dz <= 1; ++dz) {
                 const int d[3] = {dx, dy, dz};
-                Range r;
-                uint32_t s = 0;
-                for (int b = 0; b < 27; ++b) {
-                    const int bc[3] = {b / 9, b / 3 % 3, b % 3};
-                    bool in = true;
-                    for (int a = 0; a < 3; ++a) in &= d[a] == 0 || bc[a] == (d[a] < 0 ? 0 : 2);
-                    if (in) r.add(part[b]), s |= seen[b];
-                }
-                if (dx <= 0 && dy <= 0 && dz <= 0) cell.part[-dx - 2 * dy - 4 * dz] = r; // the low sides
+                const bool low = dx <= 0 && dy <= 0 && dz <= 0; // a low side: kept for the cells
                 int64_t to = number;
                 if (dx || dy || dz) {
                     int64_t c[3];
@@ -345,10 +337,20 @@ void gather_sides(const RootT &root, const LeafNumbers &numbers, const LeafT &le
                         c[a] = int64_t(o[a]) + int64_t(d[a]) * LeafT::DIM;
                         inside &= c[a] >= std::numeric_limits<int32_t>::min() && c[a] <= std::numeric_limits<int32_t>::max();
                     }
+                    // No leaf there: a tile or the background, from the topology when listed.
                     to = inside ? numbers.at(root, vdb::Coord(int(c[0]), int(c[1]), int(c[2]))) : -1;
-                    if (to < 0) continue; // a tile or the background: from the topology when listed
+                    if (to < 0 && !low) continue;
                 }
-                shells[to].add(r, s);
+                Range r;
+                uint32_t s = 0;
+                for (int b = 0; b < 27; ++b) {
+                    const int bc[3] = {b / 9, b / 3 % 3, b % 3};
+                    bool in = true;
+                    for (int a = 0; a < 3; ++a) in &= d[a] == 0 || bc[a] == (d[a] < 0 ? 0 : 2);
+                    if (in) r.add(part[b]), s |= seen[b];
+                }
+                if (low) cell.part[-dx - 2 * dy - 4 * dz] = r;
+                if (to >= 0) shells[to].add(r, s);
             }
 }
 

@@ -322,13 +322,13 @@ static leap_result slots_too_many(uint64_t slots, const char *how, leap_error *e
                      (unsigned long long)slot_budget(0), LEAP_ATLAS_MAX_BYTES / gib);
 }
 
-/* Reads cell c's footprint: 1 and *entry for a constant cell, else 0 with its texels in q. */
 /* The index corner of cell c's footprint, `back` voxels below the cell's own corner. */
 static void cell_corner(const leap_atlas *a, const uint32_t c[3], int back, int32_t min[3])
 {
     for (int j = 0; j < 3; ++j) min[j] = (int32_t)((int64_t)a->origin[j] + (int64_t)c[j] * LEAP_CELL - back);
 }
 
+/* Reads cell c's footprint: 1 and *entry for a constant cell, else 0 with its texels in q. */
 static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32_t c[3], int dense, uint16_t *q,
                      uint32_t *entry, uint32_t *range)
 {
