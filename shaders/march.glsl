@@ -23,6 +23,8 @@ layout(constant_id = 3) const bool leap_mip = false;
 layout(constant_id = 4) const bool leap_shade = false;
 // The page table has middle levels (frame.keep_count.y of them): a long box.
 layout(constant_id = 5) const bool leap_page_middle = false;
+// The volume is read through the GPU brick cache: a cell may be missing (LEAP_PAGE_MISSING).
+layout(constant_id = 9) const bool leap_cache = false;
 
 struct leap_ray {
     vec3 origin;
@@ -147,7 +149,7 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
         cur.texel_base = vec3(slot * uint(LEAP_SLOT)) + vec3(0.5, 0.5, frame.atlas_inv_size.w + 0.5) -
                          vec3(cell * LEAP_CELL);
         if (leap_mip) cur.slot = slot.x + frame.slot_dims.x * (slot.y + frame.slot_dims.y * slot.z);
-        cur.missing = (entry & LEAP_PAGE_MISSING) != 0u;
+        cur.missing = leap_cache && (entry & LEAP_PAGE_MISSING) != 0u;
         if (cur.missing) cur.slot = entry & (LEAP_PAGE_MISSING - 1u);
     }
 }
@@ -473,7 +475,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
             q = r.origin + t * r.dir;
             cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
             leap_cursor_seek(cur, cell);
-            if (cur.missing) { // a data miss: report the slot; the ray waits at sample j for a later pass
+            if (leap_cache && cur.missing) { // a data miss: report the slot; the ray waits at sample j for a later pass
                 atomicOr(misses[1u + cur.slot / 32u], 1u << (cur.slot % 32u));
                 misses[0] = 1u;
                 acc.waiting = true;

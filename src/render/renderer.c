@@ -91,10 +91,10 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
         for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
             for (int i = 0; i < COMPOSITE_KINDS; ++i)
-                for (int l = 0; l < 2; ++l)
+                for (int l = 0; l < COMPOSITE_VOLUMES; ++l)
                     if (r->composite[m][i][l]) vkDestroyPipeline(dev, r->composite[m][i][l], NULL);
         for (int i = 0; i < COMPOSITE_KINDS; ++i)
-            for (int l = 0; l < 2; ++l)
+            for (int l = 0; l < COMPOSITE_VOLUMES; ++l)
                 if (r->overflow[i][l]) vkDestroyPipeline(dev, r->overflow[i][l], NULL);
         if (r->composite_module) vkDestroyShaderModule(dev, r->composite_module, NULL);
         if (r->pipeline_layout) vkDestroyPipelineLayout(dev, r->pipeline_layout, NULL);

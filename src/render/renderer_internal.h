@@ -18,6 +18,9 @@ enum {
     COMPOSITE_PER_SAMPLE, COMPOSITE_PRECORRECTED, COMPOSITE_LABELS, COMPOSITE_MIP, COMPOSITE_SHADED_PER_SAMPLE,
     COMPOSITE_SHADED_PRECORRECTED, COMPOSITE_KINDS
 };
+/* What a composite pipeline reads the volume through (renderer_composite_pipeline): bit 0, a page
+ * table with middle levels (a long box); bit 1, the brick cache (cells may be missing). */
+#define COMPOSITE_VOLUMES 4
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
 typedef struct chunk_rect {
@@ -80,8 +83,8 @@ struct leap_renderer {
      * constants, so each pipeline holds only the code it runs. Created on first use from
      * composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][2]; /* [..][..][page table has middle levels] */
-    VkPipeline overflow[COMPOSITE_KINDS][2]; /* sparseleap's overflowed rays (list LEAP_RAYS_OVERFLOW) */
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* [..][..][composite_volume] */
+    VkPipeline overflow[COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* sparseleap's overflowed rays (list LEAP_RAYS_OVERFLOW) */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
     uint32_t fb_width, fb_height;
