@@ -505,9 +505,12 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                 // to t or before; then the cell is passed as any mode passes it.
                 if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
                     leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
-                float b0, b1;
-                if (leaf_class == LEAP_CLASS_EMPTY &&
-                    leap_clip_box(r, vec3(leaf_lo * LEAP_CELL), vec3((leaf_lo + leaf_size) * LEAP_CELL), b0, b1) && b1 > t) {
+                // The leaf's exit wall, the same products leap_clip_box would take but without its
+                // divisions and per-axis branches (the sample at t lies in the leaf, so only the
+                // exit walls count): with leap_clip_box, octree's frame was 4-8 % longer on the scans.
+                vec3 walls = (vec3((leaf_lo + exit_side * leaf_size) * LEAP_CELL) - r.origin) * inv_dir;
+                float b1 = min(min(walls.x, walls.y), walls.z);
+                if (leaf_class == LEAP_CLASS_EMPTY && b1 > t) {
                     j = max(leap_lattice_first(lat, b1), j + 1.0);
                     t = lat.t0 + j * lat.dt;
                     more = t <= tb;
