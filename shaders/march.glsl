@@ -420,6 +420,16 @@ uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
     }
 }
 
+// The t where a ray inside the cube of `size` cells from cell `lo` leaves it: the least t of its
+// exit walls (exit_side: 1 where the ray leaves by the upper wall), from the ray's reciprocal
+// direction (1e30 along an axis it does not move on), without leap_clip_box's divisions and
+// per-axis branches, which made octree's frame 4-8 % longer on the scans.
+float leap_cube_exit(leap_ray r, ivec3 lo, int size, ivec3 exit_side, vec3 inv_dir)
+{
+    vec3 tw = (vec3((lo + exit_side * size) * LEAP_CELL) - r.origin) * inv_dir;
+    return min(min(tw.x, tw.y), tw.z);
+}
+
 // One past the last lattice index of the run from j (whose sample lies in `cell`) through the
 // cell: the sample at the computed exit wall's lattice index less one must lie in the cell too,
 // else the run is j alone, so the run j .. k-1 is the cell's (a cell is convex) however the exit
@@ -427,8 +437,7 @@ uint leap_tree_leaf(ivec3 c, out ivec3 lo, out int size)
 // from it.
 float leap_cell_run_end(leap_ray r, leap_lattice lat, float j, ivec3 cell, ivec3 exit_side, vec3 inv_dir)
 {
-    vec3 tw = (vec3((cell + exit_side) * LEAP_CELL) - r.origin) * inv_dir;
-    float k = max(leap_lattice_first(lat, min(min(tw.x, tw.y), tw.z)), j + 1.0);
+    float k = max(leap_lattice_first(lat, leap_cube_exit(r, cell, 1, exit_side, inv_dir)), j + 1.0);
     vec3 last = r.origin + (lat.t0 + (k - 1.0) * lat.dt) * r.dir;
     return any(notEqual(ivec3(floor(last)) >> LEAP_CELL_SHIFT, cell)) ? j + 1.0 : k;
 }
@@ -505,11 +514,7 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                 // to t or before; then the cell is passed as any mode passes it.
                 if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
                     leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
-                // The leaf's exit wall, the same products leap_clip_box would take but without its
-                // divisions and per-axis branches (the sample at t lies in the leaf, so only the
-                // exit walls count): with leap_clip_box, octree's frame was 4-8 % longer on the scans.
-                vec3 walls = (vec3((leaf_lo + exit_side * leaf_size) * LEAP_CELL) - r.origin) * inv_dir;
-                float b1 = min(min(walls.x, walls.y), walls.z);
+                float b1 = leap_cube_exit(r, leaf_lo, leaf_size, exit_side, inv_dir);
                 if (leaf_class == LEAP_CLASS_EMPTY && b1 > t) {
                     j = max(leap_lattice_first(lat, b1), j + 1.0);
                     t = lat.t0 + j * lat.dt;

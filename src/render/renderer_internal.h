@@ -83,7 +83,7 @@ struct leap_renderer {
      * constants, so each pipeline holds only the code it runs. Created on first use from
      * composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* [..][..][composite_volume] */
+    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* [mode][kind][volume bits, COMPOSITE_VOLUMES] */
     VkPipeline overflow[COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* sparseleap's overflowed rays (list LEAP_RAYS_OVERFLOW) */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
