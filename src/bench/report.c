@@ -277,11 +277,15 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
         snprintf(path, sizeof path, "%s/speed_error_%d.dat", o->out, v);
         FILE *d = fopen(path, "w");
         if (!d) continue;
+        double lo[2] = {INFINITY, INFINITY}, hi[2] = {0, 0}; /* error, frame ms */
         for (int m = 0; m < o->nmodes; ++m) {
             fprintf(d, "# %s\n", leap_mode_name((leap_mode)o->modes[m]));
             for (int st = 0; st < o->nsteps; ++st) {
                 summary s = summarize(rows, nrows, v, 0, m, st);
-                fprintf(d, "%.6g %.6g %g\n", s.rmse > 0 ? s.rmse : 1e-9, s.frame_ms, o->steps[st]);
+                double xy[2] = {s.rmse > 0 ? s.rmse : 1e-9, s.frame_ms};
+                for (int k = 0; k < 2; ++k)
+                    if (xy[k] > 0) lo[k] = fmin(lo[k], xy[k]), hi[k] = fmax(hi[k], xy[k]);
+                fprintf(d, "%.6g %.6g %g\n", xy[0], xy[1], o->steps[st]);
             }
             fprintf(d, "\n\n");
         }
@@ -289,9 +293,15 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
         char body[4096], name[256];
         int len = snprintf(body, sizeof body,
                            "set title 'speed against error: %s (%dx%d)'\nset xlabel 'RMSE against reference'\n"
-                           "set ylabel 'frame ms (median over views)'\nset logscale xy\nset key outside\nset grid\n"
-                           "plot ",
+                           "set ylabel 'frame ms (median over views)'\nset logscale xy\nset key outside\nset grid\n",
                            leap__base_name(o->volumes[v]), o->sizes[0][0], o->sizes[0][1]);
+        /* Every mode gives the same image, so with one step every point has one error (and one
+         * mode one frame time): gnuplot warns of an empty range unless it is given one. */
+        for (int k = 0; k < 2; ++k)
+            if (hi[k] > 0 && hi[k] <= lo[k] * 1.001)
+                len += snprintf(body + len, sizeof body - (size_t)len, "set %crange [%.6g:%.6g]\n", k ? 'y' : 'x',
+                                lo[k] / 2, hi[k] * 2);
+        len += snprintf(body + len, sizeof body - (size_t)len, "plot ");
         for (int m = 0; m < o->nmodes; ++m)
             len += snprintf(body + len, sizeof body - (size_t)len, "%s'%s' index %d using 1:2 with linespoints title '%s'",
                             m ? ", " : "", path, m, leap_mode_name((leap_mode)o->modes[m]));
