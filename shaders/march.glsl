@@ -501,17 +501,21 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
             // cell of zero opacity, whose samples add nothing; they are lattice samples the ray
             // takes, so they are counted.
             if (leap_mip) bound = constant ? (frame.image.z != 0u ? -x : x) : leap_mip_cell_bound(cur, tf);
-            if (!(leap_mip ? bound <= acc.color.r : constant && c.a == 0.0)) {
+            const bool pass = leap_mip ? bound <= acc.color.r : constant && c.a == 0.0;
+            // A segmentation's cells of hidden objects are rarely one object each (a cell mixes
+            // objects and background), so there the octree mode asks the tree at every cell.
+            if (!pass && !(leap_mode == LEAP_MODE_OCTREE && leap_labels)) {
                 found = true;
                 break;
             }
             if (leap_mode == LEAP_MODE_OCTREE) {
-                // The octree mode asks the tree only where the march passes a cell anyway, and
-                // then skips every sample of the EMPTY leaf around it, up to the leaf's exit:
-                // asked at every cell, the walk cost more than it saved (ch2: 0.88-0.94x naive's
-                // frame, against 0.94-0.98x; the same samples on the scans, fogs and blobs). The
-                // sample at t lies in the leaf, so the skip makes progress unless the exit rounds
-                // to t or before; then the cell is passed as any mode passes it.
+                // Elsewhere the octree mode asks the tree only where the march passes a cell
+                // anyway, and then skips every sample of the EMPTY leaf around it, up to the
+                // leaf's exit: asked at every cell, the walk cost more than it saved (ch2:
+                // 0.88-0.94x naive's frame, against 0.94-0.98x; the same samples on the scans,
+                // fogs and blobs). The sample at t lies in the leaf, so the skip makes progress
+                // unless the exit rounds to t or before; then the cell is passed as any mode
+                // passes it, or, a segmentation's, sampled.
                 if (any(lessThan(cell, leaf_lo)) || any(greaterThanEqual(cell, leaf_lo + leaf_size)))
                     leaf_class = leap_tree_leaf(cell, leaf_lo, leaf_size);
                 float b1 = leap_cube_exit(r, leaf_lo, leaf_size, exit_side, inv_dir);
@@ -520,6 +524,10 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
                     t = lat.t0 + j * lat.dt;
                     more = t <= tb;
                     continue;
+                }
+                if (leap_labels && !pass) {
+                    found = true;
+                    break;
                 }
             }
             float k = leap_cell_run_end(r, lat, j, cell, exit_side, inv_dir);
