@@ -223,6 +223,38 @@ static void check_vdb_render_missing(const char *path_env)
     CHECK_MSG(access(path, F_OK) != 0, "%s exists: the bench ran without vdb_render", path);
 }
 
+/* A segmentation's fixed-cost frame hides every object, and the objects --show chose are shown
+ * again afterwards: the next size's frames take the same share of naive's samples. */
+static void check_labels_shown_after_fixed_cost(void)
+{
+    char cmd[4096], path[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf %s/shown && %s bench %s/labels.vdb --show 3 --sizes 32x24,48x32 --views 1 "
+             "--steps 1 --modes naive,sparseleap --repeats 1 --warmup 0 --no-reference -o %s/shown 2>%s/shown.err",
+             LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    check_succeeds(cmd, "shown.err", "bench labels.vdb --show 3");
+    snprintf(path, sizeof path, "%s/shown/results.csv", LEAP_TEST_TMP);
+    char *csv = read_whole_file(path, NULL);
+    CHECK(csv != NULL);
+    if (!csv) return;
+    char *save = NULL, *header = strtok_r(csv, "\n", &save), f[64];
+    const int c_mode = csv_column(header, "mode"), c_spp = csv_column(header, "samples_per_pixel"),
+              c_naive = csv_column(header, "naive_samples_per_pixel");
+    double share[2] = {0, 0};
+    int n = 0;
+    for (char *line = strtok_r(NULL, "\n", &save); line; line = strtok_r(NULL, "\n", &save)) {
+        csv_field(line, c_mode, f, sizeof f);
+        if (strcmp(f, "sparseleap") || n >= 2) continue;
+        csv_field(line, c_spp, f, sizeof f);
+        const double spp = atof(f);
+        csv_field(line, c_naive, f, sizeof f);
+        share[n++] = spp / atof(f);
+    }
+    free(csv);
+    /* Object 3 alone takes 4.7 % and 4.9 % of naive's samples at the two sizes. */
+    CHECK_MSG(n == 2 && share[0] > 0.01 && share[0] < 0.2 && share[1] > 0.01 && share[1] < 0.2,
+              "sparseleap's share of naive's samples: %.3f at 32x24, %.3f at 48x32", share[0], share[1]);
+}
+
 /* Two volumes: sphere (float: vdb_render runs) and labels (int32: skipped with a note). */
 static void check_vdb_render_rows(void)
 {
@@ -370,6 +402,7 @@ int main(void)
     check_config_bad_option();
     check_config_large_and_nested_output();
     check_without_naive();
+    check_labels_shown_after_fixed_cost();
     check_cache();
     check_image_out_of_memory();
 

@@ -3,6 +3,7 @@
  * rows go to results.csv (published whole) and then to the report. */
 #include <errno.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -88,8 +89,25 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_r
     return LEAP_OK;
 }
 
-/* Fills fixed->ns[vi][si][*] (see fixed_costs): every value transparent, the first orbit
- * view, the first step; the scene's transfer function is restored afterwards. */
+/* A segmentation's visible objects, saved (a byte per object; NULL: out of memory) and restored. */
+static uint8_t *save_visible(const leap_labels *labels)
+{
+    const size_t count = leap_labels_count(labels);
+    uint8_t *visible = malloc(count ? count : 1);
+    for (size_t i = 0; visible && i < count; ++i) visible[i] = (uint8_t)leap_labels_visible(labels, i);
+    return visible;
+}
+
+static void restore_visible(leap_labels *labels, const uint8_t *visible)
+{
+    const leap_label_object *objs = leap_labels_objects(labels);
+    for (size_t i = 0; i < leap_labels_count(labels); ++i)
+        leap_labels_set_visible(labels, objs[i].id, objs[i].id, visible[i]);
+}
+
+/* Fills fixed->ns[vi][si][*] (see fixed_costs): every value transparent (a segmentation: every
+ * object hidden), the first orbit view, the first step; the scene's transfer function and
+ * objects are restored afterwards. */
 static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const leap_bench_desc *o, int vi, int si,
                                  float *img, fixed_costs *fixed, leap_error *err)
 {
@@ -104,8 +122,16 @@ static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const l
     leap_tf keep = s->tf, blank = s->tf;
     for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) blank.rgba[i][3] = 0.0f;
     const double lo = s->march.range_lo, hi = s->march.range_hi;
-    if ((lr = leap_scene_set_tf(s, &blank, lo, hi, err)) || (lr = leap_renderer_bind_scene(renderer, s, err)))
+    uint8_t *visible = NULL;
+    if (s->labels) {
+        if (!(visible = save_visible(s->labels))) return leap_fail(err, LEAP_ERR_OOM, "out of memory");
+        leap_labels_set_visible(s->labels, INT64_MIN, INT64_MAX, 0);
+        lr = leap_scene_update_objects(s, err);
+    }
+    if (lr || (lr = leap_scene_set_tf(s, &blank, lo, hi, err)) || (lr = leap_renderer_bind_scene(renderer, s, err))) {
+        free(visible);
         return lr;
+    }
     for (int m = 0; m < o->nmodes && !lr; ++m) {
         run_result r;
         if ((lr = time_run(renderer, s, &view, o->modes[m], o, img, NULL, 0, &r, err))) break;
@@ -117,6 +143,11 @@ static leap_result measure_fixed(leap_renderer *renderer, leap_scene *s, const l
         fixed->every_pixel[vi][si][m] = r.composite_ms * 1e6 / pixels;
     }
     leap_result restore = leap_scene_set_tf(s, &keep, lo, hi, err);
+    if (visible) {
+        restore_visible(s->labels, visible);
+        free(visible);
+        if (!restore) restore = leap_scene_update_objects(s, err);
+    }
     if (!restore) restore = leap_renderer_bind_scene(renderer, s, err);
     return lr ? lr : restore;
 }
@@ -258,6 +289,8 @@ static leap_result measure_toggles(bench_state *b, leap_scene *s, int vi, leap_e
                                 "objects), boxes, and binding them to the renderer (the object table is copied there; the GPU "
                                 "copies happen in the next frame, timed with it).\n\n| volume | "
                                 "objects | k | classify ms | boxes ms | bind ms | toggle ms |\n|---|---|---|---|---|---|---|\n");
+    uint8_t *visible = save_visible(s->labels);
+    if (!visible) return leap_fail(err, LEAP_ERR_OOM, "out of memory");
     const size_t ks[2] = {1, 1000};
     for (int t = 0; t < 2; ++t) {
         const size_t k = ks[t] < count - 1 ? ks[t] : count - 1;
@@ -272,7 +305,10 @@ static leap_result measure_toggles(bench_state *b, leap_scene *s, int vi, leap_e
             leap_result lr = leap_scene_update_objects(s, err);
             double t1 = leap__now_ms();
             if (!lr) lr = leap_renderer_bind_scene(b->renderer, s, err);
-            if (lr) return lr;
+            if (lr) {
+                free(visible);
+                return lr;
+            }
             double t2 = leap__now_ms();
             cls[rep] = s->classify_ms;
             box[rep] = s->boxes_ms;
@@ -290,6 +326,8 @@ static leap_result measure_toggles(bench_state *b, leap_scene *s, int vi, leap_e
                                 count, k, m[0], m[1], m[2], m[3]);
         if (len >= sizeof b->toggles_md) len = sizeof b->toggles_md - 1;
     }
+    restore_visible(s->labels, visible); /* the objects shown before, as --show chose them */
+    free(visible);
     return leap_scene_update_objects(s, err);
 }
 
