@@ -223,6 +223,53 @@ static void check_vdb_render_missing(const char *path_env)
     CHECK_MSG(access(path, F_OK) != 0, "%s exists: the bench ran without vdb_render", path);
 }
 
+/* A volume that cannot be opened fails the bench before it starts; one that fails part way
+ * keeps the results of the volumes before it; a file-size limit fails the bench and leaves no
+ * report cut short. */
+static void check_failures_keep_work(void)
+{
+    char cmd[8192], path[2048];
+    snprintf(cmd, sizeof cmd, "rm -rf %s/typo && %s bench %s/sphere.vdb %s/no-such.vdb --sizes 32x24 --views 1 "
+             "--steps 1 --modes naive --repeats 1 --warmup 0 --no-reference -o %s/typo 2>%s/typo.err",
+             LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    int rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/typo.err", LEAP_TEST_TMP);
+    char *err = read_whole_file(path, NULL);
+    CHECK_MSG(rc == 1 && err && strstr(err, "no-such.vdb") && !strstr(err, "sphere.vdb view"),
+              "missing volume: exit %d, stderr: %s", rc, err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/typo", LEAP_TEST_TMP);
+    CHECK_MSG(access(path, F_OK) != 0, "%s made for a bench that could not start", path);
+
+    snprintf(path, sizeof path, "%s/cut.vdb", LEAP_TEST_TMP);
+    snprintf(cmd, sizeof cmd, "head -c 3000 %s/cloud.vdb > %s && rm -rf %s/part && %s bench %s/sphere.vdb %s "
+             "--sizes 32x24 --views 1 --steps 1 --modes naive --repeats 1 --warmup 0 --no-reference -o %s/part "
+             "2>%s/part.err", LEAP_VOLUMES, path, LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, path, LEAP_TEST_TMP,
+             LEAP_TEST_TMP);
+    rc = run_status(cmd);
+    CHECK_MSG(rc == 1, "a truncated second volume: exit %d", rc);
+    snprintf(path, sizeof path, "%s/part/results.csv", LEAP_TEST_TMP);
+    char *csv = read_whole_file(path, NULL);
+    CHECK_MSG(csv && strstr(csv, "sphere.vdb,") && !strstr(csv, "cut.vdb,"), "%s: %s", path, csv ? csv : "missing");
+    free(csv);
+    snprintf(path, sizeof path, "%s/part/report.md", LEAP_TEST_TMP);
+    char *md = read_whole_file(path, NULL);
+    CHECK_MSG(md && strstr(md, "## sphere.vdb") && !strstr(md, "cut.vdb"), "%s: %s", path, md ? "no sphere" : "missing");
+    free(md);
+
+    snprintf(cmd, sizeof cmd, "rm -rf %s/limit && sh -c \"trap '' XFSZ; ulimit -f 1; exec %s bench %s/sphere.vdb "
+             "--sizes 32x24 --views 1 --steps 1 --modes naive --repeats 1 --warmup 0 -o %s/limit\" 2>%s/limit.err",
+             LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/limit.err", LEAP_TEST_TMP);
+    err = read_whole_file(path, NULL);
+    CHECK_MSG(rc == 1 && err && strstr(err, "report.md: cannot write: File too large"), "file-size limit: exit %d, %s",
+              rc, err ? err : "(none)");
+    free(err);
+    snprintf(path, sizeof path, "%s/limit/report.md", LEAP_TEST_TMP);
+    CHECK_MSG(access(path, F_OK) != 0, "%s written past the file-size limit", path);
+}
+
 /* A segmentation's fixed-cost frame hides every object, and the objects --show chose are shown
  * again afterwards: the next size's frames take the same share of naive's samples. */
 static void check_labels_shown_after_fixed_cost(void)
@@ -326,7 +373,7 @@ static void check_vdb_render_rows(void)
      * x 2 modes) + the fixed-cost run, plus 2 views x 2 steps of vdb_render for the sphere. */
     snprintf(path, sizeof path, "%s/vdb.err", LEAP_TEST_TMP);
     char *err = read_whole_file(path, NULL);
-    CHECK_MSG(err && strstr(err, "vdb_render") && strstr(err, "26/26 done"), "stderr: %s", err ? err : "(none)");
+    CHECK_MSG(err && strstr(err, "vdb_render") && strstr(err, "[26/26] done"), "stderr: %s", err ? err : "(none)");
     free(err);
 }
 
@@ -403,6 +450,7 @@ int main(void)
     check_config_large_and_nested_output();
     check_without_naive();
     check_labels_shown_after_fixed_cost();
+    check_failures_keep_work();
     check_cache();
     check_image_out_of_memory();
 

@@ -53,6 +53,8 @@ typedef struct leap_bench_desc {
 typedef struct leap_bench_outcome {
     int failed_volume; /* index of the volume the failure is about, or -1 */
     int vdb_failures;  /* volumes on which vdb_render failed (reported, the bench went on) */
+    int volumes_kept;  /* a run that failed part way: the volumes before the failure, whose rows
+                          results.csv holds and report.md reports (0: nothing was written) */
 } leap_bench_outcome;
 
 /* The defaults: modes naive,bbox,octree,sparseleap; steps 0.25,0.5,1; 8 views at elevation

@@ -7,14 +7,66 @@
 #include <string.h>
 
 #include "bench_internal.h"
+#include "leap/files.h"
 #include "leap/renderer.h"
 #include "util.h"
+
+/* A text file of the report, written beside its path and renamed into place when complete: a
+ * full disk or a file-size limit fails the bench naming the file, and never leaves it cut short. */
+typedef struct report_file {
+    leap_publish pub;
+    FILE *f;
+} report_file;
+
+static FILE *report_open(report_file *rf, const char *path)
+{
+    leap_error ignore;
+    rf->f = NULL;
+    if (leap_publish_begin(&rf->pub, path, &ignore)) return NULL;
+    if (!(rf->f = fopen(rf->pub.tmp, "w"))) leap_publish_abort(&rf->pub);
+    return rf->f;
+}
+
+/* Closes and publishes the file (NULL: it was never opened); 0 and a message naming it on failure. */
+static int report_close(report_file *rf, leap_error *err)
+{
+    if (!rf->f) return 1;
+    int ok = !ferror(rf->f);
+    int e = errno;
+    if (fclose(rf->f) != 0 && ok) ok = 0, e = errno;
+    rf->f = NULL;
+    if (!ok) {
+        leap_publish_abort(&rf->pub);
+        leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", rf->pub.path, strerror(e));
+        return 0;
+    }
+    return leap_publish_commit(&rf->pub, err) == LEAP_OK;
+}
+
+/* Whether gnuplot's image is whole: a PNG ends with its IEND chunk, an SVG with its closing tag
+ * (gnuplot does not report a write that failed, as under a file-size limit). */
+static int plot_complete(const char *path, int svg)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return 0;
+    char tail[16] = {0};
+    long n = 0;
+    if (fseek(f, -(long)sizeof tail, SEEK_END) == 0) n = (long)fread(tail, 1, sizeof tail, f);
+    fclose(f);
+    static const char iend[8] = {'I', 'E', 'N', 'D', (char)0xAE, 0x42, 0x60, (char)0x82};
+    if (n != (long)sizeof tail) return 0;
+    if (!svg) return memcmp(tail + sizeof tail - 8, iend, 8) == 0;
+    for (long i = 0; i + 6 <= n; ++i)
+        if (memcmp(tail + i, "</svg>", 6) == 0) return 1;
+    return 0;
+}
 
 static int run_gnuplot(const leap_bench_desc *o, const char *dir, const char *name, const char *body)
 {
     char path[4096];
     snprintf(path, sizeof path, "%s/%s.gp", dir, name);
-    FILE *f = fopen(path, "w");
+    report_file gp;
+    FILE *f = report_open(&gp, path);
     if (!f) return 0;
     /* The same plot twice: PNG for viewing, SVG for documents. */
     for (int svg = 0; svg < 2; ++svg) {
@@ -24,7 +76,8 @@ static int run_gnuplot(const leap_bench_desc *o, const char *dir, const char *na
         fputs(body, f);
         fputs("\n", f);
     }
-    fclose(f);
+    leap_error ignore;
+    if (!report_close(&gp, &ignore)) return 0;
     char cmd[8192];
     snprintf(cmd, sizeof cmd, "gnuplot '%s' 2>&1", path);
     FILE *p = popen(cmd, "r");
@@ -38,7 +91,15 @@ static int run_gnuplot(const leap_bench_desc *o, const char *dir, const char *na
         noisy = 1;
     }
     int status = pclose(p);
-    return status == 0 && !noisy;
+    int whole = 1;
+    for (int svg = 0; svg < 2; ++svg) {
+        snprintf(path, sizeof path, "%s/%s.%s", dir, name, svg ? "svg" : "png");
+        if (!plot_complete(path, svg)) {
+            remove(path); /* cut short: no image rather than a broken one */
+            whole = 0;
+        }
+    }
+    return status == 0 && !noisy && whole;
 }
 
 
@@ -116,7 +177,8 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     int have_errors = !o->no_reference;
     char path[4096];
     snprintf(path, sizeof path, "%s/report.md", o->out);
-    FILE *md = fopen(path, "w");
+    report_file md_file, sp_file = {.f = NULL}, sg_file = {.f = NULL};
+    FILE *md = report_open(&md_file, path);
     if (!md) return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
     fprintf(md, "# leap bench\n\nDevice: %s. %d views on an orbit at elevation %g deg, %d timed frames after %d "
                 "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. Timed frames "
@@ -157,13 +219,13 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     int mid = o->nsteps / 2;
     /* Data for the plots. */
     snprintf(path, sizeof path, "%s/speedup.dat", o->out);
-    FILE *sp = fopen(path, "w");
+    FILE *sp = report_open(&sp_file, path);
     snprintf(path, sizeof path, "%s/stages.dat", o->out);
-    FILE *sg = fopen(path, "w");
+    FILE *sg = report_open(&sg_file, path);
     if (!sp || !sg) {
-        if (sp) fclose(sp);
-        if (sg) fclose(sg);
-        fclose(md);
+        report_file *open[3] = {&sp_file, &sg_file, &md_file};
+        for (int i = 0; i < 3; ++i)
+            if (open[i]->f) fclose(open[i]->f), leap_publish_abort(&open[i]->pub);
         return leap_fail(err, LEAP_ERR_IO, "%s: cannot write plot data", o->out);
     }
     fprintf(sp, "volume");
@@ -275,8 +337,12 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
         /* speed against error, one curve per mode over the steps (first size) */
         if (!have_errors) continue;
         snprintf(path, sizeof path, "%s/speed_error_%d.dat", o->out, v);
-        FILE *d = fopen(path, "w");
-        if (!d) continue;
+        report_file d_file;
+        FILE *d = report_open(&d_file, path);
+        if (!d) {
+            plots_ok = 0;
+            continue;
+        }
         double lo[2] = {INFINITY, INFINITY}, hi[2] = {0, 0}; /* error, frame ms */
         for (int m = 0; m < o->nmodes; ++m) {
             fprintf(d, "# %s\n", leap_mode_name((leap_mode)o->modes[m]));
@@ -289,7 +355,11 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
             }
             fprintf(d, "\n\n");
         }
-        fclose(d);
+        leap_error ignore;
+        if (!report_close(&d_file, &ignore)) {
+            plots_ok = 0;
+            continue;
+        }
         char body[4096], name[256];
         int len = snprintf(body, sizeof body,
                            "set title 'speed against error: %s (%dx%d)'\nset xlabel 'RMSE against reference'\n"
@@ -309,8 +379,8 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
         plots_ok &= run_gnuplot(o, o->out, name, body);
         fprintf(md, "\n![speed against error](%s.png)\n", name);
     }
-    fclose(sp);
-    fclose(sg);
+    int data_ok = report_close(&sp_file, err);
+    if (!report_close(&sg_file, data_ok ? err : &(leap_error){{0}})) data_ok = 0;
     int with_naive = 0; /* the speedup plot needs naive's frames */
     for (int m = 0; m < o->nmodes; ++m) with_naive |= o->modes[m] == LEAP_RENDER_NAIVE;
     snprintf(path, sizeof path, "%s/speedup.dat", o->out);
@@ -330,8 +400,8 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     plots_ok &= run_gnuplot(o, o->out, "stages", body);
     if (extra_md && extra_md[0]) fputs(extra_md, md);
     fprintf(md, "%s\n![stages](stages.png)\n", with_naive ? "\n![speedup](speedup.png)\n" : "");
-    fclose(md);
+    if (!report_close(&md_file, data_ok ? err : &(leap_error){{0}}) || !data_ok) return LEAP_ERR_IO;
     if (!plots_ok)
-        return leap_fail(err, LEAP_ERR_IO, "%s: gnuplot failed to draw some plots (is gnuplot installed?)", o->out);
+        return leap_fail(err, LEAP_ERR_IO, "%s: gnuplot failed to draw some plots (is gnuplot installed, and is there room to write them?)", o->out);
     return LEAP_OK;
 }

@@ -7,9 +7,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "bench_internal.h"
 #include "leap/files.h"
+#include "leap/input.h"
 #include "leap/reference.h"
 #include "leap/renderer.h"
 #include "leap/scene.h"
@@ -404,15 +407,20 @@ static leap_result run_all(bench_state *b, char *device, size_t device_n, leap_e
     for (int vi = 0; vi < o->nvolumes && !lr; ++vi) lr = run_volume(b, vi, err);
     if (b->rows && b->fixed) progress(o, b->done, b->total, lr ? "failed" : "done");
     if (b->vdb) vdb_runner_close(b->vdb, o);
-    int closed = fclose(b->csv) == 0;
+    /* A volume that failed keeps the rows before it: the CSV holds them and the report the
+     * volumes done, and the failure is still the bench's outcome. */
+    int closed = !ferror(b->csv);
+    int e = errno;
+    if (fclose(b->csv) != 0 && closed) closed = 0, e = errno;
     b->csv = NULL;
-    if (lr || !closed) {
+    if (!closed || b->nrows == 0) {
         leap_publish_abort(&pub);
-        return lr ? lr : leap_fail(err, LEAP_ERR_IO, "%s: cannot write", path);
+        return lr ? lr : leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(e));
     }
-    if ((lr = leap_publish_commit(&pub, err))) return lr;
+    leap_error commit_err;
+    if (leap_publish_commit(&pub, lr ? &commit_err : err)) return lr ? lr : LEAP_ERR_IO;
     snprintf(device, device_n, "%s, %s", leap_renderer_device_name(b->renderer), leap_renderer_driver_name(b->renderer));
-    return LEAP_OK;
+    return lr;
 }
 
 leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome, leap_error *err)
@@ -422,6 +430,18 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
     *b.outcome = (leap_bench_outcome){.failed_volume = -1};
     if (o->nvolumes < 1 || o->nvolumes > MAX_ITEMS || !o->out)
         return leap_fail(err, LEAP_ERR_USAGE, "bench: no volume or no output directory");
+    /* A volume that cannot be opened fails the bench before anything runs, not hours into it. */
+    for (int vi = 0; vi < o->nvolumes; ++vi) {
+        struct stat st;
+        const char *v = o->volumes[vi];
+        if (leap_input_is_slices(v)) continue; /* a folder or pattern of images: found when read */
+        const int found = stat(v, &st) == 0, e = errno;
+        if (!found || S_ISDIR(st.st_mode) || access(v, R_OK) != 0) {
+            b.outcome->failed_volume = vi;
+            return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", v,
+                             !found ? strerror(e) : S_ISDIR(st.st_mode) ? "it is a directory" : strerror(errno));
+        }
+    }
     leap_result lr = leap_make_dirs(o->out, NULL, err);
     if (lr) return lr;
     int vdb_runs = 0;
@@ -440,7 +460,16 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
     char device[512] = "";
     lr = run_all(&b, device, sizeof device, err);
     leap_renderer_destroy(b.renderer);
-    if (!lr) lr = bench_write_report(o, b.rows, b.nrows, b.fixed, device, b.vdb, b.toggles_md, err);
+    if (!lr) {
+        lr = bench_write_report(o, b.rows, b.nrows, b.fixed, device, b.vdb, b.toggles_md, err);
+    } else if (b.nrows && b.outcome->failed_volume > 0) {
+        /* The report of the volumes before the one that failed (its error stays the outcome). */
+        leap_bench_desc done = *o;
+        done.nvolumes = b.outcome->failed_volume;
+        leap_error report_err;
+        if (!bench_write_report(&done, b.rows, b.nrows, b.fixed, device, b.vdb, b.toggles_md, &report_err))
+            b.outcome->volumes_kept = done.nvolumes;
+    }
     if (b.vdb) b.outcome->vdb_failures = b.vdb->failures;
     free(b.rows);
     free(b.fixed);

@@ -4,6 +4,7 @@
  * vdb_render is run on the same frames as an external timing baseline. */
 #include <stdio.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "cli_common.h"
 #include "leap/bench.h"
@@ -69,6 +70,10 @@ static int bar_drawn; /* a progress bar's line is open: a message starts a line 
 static void progress(int done, int total, const char *what, void *user)
 {
     (void)user;
+    if (!isatty(2)) { /* a log: a line per step, not a bar redrawn with carriage returns */
+        fprintf(stderr, "leap bench: [%d/%d] %s\n", done, total, what);
+        return;
+    }
     cli_progress(done, total, what);
     bar_drawn = done < total;
 }
@@ -206,12 +211,17 @@ int cli_bench(int argc, char **argv)
     leap_error err = {{0}};
     leap_bench_outcome outcome;
     leap_result lr = leap_bench_run(&o, &outcome, &err);
+    if (bar_drawn) fputc('\n', stderr); /* a bar a failure left open */
+    bar_drawn = 0;
     if (lr && outcome.failed_volume >= 0)
         rc = cli_input_error(o.volumes[outcome.failed_volume], o.tf, lr, err.msg);
     else if (lr)
         rc = bench_error(lr, err.msg);
     else
         fprintf(stderr, "leap bench: wrote %s/results.csv, %s/report.md and plots\n", o.out, o.out);
+    if (lr && outcome.volumes_kept)
+        fprintf(stderr, "leap bench: the results of the %d volume(s) before it are in %s/results.csv and %s/report.md\n",
+                outcome.volumes_kept, o.out, o.out);
     if (!rc && outcome.vdb_failures)
         rc = cli_runtime_error("vdb_render failed on %d volume(s) (see above); the results hold the runs that "
                                "succeeded", outcome.vdb_failures);
