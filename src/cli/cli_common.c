@@ -229,7 +229,15 @@ void cli_progress_bar_report(void *user, const char *what, double done)
 {
     cli_progress_bar *bar = user;
     const double now = leap__now_ms();
-    if (now - bar->start_ms < 1000 || now - bar->drawn_ms < 100 || !isatty(2)) return;
+    /* LEAP_PROGRESS_DELAY_MS: how long work runs before its bar shows (default a second) */
+    static double delay_ms = -1;
+    if (delay_ms < 0) {
+        const char *env = getenv("LEAP_PROGRESS_DELAY_MS");
+        char *end = NULL;
+        double v = env ? strtod(env, &end) : 0;
+        delay_ms = env && end != env && *end == '\0' && v >= 0 && v <= 1e9 ? v : 1000;
+    }
+    if (now - bar->start_ms < delay_ms || now - bar->drawn_ms < 100 || !isatty(2)) return;
     char text[80];
     snprintf(text, sizeof text, "%3.0f %% %-44.44s", 100.0 * done, what);
     draw_bar(done, text);

@@ -108,7 +108,8 @@ leap_result cli_camera(const cli_camera_options *o, const leap_scene *scene, lea
 void cli_progress(int done, int total, const char *what);
 
 /* A progress bar for long work of unknown length (a leap_progress_fn: user is the bar): drawn on
- * a terminal's stderr once the work has taken a second, at most ten times a second;
+ * a terminal's stderr once the work has taken a second (LEAP_PROGRESS_DELAY_MS), at most ten
+ * times a second;
  * cli_progress_bar_end clears it. */
 typedef struct cli_progress_bar {
     double start_ms, drawn_ms;

@@ -93,11 +93,13 @@ int cli_convert(int argc, char **argv)
     if (!r && labels && !leap_grid_has_labels(grid)) r = leap_grid_make_labels(grid, &err);
     const double t_build = leap__now_ms();
     if (!r) stage(quiet, 2, "writing");
+    int writing = !r;
     if (!r) r = leap_grid_save(grid, source.up, output, &err);
     const double t_write = leap__now_ms();
     if (r) {
         if (!quiet && isatty(2)) fputc('\n', stderr);
-        rc = cli_input_error(input, NULL, r, err.msg);
+        /* the output's error names the output, not the input */
+        rc = writing ? cli_input_error(output, NULL, r, err.msg) : cli_input_error(input, NULL, r, err.msg);
     } else {
         stage(quiet, 3, "done");
         const leap_grid_info *gi = leap_grid_get_info(grid);

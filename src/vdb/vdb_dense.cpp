@@ -65,7 +65,7 @@ leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char
     leap_publish pub;
     leap_result r = leap_publish_begin(&pub, path, err);
     if (r) return r;
-    r = guarded(err, LEAP_ERR_IO, std::string("cannot write '") + path + "'", [&]() -> leap_result {
+    r = guarded(err, LEAP_ERR_IO, std::string(path) + ": cannot write", [&]() -> leap_result {
         init_openvdb();
         vdb::GridBase::Ptr out;
         if (grid->labels) {
@@ -77,7 +77,7 @@ leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char
         out->setName(grid->info.name);
         if (up) out->insertMeta("up", vdb::Vec3DMetadata(vdb::Vec3d(up[0], up[1], up[2])));
         vdb::GridCPtrVec grids{out};
-        vdb::io::File(pub.tmp).write(grids);
+        write_vdb_file(pub.tmp, grids);
         return LEAP_OK;
     });
     if (r) {

@@ -79,6 +79,11 @@ leap_result guarded(leap_error *err, leap_result code, const std::string &what, 
 // A grid made from a dense box of voxels (leap_vdb_from_dense); throws on failure.
 vdb::GridBase::Ptr dense_to_grid(const leap_dense_volume &volume);
 
+// Writes grids to a .vdb file as io::File does (with grid offsets, so it can be read on demand),
+// but on a stream whose failure is an error: io::File does not check its stream after writing,
+// so a full disk or a file-size limit left a file cut short, reported as written. Throws.
+void write_vdb_file(const std::string &path, const vdb::GridCPtrVec &grids);
+
 // Damage found by the structure checks below, before OpenVDB reads the bytes.
 struct Corrupt : std::runtime_error {
     using std::runtime_error::runtime_error;

@@ -1,7 +1,30 @@
 // Writing .vdb files (tools and tests make their inputs with it).
+#include <cerrno>
+#include <cstring>
+#include <fstream>
+
 #include "vdb_internal.h"
 
 using namespace leap_vdb_detail;
+
+namespace leap_vdb_detail {
+
+void write_vdb_file(const std::string &path, const vdb::GridCPtrVec &grids)
+{
+    // io::File's own writer is Archive's seekable one on an unchecked std::ofstream.
+    struct SeekableWriter : vdb::io::Archive {
+        void write_to(std::ostream &os, const vdb::GridCPtrVec &g) const { Archive::write(os, g, true); }
+    };
+    errno = 0;
+    std::ofstream os(path, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
+    if (!os) throw std::runtime_error(std::strerror(errno ? errno : EIO));
+    SeekableWriter().write_to(os, grids);
+    const int e = errno;
+    if (os) os.close();
+    if (!os) throw std::runtime_error(std::strerror(errno ? errno : e ? e : EIO));
+}
+
+} // namespace leap_vdb_detail
 
 struct WriterGrid {
     vdb::GridBase::Ptr grid;
@@ -205,10 +228,10 @@ leap_result leap_vdb_writer_save(leap_vdb_writer *writer, const char *path, leap
     if (!writer->deferred_error.empty())
         return leap_fail(err, LEAP_ERR_USAGE, "cannot write '%s': an earlier edit failed: %s", path,
                          writer->deferred_error.c_str());
-    return guarded(err, LEAP_ERR_IO, std::string("cannot write '") + path + "'", [&]() -> leap_result {
+    return guarded(err, LEAP_ERR_IO, std::string(path) + ": cannot write", [&]() -> leap_result {
         vdb::GridCPtrVec grids;
         for (const WriterGrid &g : writer->grids) grids.push_back(g.grid);
-        vdb::io::File(path).write(grids);
+        write_vdb_file(path, grids);
         return LEAP_OK;
     });
 }
