@@ -136,6 +136,58 @@ static void non_regular_files(void)
     FAIL("bench config > 64 KiB", 2, "bogus_key", "unknown", "bench", sphere, "-o", out_path("B"), "--config", big);
 }
 
+/* Outputs that are not plain files: a link is written through (its file replaced, the link
+ * kept), a FIFO given to --stats is written in place (a reader gets the JSON), an image onto a
+ * FIFO is refused, and a directory where an output goes is refused before any work. (The temp-
+ * and-rename replaced each of them with a regular file, /dev/null and /dev/stdout as root.) */
+static void special_outputs(void)
+{
+    ++case_count;
+    const char *target = out_path("target.json"), *link = out_path("link.json");
+    write_text(target, "old\n");
+    CHECK(symlink("target.json", link) == 0);
+    const char *const through_link[] = {"render", sphere, "-o", out_path("a.png"), "--size", "16x16", "--stats", link,
+                                        "-q", NULL};
+    CHECK_MSG(run_leap(through_link) == 0, "--stats through a link: %s", res.err);
+    struct stat st;
+    char text[4096];
+    read_text(target, text, sizeof text);
+    CHECK_MSG(lstat(link, &st) == 0 && S_ISLNK(st.st_mode) && strstr(text, "\"input\""),
+              "--stats through a link: the link %s, its file holds %.40s", S_ISLNK(st.st_mode) ? "kept" : "replaced",
+              text);
+    clean_dir(out_dir);
+
+    ++case_count;
+    const char *fifo = out_path("stats.json"), *got = out_path("got.json");
+    CHECK(mkfifo(fifo, 0644) == 0);
+    pid_t reader = fork();
+    if (reader == 0) {
+        FILE *in = fopen(fifo, "r"), *out = fopen(got, "w");
+        int c;
+        while (in && out && (c = fgetc(in)) != EOF) fputc(c, out);
+        if (out) fclose(out);
+        _exit(0);
+    }
+    const char *const into_fifo[] = {"render", sphere, "-o", out_path("a.png"), "--size", "16x16", "--stats", fifo,
+                                     "-q", NULL};
+    CHECK_MSG(run_leap(into_fifo) == 0, "--stats into a FIFO: %s", res.err);
+    waitpid(reader, NULL, 0);
+    read_text(got, text, sizeof text);
+    CHECK_MSG(lstat(fifo, &st) == 0 && S_ISFIFO(st.st_mode) && strstr(text, "\"input\""),
+              "--stats into a FIFO: the FIFO %s, its reader got %.40s", S_ISFIFO(st.st_mode) ? "kept" : "replaced",
+              text);
+    clean_dir(out_dir);
+
+    const char *image_fifo = in_path("image.png"), *dir = in_path("dir.png"), *vdb_dir = in_path("dir.vdb");
+    CHECK(mkfifo(image_fifo, 0644) == 0);
+    mkdir(dir, 0755);
+    mkdir(vdb_dir, 0755);
+    FAIL("render -o FIFO", 1, "image.png", "not a regular file", "render", sphere, "-o", image_fifo);
+    FAIL("render -o directory", 1, "dir.png", "is a directory", "render", sphere, "-o", dir);
+    FAIL("convert -o directory", 1, "dir.vdb", "is a directory", "convert", sphere, "-o", vdb_dir);
+    CHECK(lstat(image_fifo, &st) == 0 && S_ISFIFO(st.st_mode));
+}
+
 static int count_temporaries(const char *dir)
 {
     DIR *d = opendir(dir);
@@ -435,6 +487,7 @@ int main(void)
     harness_init();
     outputs_never_replace_inputs();
     non_regular_files();
+    special_outputs();
     signals_and_limits();
     address_space_limit();
     constant_grids();

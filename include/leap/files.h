@@ -42,14 +42,22 @@ void leap_signals_install(void);
  * its temporaries before the program exits. 0: none. */
 void leap_signals_child(int pid);
 
+/* Where an output path leads: a link is followed to its file (*target; a link to nothing is
+ * an error), a directory is an error, and *stream = 1 for an existing device or FIFO, which is
+ * written in place (0: a regular file, or none yet). */
+leap_result leap_output_target(const char *path, char *target, size_t n, int *stream, leap_error *err);
+
 /* Atomic publishing: leap_publish_begin names a tracked temporary file beside path (same
  * directory and extension, so format choice and rename() work), the caller writes p->tmp,
  * then leap_publish_commit renames it into place or leap_publish_abort removes it. Any
- * failure removes the temporary; messages name path, never the temporary. */
+ * failure removes the temporary; messages name path, never the temporary. A link is
+ * followed (its file is replaced, not the link), and a device or FIFO is written in place
+ * (p->tmp = p->path, stream: commit and abort leave it). */
 typedef struct leap_publish {
     char path[4096];
     char tmp[4096];
     int slot;
+    int stream;
 } leap_publish;
 leap_result leap_publish_begin(leap_publish *p, const char *path, leap_error *err);
 leap_result leap_publish_commit(leap_publish *p, leap_error *err);

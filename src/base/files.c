@@ -159,11 +159,40 @@ void leap_signals_install(void)
     signal(SIGXFSZ, SIG_IGN);
 }
 
-leap_result leap_publish_begin(leap_publish *p, const char *path, leap_error *err)
+leap_result leap_output_target(const char *path, char *target, size_t n, int *stream, leap_error *err)
 {
+    struct stat st;
+    *stream = 0;
+    if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode)) {
+        char resolved[PATH_MAX];
+        if (!realpath(path, resolved))
+            return leap_fail(err, LEAP_ERR_IO, "%s: a link that leads to no file (%s)", path, strerror(errno));
+        if (snprintf(target, n, "%s", resolved) >= (int)n) return leap_fail(err, LEAP_ERR_IO, "%s: path too long", path);
+    } else if (snprintf(target, n, "%s", path) >= (int)n) {
+        return leap_fail(err, LEAP_ERR_IO, "%s: path too long", path);
+    }
+    if (stat(target, &st) != 0) return LEAP_OK; /* a new file */
+    if (S_ISDIR(st.st_mode)) return leap_fail(err, LEAP_ERR_IO, "%s: is a directory", path);
+    *stream = !S_ISREG(st.st_mode);
+    return LEAP_OK;
+}
+
+leap_result leap_publish_begin(leap_publish *p, const char *path_given, leap_error *err)
+{
+    char path[4096];
+    int stream = 0;
+    p->slot = -1;
+    p->stream = 0;
+    leap_result r = leap_output_target(path_given, path, sizeof path, &stream, err);
+    if (r) return r;
+    if (stream) { /* a device or FIFO is written in place: there is no file to replace */
+        snprintf(p->path, sizeof p->path, "%s", path);
+        snprintf(p->tmp, sizeof p->tmp, "%s", path);
+        p->stream = 1;
+        return LEAP_OK;
+    }
     const char *slash = strrchr(path, '/');
     int dir_len = slash ? (int)(slash - path) + 1 : 0;
-    p->slot = -1;
     if (snprintf(p->path, sizeof p->path, "%s", path) >= (int)sizeof p->path ||
         snprintf(p->tmp, sizeof p->tmp, "%.*s.leap-tmp-%d-%s", dir_len, path, (int)getpid(), path + dir_len) >=
             (int)sizeof p->tmp)
@@ -174,6 +203,7 @@ leap_result leap_publish_begin(leap_publish *p, const char *path, leap_error *er
 
 leap_result leap_publish_commit(leap_publish *p, leap_error *err)
 {
+    if (p->stream) return LEAP_OK;
     if (rename(p->tmp, p->path) != 0) {
         int e = errno;
         leap_publish_abort(p);
@@ -186,6 +216,7 @@ leap_result leap_publish_commit(leap_publish *p, leap_error *err)
 
 void leap_publish_abort(leap_publish *p)
 {
+    if (p->stream) return;
     remove(p->tmp);
     leap_temp_untrack(p->slot);
     p->slot = -1;

@@ -4,6 +4,7 @@
 #include <ctype.h>
 #include <stdarg.h>
 #include <stdio.h>
+#include <errno.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -134,6 +135,20 @@ int cli_dir_writable(const char *path)
     else *slash = '\0';
     struct stat st;
     return stat(dir, &st) == 0 && S_ISDIR(st.st_mode) && access(dir, W_OK) == 0;
+}
+
+int cli_output_check(const char *path, int streams_ok)
+{
+    char target[4096];
+    int stream = 0;
+    leap_error err = {{0}};
+    if (leap_output_target(path, target, sizeof target, &stream, &err)) return cli_runtime_error("%s", err.msg);
+    if (!stream)
+        return cli_dir_writable(target) ? 0
+                                        : cli_runtime_error("%s: directory does not exist or is not writable", path);
+    if (!streams_ok)
+        return cli_runtime_error("%s: not a regular file (images and volumes are written whole, to a file)", path);
+    return access(target, W_OK) == 0 ? 0 : cli_runtime_error("%s: cannot write: %s", path, strerror(errno));
 }
 
 /* The option names a help text lists: "-x" and "--name" tokens on lines that start with an

@@ -49,6 +49,10 @@ int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs,
                       int n_outputs);
 /* 1 if the directory that would hold `path` exists and is writable. */
 int cli_dir_writable(const char *path);
+/* An output path checked before any work (0, or the exit code after the message): a link is
+ * followed, a directory refused; a device or FIFO is written in place where streams_ok (text
+ * such as --stats), refused otherwise; else the file's directory must be writable. */
+int cli_output_check(const char *path, int streams_ok);
 
 /* Options shared by render, segments, bench and view. */
 typedef struct cli_camera_options {

@@ -73,7 +73,7 @@ int cli_convert(int argc, char **argv)
     const char *inputs[] = {input};
     rc = cli_check_outputs("convert", inputs, 1, &output, 1);
     if (rc) return rc;
-    if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
+    if ((rc = cli_output_check(output, 0))) return rc;
 
     leap_error err = {{0}};
     leap_vdb_file *file = NULL;

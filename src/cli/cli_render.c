@@ -398,9 +398,8 @@ int cli_render(int argc, char **argv)
     const char *inputs[] = {o.input, o.scene.tf};
     const char *outputs[] = {output, stats};
     if ((rc = cli_check_outputs("render", inputs, 2, outputs, 2))) return rc;
-    if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
-    if (stats && !cli_dir_writable(stats))
-        return cli_runtime_error("%s: directory does not exist or is not writable", stats);
+    if ((rc = cli_output_check(output, 0)) || (stats && strcmp(stats, "-") && (rc = cli_output_check(stats, 1))))
+        return rc;
 
     leap_error err = {{0}};
     leap_scene *scene = NULL;

@@ -57,7 +57,7 @@ int cli_turntable_video(const cli_camera_options *o, int frames, const char *out
         return cli_runtime_error("%s: writing a video needs ffmpeg, which is not on PATH (Debian: apt-get install "
                                  "ffmpeg); or write the frames: -o frames/%%03d.png",
                                  output);
-    if (!cli_dir_writable(output)) return cli_runtime_error("%s: directory does not exist or is not writable", output);
+    if ((rc = cli_output_check(output, 0))) return rc;
     char dir[4096];
     const char *slash = strrchr(output, '/');
     snprintf(dir, sizeof dir, "%.*s.leap-tmp-frames-XXXXXX", slash ? (int)(slash - output + 1) : 0, output);

@@ -119,8 +119,7 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
         return cli_usage_error("view", "--script cannot be combined with --frames or --screenshot");
     const char *inputs[] = {o->view.input, o->view.scene.tf, o->script};
     if (o->screenshot && (rc = cli_check_outputs("view", inputs, 3, &o->screenshot, 1))) return rc;
-    if (o->screenshot && !cli_dir_writable(o->screenshot))
-        return cli_runtime_error("%s: directory does not exist or is not writable", o->screenshot);
+    if (o->screenshot && (rc = cli_output_check(o->screenshot, 0))) return rc;
     return 0;
 }
 
