@@ -453,6 +453,15 @@ static void test_convert(void)
     CHECK_MSG(da && db && na == nb && memcmp(da, db, (size_t)na) == 0, "direct and converted renders differ");
     free(da);
     free(db);
+    /* An imported scan is held whole in memory: a budget below its need is refused with the
+     * reason, which names leap convert (the budget was ignored). */
+    snprintf(args, sizeof args, "render %s -o %s --size 32x32 --memory-budget 1K -q", nii, png_a);
+    CHECK(run(args) == 1);
+    char said_path[4096];
+    snprintf(said_path, sizeof said_path, "%s/out.txt", LEAP_TEST_TMP);
+    char *said = read_whole_file(said_path, NULL);
+    CHECK_MSG(said && strstr(said, "more than the budget") && strstr(said, "leap convert"), "%s", said ? said : "");
+    free(said);
 
     /* Usage errors: not .vdb, output = input. */
     snprintf(args, sizeof args, "convert %s -o %s/x.png", nii, LEAP_TEST_TMP);

@@ -604,6 +604,7 @@ leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volum
         info.background = volume->background;
         f->infos.push_back(info);
         f->have_background.assign(1, 1);
+        f->memory.push_back(uint64_t(grid->memUsage())); // the budget's estimate, as a file's records it
         f->streamed.push_back(grid);
         f->in_memory = true;
         *out = f.release();
