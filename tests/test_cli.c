@@ -518,6 +518,13 @@ int main(void)
     }
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --shade", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "segmentation", out);
+    /* Options of one kind of volume are refused on the other (they were ignored, exit 0). */
+    snprintf(args, sizeof args, "render %s/labels.vdb -o %s --tf hot", LEAP_VOLUMES, out);
+    EXPECT_FAIL(2, args, "--tf does not apply to a segmentation", out);
+    snprintf(args, sizeof args, "pick %s/labels.vdb --pixel 3,3 --size 16x16 --range 5,6", LEAP_VOLUMES);
+    EXPECT_FAIL(2, args, "--range does not apply to a segmentation", out);
+    snprintf(args, sizeof args, "render %s -o %s --label-opacity 0.1", sphere, out);
+    EXPECT_FAIL(2, args, "--label-opacity applies to segmentations", out);
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
     CHECK_MSG(run(args) == 0, "%s", out_text);

@@ -67,8 +67,10 @@ void cli_warn_scene(const leap_scene *scene, int legend)
 {
     char why[256];
     if (leap_scene_shows_nothing(scene, why, sizeof why))
-        fprintf(stderr, "leap: warning: nothing to show: %s; the image is blank (--range, --tf or --show change "
-                        "that)\n", why);
+        fprintf(stderr, "leap: warning: nothing to show: %s; the image is blank%s\n", why,
+                scene->atlas->empty ? ""
+                : scene->labels     ? " (--show, --hide or --objects change that)"
+                                    : " (--range or --tf change that)");
     if (legend && scene->labels)
         fprintf(stderr, "leap: warning: no legend: a segmentation's colours belong to its objects, not to a value "
                         "scale\n");
@@ -274,6 +276,22 @@ leap_result cli_scene_create(const leap_scene_desc *desc, int quiet, leap_scene 
     if (!quiet) d.progress = cli_progress_bar_report, d.progress_user = &bar;
     leap_result r = leap_scene_create(&d, out, err);
     cli_progress_bar_end(&bar);
+    /* Options that only one kind of volume takes are refused on the other, not ignored (the
+     * grid's kind is known once it is open). */
+    const char *not_here = NULL;
+    if (!r && (*out)->labels && (desc->tf || desc->has_range))
+        not_here = desc->tf ? "--tf" : "--range";
+    if (!r && !(*out)->labels && desc->label_opacity > 0) not_here = "--label-opacity";
+    if (not_here) {
+        const int labels = (*out)->labels != NULL;
+        leap_scene_destroy(*out);
+        *out = NULL;
+        r = labels ? leap_fail(err, LEAP_ERR_USAGE, "%s does not apply to a segmentation: its objects take colours "
+                               "hashed from their IDs (--objects sets colours and opacities, --label-opacity the "
+                               "opacity)", not_here)
+                   : leap_fail(err, LEAP_ERR_USAGE, "--label-opacity applies to segmentations (int32 or int64 grids, or "
+                               "--labels); this volume's values go through the transfer function (--tf)");
+    }
     return r;
 }
 

@@ -67,7 +67,7 @@ int cli_pick(int argc, char **argv)
                                o.height);
     leap_error err = {{0}};
     leap_scene *scene = NULL;
-    leap_result r = leap_scene_create(&o.scene, &scene, &err);
+    leap_result r = cli_scene_create(&o.scene, 1, &scene, &err);
     if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
     rc = 0;
     leap_camera cam;

@@ -131,8 +131,8 @@ int cli_segments(int argc, char **argv)
     rc = EXIT_RUNTIME;
     if (o.outdir && leap_dump_dir_open(o.outdir, &dir, &err)) return cli_runtime_error("%s", err.msg);
     if (o.outdir) leap_image_preload(); /* the dump's heat maps */
-    if ((r = leap_scene_create(&o.view.scene, &scene, &err))) {
-        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
+    if ((r = cli_scene_create(&o.view.scene, 1, &scene, &err))) {
+        rc = cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_camera cam;
