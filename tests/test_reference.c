@@ -456,6 +456,36 @@ static void test_pick(const leap_grid *lin)
     CHECK(hits > 50 && misses > 10);
     leap_pick p;
     CHECK(leap_reference_pick(&rd, 1.5, 1.5, 1.0, &p, &err) == LEAP_ERR_USAGE);
+    /* MIP and minIP: the sample the pixel shows, the first reaching the ray's extreme, where the
+     * projection puts its depth (pick took the first visible sample, as without --mip). */
+    int differ = 0; /* pixels whose extreme is not their first visible sample */
+    for (int sign = -1; sign <= 1; sign += 2) {
+        leap_march mm = m;
+        mm.mip = sign > 0 ? LEAP_MIP_MAX : LEAP_MIP_MIN;
+        rd.march = &mm;
+        if (!render(lin, &tf_ramp, &view, &mm, 2, rgba, depth, samples)) return;
+        int mip_hits = 0;
+        for (int y = 0; y < H; y += 3)
+            for (int x = 0; x < W; x += 3) {
+                CHECK_OK(leap_reference_pick(&rd, x + 0.5, y + 0.5, 0.0, &p, &err), &err);
+                const float d = depth[y * W + x];
+                CHECK_MSG(p.hit == !isinf(d), "%s pixel %d,%d: pick %d, depth %g", sign > 0 ? "MIP" : "minIP", x, y,
+                          p.hit, d);
+                if (!p.hit) continue;
+                ++mip_hits;
+                CHECK_NEAR(p.depth, d, 1e-5 * (1 + p.depth));
+                CHECK_NEAR(p.value, linear_value(p.world), 1e-9 * (1 + fabs(p.value)));
+                leap_pick first;
+                rd.march = &m;
+                CHECK_OK(leap_reference_pick(&rd, x + 0.5, y + 0.5, 0.0, &first, &err), &err);
+                rd.march = &mm;
+                differ += first.hit && fabs(first.depth - p.depth) > 1e-6;
+            }
+        printf("%s pick: %d hits, %d so far not the first visible sample\n", sign > 0 ? "MIP" : "minIP", mip_hits,
+               differ);
+        CHECK(mip_hits > 50);
+    }
+    CHECK(differ > 10);
 }
 
 static void test_errors(const leap_grid *box)

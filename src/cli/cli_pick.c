@@ -13,7 +13,8 @@ static const char *pick_help_head =
     "would render whose opacity exceeds --opacity (default 0): in a segmentation its object's\n"
     "ID, in a scalar volume its value; the world distance from the camera and the world\n"
     "position of that sample (the same lattice, interpolation and clipping as rendering,\n"
-    "computed in double precision on the CPU).\n"
+    "computed in double precision on the CPU). With --mip (--minip) it is the sample the\n"
+    "pixel shows: the first reaching the ray's largest (smallest) value.\n"
     "\n";
 
 static const char *pick_help_tail =
@@ -91,8 +92,9 @@ int cli_pick(int argc, char **argv)
         printf("pixel %.0f,%.0f: object %lld at depth %g, world (%g, %g, %g)\n", pixel[0], pixel[1], (long long)p.id,
                p.depth, p.world[0], p.world[1], p.world[2]);
     } else if (p.hit) {
-        printf("pixel %.0f,%.0f: value %g (opacity %g) at depth %g, world (%g, %g, %g)\n", pixel[0], pixel[1], p.value,
-               p.opacity, p.depth, p.world[0], p.world[1], p.world[2]);
+        printf("pixel %.0f,%.0f: %svalue %g (opacity %g) at depth %g, world (%g, %g, %g)\n", pixel[0], pixel[1],
+               scene->march.mip > 0 ? "largest " : scene->march.mip < 0 ? "smallest " : "", p.value, p.opacity,
+               p.depth, p.world[0], p.world[1], p.world[2]);
     } else {
         printf("pixel %.0f,%.0f: no sample above opacity %g along the ray\n", pixel[0], pixel[1], min_opacity);
     }

@@ -217,15 +217,15 @@ static void sample_label(const leap_labels *labels, leap_grid_reader *reader, co
 }
 
 /* MIP: the largest value along the ray as a TF coordinate clamped to [0, 1], the first t
- * reaching it, the TF there (opacity as it is), premultiplied; done at the top of the table.
- * minIP: the same on -u (the smallest value; done at the bottom). */
-static void mip_pixel(const leap_reference_desc *desc, leap_grid_reader *reader, cell_cache *cache, const double o[3],
-                      const double d[3], double out_rgba[4], double *out_depth, double *out_samples)
+ * reaching it, done at the top of the table. minIP: the same on -u (the smallest value; done at
+ * the bottom). 0 when the ray takes no sample; else *t, *u and the sample's *value. */
+static int mip_extreme(const leap_reference_desc *desc, leap_grid_reader *reader, cell_cache *cache, const double o[3],
+                       const double d[3], double *t_out, double *u_out, double *value_out, double *samples)
 {
     const leap_march *m = desc->march;
     const double span = m->range_hi - m->range_lo;
     const double sign = m->mip < 0 ? -1.0 : 1.0;
-    double best = -2.0, best_t = 0.0, n = 0.0, k0, k1; /* signed coordinates are in [-1, 1] */
+    double best = -2.0, n = 0.0, k0, k1; /* signed coordinates are in [-1, 1] */
     if (lattice_range(m, o, d, &k0, &k1)) {
         const int64_t count = (int64_t)(k1 - k0) + 1;
         for (int64_t i = 0; i < count && best < (sign > 0 ? 1.0 : 0.0); ++i) {
@@ -239,16 +239,25 @@ static void mip_pixel(const leap_reference_desc *desc, leap_grid_reader *reader,
             n += 1.0;
             if (sign * u > best) {
                 best = sign * u;
-                best_t = t;
+                *t_out = t;
+                *value_out = v;
             }
         }
     }
-    double tf[4] = {0, 0, 0, 0};
-    if (best > -2.0) leap_tf_eval(desc->tf, sign * best, tf);
+    if (samples) *samples = n;
+    *u_out = sign * best;
+    return best > -2.0;
+}
+
+/* The pixel of a MIP: the TF at the extreme (opacity as it is), premultiplied. */
+static void mip_pixel(const leap_reference_desc *desc, leap_grid_reader *reader, cell_cache *cache, const double o[3],
+                      const double d[3], double out_rgba[4], double *out_depth, double *out_samples)
+{
+    double tf[4] = {0, 0, 0, 0}, t = 0.0, u, value;
+    if (mip_extreme(desc, reader, cache, o, d, &t, &u, &value, out_samples)) leap_tf_eval(desc->tf, u, tf);
     for (int c = 0; c < 3; ++c) out_rgba[c] = tf[c] * tf[3];
     out_rgba[3] = tf[3];
-    *out_depth = tf[3] > 0.0 ? leap_rays_world_distance(desc->rays, d, best_t) : INFINITY;
-    *out_samples = n;
+    *out_depth = tf[3] > 0.0 ? leap_rays_world_distance(desc->rays, d, t) : INFINITY;
 }
 
 static void render_pixel(const leap_reference_desc *desc, leap_grid_reader *reader,
@@ -460,13 +469,23 @@ leap_result leap_reference_pick(const leap_reference_desc *desc, double px, doub
     cell_cache cache = {0};
     const double span = m->range_hi - m->range_lo;
     const int64_t count = (int64_t)(k1 - k0) + 1;
-    for (int64_t i = 0; i < count; ++i) {
-        const double t = (k0 + (double)i) * m->step;
+    /* MIP and minIP show the TF at the ray's extreme: that sample, when its opacity passes. */
+    double mip_t = 0.0, mip_u = 0.0, mip_value = 0.0;
+    const int mip = m->mip && !desc->labels;
+    if (mip && !mip_extreme(desc, reader, &cache, o, d, &mip_t, &mip_u, &mip_value, NULL)) {
+        leap_grid_reader_destroy(reader);
+        return LEAP_OK;
+    }
+    for (int64_t i = 0; i < (mip ? 1 : count); ++i) {
+        const double t = mip ? mip_t : (k0 + (double)i) * m->step;
         double p[3], rgba[4], value;
         int64_t id = 0, index = -1;
         ray_point(o, d, t, p);
         for (int c = 0; c < 3; ++c) p[c] += m->index_origin[c];
-        if (desc->labels) { /* the same nearest-voxel rule as sample_label */
+        if (mip) {
+            value = mip_value;
+            leap_tf_eval(desc->tf, mip_u, rgba);
+        } else if (desc->labels) { /* the same nearest-voxel rule as sample_label */
             int32_t v[3];
             const int32_t one[3] = {1, 1, 1};
             for (int c = 0; c < 3; ++c) v[c] = (int32_t)floor(p[c] + 0.5);
