@@ -283,6 +283,11 @@ int cli_info(int argc, char **argv)
     }
     if (!input) return cli_usage_error("info", "no input volume given");
     leap_error err = {{0}};
+    for (int i = 0; i < ntf; ++i) { /* a bad --tf fails before the report, as render's does */
+        leap_tf tf;
+        leap_result tr = leap_tf_from_arg(tfs[i], 2, &tf, &err);
+        if (tr) return tr == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg) : cli_input_error(tfs[i], NULL, tr, err.msg);
+    }
     leap_vdb_file *file = NULL;
     leap_input_info source;
     if (cli_input_options_check("info", &io)) return EXIT_USAGE;
@@ -319,6 +324,8 @@ int cli_info(int argc, char **argv)
                 rc = cli_runtime_error("%s", err.msg);
                 break;
             }
+            if (r) /* read whole, as it always is, but not without a word */
+                fprintf(stderr, "leap: warning: %s; it is read whole for its information\n", err.msg);
             if (!r) gi = *leap_grid_get_info(grid);
             loaded = grid != NULL;
         }
