@@ -42,6 +42,10 @@ int leap_cli_main(int argc, char **argv)
         return EXIT_USAGE;
     }
     const char *verb = argv[1];
+    if (!strcmp(verb, "help") && argc >= 3) { /* leap help VERB: that verb's help */
+        char *verb_help[] = {argv[0], argv[2], "--help", NULL};
+        return leap_cli_main(3, verb_help);
+    }
     if (!strcmp(verb, "--help") || !strcmp(verb, "-h") || !strcmp(verb, "help")) {
         fputs(main_help, stdout);
         return 0;

@@ -153,8 +153,8 @@ int cli_output_check(const char *path, int streams_ok)
     return access(target, W_OK) == 0 ? 0 : cli_runtime_error("%s: cannot write: %s", path, strerror(errno));
 }
 
-/* The option names a help text lists: "-x" and "--name" tokens on lines that start with an
- * option. Writes at most cap; returns the count. */
+/* The option names a help text lists: "-x" and "--name" tokens in the option column (up to
+ * the description) of lines that start with an option. Writes at most cap; returns the count. */
 static size_t help_options(const char *help, char names[][32], size_t count, size_t cap)
 {
     for (const char *line = help; line && *line;) {
@@ -162,7 +162,10 @@ static size_t help_options(const char *help, char names[][32], size_t count, siz
         const char *p = line;
         while (*p == ' ') ++p;
         if (*p == '-') {
-            for (const char *q = p; q < (end ? end : q + strlen(q));) {
+            /* the option column only: an option a description mentions is not defined there */
+            const char *line_end = end ? end : p + strlen(p), *column = strstr(p, "  ");
+            if (!column || column > line_end) column = line_end;
+            for (const char *q = p; q < column;) {
                 if (q[0] == '-' && (q == p || q[-1] == ' ' || q[-1] == '[') && isalpha((unsigned char)q[q[1] == '-' ? 2 : 1])) {
                     size_t n = 0;
                     while (n < 31 && (isalnum((unsigned char)q[n]) || q[n] == '-')) ++n;
