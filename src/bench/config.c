@@ -162,7 +162,11 @@ static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *roo
         const int keeps = !strcmp(item->string, "tf") || !strcmp(item->string, "show") || !strcmp(item->string, "objects");
         const char *kept = keeps && cJSON_IsString(item) ? item->valuestring : value;
         leap_result lr = leap_bench_set_option(o, item->string, kept, err);
-        if (lr) return lr; /* a bad option is the user's, in a file or not: a usage error */
+        if (lr) { /* a bad option is the user's, in a file or not: a usage error naming the file */
+            char why[sizeof err->msg];
+            snprintf(why, sizeof why, "%s", err->msg);
+            return leap_fail(err, lr, "%s: %s", path, why);
+        }
     }
     return LEAP_OK;
 }
@@ -172,11 +176,18 @@ leap_result leap_bench_load_config(leap_bench_desc *o, const char *path, leap_er
     char *text = NULL;
     leap_result lr = leap_file_read(path, "bench config", (size_t)16 << 20, &text, NULL, err);
     if (lr) return lr;
-    cJSON *root = cJSON_Parse(text);
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithOpts(text, &end, 1);
+    if (!root) { /* where the JSON breaks: line and column */
+        int line = 1, col = 1;
+        for (const char *c = text; end && c < end; ++c) col = *c == '\n' ? (++line, 1) : col + 1;
+        free(text);
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not valid JSON (line %d, column %d)", path, line, col);
+    }
     free(text);
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not a JSON object", path);
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not a JSON object ({\"volumes\": [...], ...})", path);
     }
     /* Every file loaded stays alive (earlier files' volumes may still be in use). */
     if (!o->config && !(o->config = cJSON_CreateArray())) {
