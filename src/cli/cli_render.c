@@ -376,6 +376,9 @@ int cli_render(int argc, char **argv)
         if (o.has_eye) return cli_usage_error("render", "--turntable orbits; it does not go with --eye/--target");
         if (leap_mode_from_name(o.mode_name) < 0)
             return cli_usage_error("render", "--turntable renders on the GPU modes, not --mode reference");
+        if (cli_is_video(output) && o.alpha)
+            return cli_usage_error("render", "--alpha: a video ('%s') has no alpha channel; write the frames "
+                                   "(-o frames/%%03d.png)", output);
         if (cli_is_video(output)) return cli_turntable_video(&o, turntable, output, quiet);
     } else if (cli_is_video(output)) {
         return cli_usage_error("render", "'%s': a video format, written only with --turntable N (one image: .png, "
@@ -383,6 +386,9 @@ int cli_render(int argc, char **argv)
     }
     if (!leap_image_can_write(output))
         return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+    if (o.legend && (o.width < 64 || o.height < 48)) /* leap_legend_draw's smallest image */
+        return cli_usage_error("render", "--legend needs an image of at least 64x48 pixels (--size %dx%d)", o.width,
+                               o.height);
     if (turntable) {
         if (!cli_frame_pattern_ok(output))
             return cli_usage_error("render",
