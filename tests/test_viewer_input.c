@@ -331,6 +331,13 @@ static void test_render_args(void)
         eye[2] = strtod(end + 1, &end);
         for (int i = 0; i < 3; ++i) CHECK(eye[i] == c.eye[i]); /* round-trips exactly */
     }
+    /* A segmentation's objects have their own colours: the transfer-function and range keys
+     * change nothing, and its command has no --tf or --range (leap render refuses them there). */
+    d.labels = 1;
+    init(&v, &d);
+    CHECK(leap_viewer_char(&v, 't') == 0 && leap_viewer_char(&v, ']') == 0 && leap_viewer_char(&v, '{') == 0);
+    n = leap_viewer_render_args(&v, buf, sizeof buf);
+    CHECK_MSG(n > 0 && !strstr(buf, "--tf") && !strstr(buf, "--range"), "%s", buf);
 }
 
 static const char *good_script =

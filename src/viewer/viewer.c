@@ -328,6 +328,7 @@ unsigned leap_viewer_set_tf(leap_viewer *v, const char *tf)
 
 unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi)
 {
+    if (v->labels) return 0; /* a segmentation's objects have no value range */
     if (!isfinite(lo) || !isfinite(hi) || !(hi > lo)) return 0;
     /* Keep a window that doubles can still split into distinct values. */
     if (hi - lo < 1e-12 * (1.0 + fabs(lo) + fabs(hi))) return 0;
@@ -439,7 +440,7 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case '4': return leap_viewer_set_mode(v, LEAP_RENDER_SPARSELEAP);
     case '+': case '=': return leap_viewer_set_step(v, v->step * LEAP_VIEWER_STEP_FACTOR);
     case '-': case '_': return leap_viewer_set_step(v, v->step / LEAP_VIEWER_STEP_FACTOR);
-    case 't': case 'T': return next_tf(v);
+    case 't': case 'T': return v->labels ? 0 : next_tf(v); /* objects have their own colours */
     case '[': return shift_range(v, -LEAP_VIEWER_RANGE_SHIFT);
     case ']': return shift_range(v, LEAP_VIEWER_RANGE_SHIFT);
     case '{': return scale_range(v, LEAP_VIEWER_RANGE_SCALE);
@@ -563,10 +564,12 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
                  " --shade --light %.17g,%.17g,%.17g --ambient %.17g --diffuse %.17g --specular %.17g --shininess %.17g",
                  s->light[0], s->light[1], s->light[2], s->ambient, s->diffuse, s->specular, s->shininess);
     }
+    char look[640] = ""; /* a segmentation's objects have their own colours: no TF, no range */
+    if (!v->labels) snprintf(look, sizeof look, " --tf %s --range %.17g,%.17g", v->tf, v->range[0], v->range[1]);
     return snprintf(buf, size,
-                    "--mode %s --tf %s --range %.17g,%.17g --step %.17g --eye %.17g,%.17g,%.17g "
+                    "--mode %s%s --step %.17g --eye %.17g,%.17g,%.17g "
                     "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s%s",
-                    leap_mode_name(v->mode), v->tf, v->range[0], v->range[1], v->step, cam.eye[0], cam.eye[1],
+                    leap_mode_name(v->mode), look, v->step, cam.eye[0], cam.eye[1],
                     cam.eye[2], cam.target[0], cam.target[1], cam.target[2], cam.up[0], cam.up[1], cam.up[2],
                     cam.fov_deg, cam.ortho ? " --ortho" : "", clip, v->show_legend && !v->labels ? " --legend" : "");
 }
