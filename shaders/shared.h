@@ -234,7 +234,8 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 bbox_max;       /* 368: w = the farthest t of any sample a skipping mode may take (naive: inf) */
     LEAP_UVEC4 lists;         /* 384: x = events per pixel (<= LEAP_PIXEL_EVENTS), y = segments per pixel, z = box count,
                                  w unused */
-    LEAP_UVEC4 labels;        /* 400: label volumes: x = first label word in pages[], y = objects */
+    LEAP_UVEC4 labels;        /* 400: label volumes: x = first label word in pages[], y = objects,
+                                 z = 1 when an object is hidden (octree asks the tree at every cell) */
     LEAP_VEC4 keep[4];        /* 416: clipping planes (a, b, c, d), relative index space: a ray keeps
                                  the points where a x + b y + c z + d >= 0 for every plane in use */
     LEAP_UVEC4 keep_count;    /* 480: x = planes in use (0..4), y = middle page levels */

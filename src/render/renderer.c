@@ -345,10 +345,12 @@ leap_result leap_renderer_set_objects(leap_renderer *r, const leap_labels *label
     float *rgba = realloc(r->object_rgba, (n ? n : 1) * 4 * sizeof *rgba);
     if (!rgba) return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for %zu objects", n);
     r->object_rgba = rgba;
+    r->objects_hidden = 0;
     for (size_t i = 0; i < n; ++i) {
         double c[4];
         leap_labels_rgba(labels, i, c);
         for (int k = 0; k < 4; ++k) rgba[4 * i + k] = (float)c[k];
+        r->objects_hidden |= c[3] == 0.0 && !leap_labels_is_background(labels, i);
     }
     r->object_count = (uint32_t)n;
     r->objects_step = 0;

@@ -115,6 +115,7 @@ struct leap_renderer {
     uint32_t label_base;     /* first label word in the pages buffer */
     float *object_rgba;
     uint32_t object_count;
+    uint32_t objects_hidden; /* 1 when an object (not the background) is hidden: octree asks every cell */
     leap_buffer objects;
     double objects_step;     /* 0: the device table is stale */
     leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, ray_lists, tree;
