@@ -569,5 +569,14 @@ int main(void)
     }
     snprintf(args, sizeof args, "info %s/missing.vdb", tmp);
     CHECK(run(args) == 1 && strstr(out_text, "missing.vdb"));
+    /* A file name that is not UTF-8 (byte 0xFF) comes out of JSON as U+FFFD, valid UTF-8
+     * (the raw byte made strict parsers fail); a well-formed "é" stays. */
+    char odd[1100];
+    snprintf(odd, sizeof odd, "%s/odd-\xc3\xa9-\xff.vdb", tmp);
+    snprintf(args, sizeof args, "cp %s '%s'", sphere, odd);
+    CHECK(system(args) == 0);
+    snprintf(args, sizeof args, "info '%s' --json", odd);
+    CHECK(run(args) == 0);
+    CHECK_MSG(strstr(out_text, "odd-\xc3\xa9-\xef\xbf\xbd.vdb") && !strchr(out_text, '\xff'), "info --json: %s", out_text);
     return check_exit_code();
 }

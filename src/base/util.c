@@ -37,6 +37,40 @@ const char *leap__base_name(const char *path)
     return s ? s + 1 : path;
 }
 
+/* Length of the well-formed UTF-8 sequence at s (RFC 3629: no overlong forms, surrogates or
+ * code points above U+10FFFF), or 0. */
+static size_t utf8_sequence(const unsigned char *s)
+{
+    const unsigned c = s[0];
+    if (c < 0x80) return 1;
+    size_t n = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    unsigned lo = 0x80, hi = 0xBF; /* the second byte's range */
+    if (c == 0xE0) lo = 0xA0;
+    if (c == 0xED) hi = 0x9F;
+    if (c == 0xF0) lo = 0x90;
+    if (c == 0xF4) hi = 0x8F;
+    if (n == 0 || s[1] < lo || s[1] > hi) return 0;
+    for (size_t i = 2; i < n; ++i)
+        if (s[i] < 0x80 || s[i] > 0xBF) return 0;
+    return n;
+}
+
+const char *leap__utf8_text(const char *s, char *buf, size_t cap)
+{
+    size_t o = 0;
+    for (const unsigned char *p = (const unsigned char *)s; *p;) {
+        size_t n = utf8_sequence(p);
+        const char *piece = n ? (const char *)p : "\xEF\xBF\xBD";
+        const size_t len = n ? n : 3;
+        if (o + len >= cap) break;
+        memcpy(buf + o, piece, len);
+        o += len;
+        p += n ? n : 1;
+    }
+    if (cap) buf[o < cap ? o : cap - 1] = '\0';
+    return buf;
+}
+
 int leap__invert3(const double m[3][3], double inv[3][3])
 {
     double cof[3][3];

@@ -33,6 +33,10 @@ void leap__run_jobs(void *(*fn)(void *), void *jobs, size_t job_bytes, size_t co
 /* The part of path after its last '/'. */
 const char *leap__base_name(const char *path);
 
+/* s as valid UTF-8 for JSON (a file name may hold any bytes): each byte that does not belong to
+ * a well-formed sequence becomes U+FFFD; cut to cap. Returns buf. */
+const char *leap__utf8_text(const char *s, char *buf, size_t cap);
+
 /* Inverse of a 3x3 matrix (row-major); returns 0 when it is singular relative to its scale
  * (|det| not above 1e-12 times the product of the column lengths) or not finite. */
 int leap__invert3(const double m[3][3], double inv[3][3]);

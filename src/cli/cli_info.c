@@ -40,7 +40,8 @@ static void world_box(const leap_grid_info *gi, double lo[3], double hi[3], doub
 static cJSON *info_json(const leap_grid_info *gi, int loaded)
 {
     cJSON *g = cJSON_CreateObject();
-    cJSON_AddStringToObject(g, "name", gi->name);
+    char text[1024]; /* names as valid UTF-8: a file may hold any bytes */
+    cJSON_AddStringToObject(g, "name", leap__utf8_text(gi->name, text, sizeof text));
     cJSON_AddStringToObject(g, "value_type", gi->value_type);
     cJSON_AddStringToObject(g, "class", gi->grid_class);
     cJSON_AddBoolToObject(g, "scalar", gi->scalar);
@@ -297,7 +298,8 @@ int cli_info(int argc, char **argv)
     cJSON *root = json ? cJSON_CreateObject() : NULL;
     cJSON *grids = json ? cJSON_AddArrayToObject(root, "grids") : NULL;
     if (json) {
-        cJSON_AddStringToObject(root, "file", input);
+        char text[4096]; /* a file name may hold any bytes; JSON is UTF-8 */
+        cJSON_AddStringToObject(root, "file", leap__utf8_text(input, text, sizeof text));
         cJSON_AddStringToObject(root, "format", source.format);
         if (source.description[0]) cJSON_AddStringToObject(root, "source", source.description);
         cJSON *up = cJSON_AddArrayToObject(root, "up");

@@ -177,8 +177,9 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
                         const stage_times *t, const leap_frame_stats *fs, int mode)
 {
     cJSON *root = cJSON_CreateObject();
-    cJSON_AddStringToObject(root, "input", o->input);
-    cJSON_AddStringToObject(root, "grid", s->info->name);
+    char utf8[4096]; /* names as valid UTF-8: a file name may hold any bytes */
+    cJSON_AddStringToObject(root, "input", leap__utf8_text(o->input, utf8, sizeof utf8));
+    cJSON_AddStringToObject(root, "grid", leap__utf8_text(s->info->name, utf8, sizeof utf8));
     cJSON_AddStringToObject(root, "mode", o->mode_name);
     cJSON_AddStringToObject(root, "transfer_function", s->tf.name);
     cJSON_AddNumberToObject(root, "width", o->width);

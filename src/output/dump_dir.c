@@ -13,6 +13,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "util.h"
+
 static cJSON *vec3_json(const double v[3]) { return cJSON_CreateDoubleArray(v, 3); }
 
 enum { F_BIN, F_HEAT_EVENTS, F_HEAT_SEGMENTS, F_HEAT_SAMPLES, F_HEAT_SKIPPED, F_HEATMAPS, F_COUNTS, F_OBJ, F_MTL, F_PLY,
@@ -229,8 +231,9 @@ leap_result leap_dump_dir_write(leap_dump_dir *dir, const leap_dump_image_desc *
         goto done;
 
     sum = cJSON_CreateObject();
-    cJSON_AddStringToObject(sum, "volume", c->source.volume);
-    cJSON_AddStringToObject(sum, "grid", c->source.scene->info->name);
+    char utf8[4096]; /* names as valid UTF-8: a file name may hold any bytes */
+    cJSON_AddStringToObject(sum, "volume", leap__utf8_text(c->source.volume, utf8, sizeof utf8));
+    cJSON_AddStringToObject(sum, "grid", leap__utf8_text(c->source.scene->info->name, utf8, sizeof utf8));
     cJSON_AddStringToObject(sum, "transfer_function", c->source.scene->tf.name);
     double range[2] = {c->source.scene->march.range_lo, c->source.scene->march.range_hi};
     cJSON_AddItemToObject(sum, "range", cJSON_CreateDoubleArray(range, 2));

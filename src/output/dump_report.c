@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "util.h"
+
 typedef struct resolved {
     leap_segment seg[4 * LEAP_PIXEL_EVENTS];
     size_t count;
@@ -67,8 +69,9 @@ static char *pixel_json(const leap_dump_source *src, const leap_dump_frame *f, c
     const leap_scene *s = src->scene;
     const leap_dump_box *boxes = leap_dump_frame_boxes(f);
     cJSON *root = cJSON_CreateObject();
-    cJSON_AddStringToObject(root, "volume", src->volume);
-    cJSON_AddStringToObject(root, "grid", s->info->name);
+    char utf8[4096]; /* names as valid UTF-8: a file name may hold any bytes */
+    cJSON_AddStringToObject(root, "volume", leap__utf8_text(src->volume, utf8, sizeof utf8));
+    cJSON_AddStringToObject(root, "grid", leap__utf8_text(s->info->name, utf8, sizeof utf8));
     cJSON_AddStringToObject(root, "transfer_function", s->tf.name);
     cJSON_AddStringToObject(root, "mode", "sparseleap");
     cJSON_AddNumberToObject(root, "width", src->width);
