@@ -186,6 +186,30 @@ static void special_outputs(void)
     FAIL("render -o directory", 1, "dir.png", "is a directory", "render", sphere, "-o", dir);
     FAIL("convert -o directory", 1, "dir.vdb", "is a directory", "convert", sphere, "-o", vdb_dir);
     CHECK(lstat(image_fifo, &st) == 0 && S_ISFIFO(st.st_mode));
+
+    /* A dump folder with a directory where one of its files goes: the run fails before any
+     * work and the previous dump stays whole (its renamed files replaced the old, then were
+     * removed as this run's). */
+    ++case_count;
+    const char *dump = out_path("dump"), *dump_args[] = {"segments", NULL, "--size", "16x16", "-o", NULL, "-q", NULL};
+    char summary[1100], ply[1100], before[8192], after[8192];
+    snprintf(summary, sizeof summary, "%s/summary.json", dump);
+    snprintf(ply, sizeof ply, "%s/boxes.ply", dump);
+    dump_args[1] = sphere;
+    dump_args[5] = dump;
+    CHECK_MSG(run_leap(dump_args) == 0, "segments -o: %s", res.err);
+    read_text(summary, before, sizeof before);
+    CHECK(remove(ply) == 0 && mkdir(ply, 0755) == 0);
+    CHECK_MSG(run_leap(dump_args) == 1 && strstr(res.err, "boxes.ply"), "segments -o over a directory: %d %s", res.code,
+              res.err);
+    read_text(summary, after, sizeof after);
+    int files = 0;
+    DIR *dd = opendir(dump);
+    for (struct dirent *e; dd && (e = readdir(dd));) files += e->d_name[0] != '.';
+    if (dd) closedir(dd);
+    CHECK_MSG(before[0] && strcmp(before, after) == 0 && files == 11, "the previous dump: %d entries, summary %s", files,
+              strcmp(before, after) ? "changed" : "kept");
+    clean_dir(out_dir);
 }
 
 static int count_temporaries(const char *dir)

@@ -32,6 +32,22 @@ struct leap_dump_dir {
     int written;            /* published: close keeps the files */
 };
 
+/* 1 when no file name of the dump is taken by anything but a regular file; checked before any
+ * work and before the first rename: a directory (or device) in a file's place failed its rename
+ * half way, and the files already renamed had replaced the previous dump's. */
+static int names_free(const leap_dump_dir *d, leap_error *err)
+{
+    for (int i = 0; i < F_COUNT; ++i) {
+        struct stat st;
+        if (lstat(d->final[i], &st) == 0 && !S_ISREG(st.st_mode)) {
+            leap_fail(err, LEAP_ERR_IO, "%s: in the way of the dump's file of that name (not a regular file); nothing "
+                      "was replaced", d->final[i]);
+            return 0;
+        }
+    }
+    return 1;
+}
+
 static leap_result make_dirs(const char *path, leap_dump_dir *d, leap_error *err)
 {
     char buf[4096];
@@ -48,7 +64,7 @@ static leap_result make_dirs(const char *path, leap_dump_dir *d, leap_error *err
             return leap_fail(err, LEAP_ERR_USAGE, "%s: path too long", path);
         d->temp_slot[i] = leap_temp_track(d->tmp[i]);
     }
-    return LEAP_OK;
+    return names_free(d, err) ? LEAP_OK : LEAP_ERR_IO;
 }
 
 /* Removes everything this run wrote (temporary and published files, created directories). */
@@ -64,6 +80,7 @@ static void out_dir_discard(leap_dump_dir *d)
 
 static int out_dir_publish(leap_dump_dir *d, leap_error *err)
 {
+    if (!names_free(d, err)) return 0; /* again: the folder may have changed while the dump ran */
     for (int i = 0; i < F_COUNT; ++i) {
         if (rename(d->tmp[i], d->final[i]) != 0) {
             leap_fail(err, LEAP_ERR_IO, "%s: cannot rename into place (%s)", d->final[i], strerror(errno));
