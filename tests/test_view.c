@@ -588,6 +588,11 @@ int main(void)
         renders_back(tmp, "cached", "--gpu-cache 65536", "through a brick cache");
     }
 
+    /* A transfer function that does not load as the script's last command fails the run: the
+     * script ends once its last state is drawn (it exited 0 before that frame). */
+    rc = view_script(xvfb, tmp, "lasttf", "tf @/missing.json\n", vol, "--size 64x48");
+    CHECK_MSG(rc == 1 && strstr(out_text, "missing.json"), "a last tf that fails: exit %d: %s", rc, out_text);
+
     /* A value window above every value: the frame is blank, and the viewer says why. */
     {
         char line[1024] = "";

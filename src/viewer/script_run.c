@@ -128,6 +128,15 @@ int script_step(leap_viewer_session *s, script_run *run)
             if (!done) return 0;
             run->waiting = 0;
         }
+        /* The script ends (or quits) once the state it left is drawn: a failure there (a TF file
+         * that does not load) is the script's, not lost with the window. */
+        const int ending = run->pc >= run->script->count || run->script->cmds[run->pc].op == LEAP_VIEWER_OP_QUIT;
+        if (ending && published_now(s).rendered_seq < current_seq(s)) {
+            session_post_state(s);
+            run->waiting = 1;
+            run->wait_value = current_seq(s);
+            continue;
+        }
         if (run->pc >= run->script->count) return 1;
         const leap_viewer_cmd *c = &run->script->cmds[run->pc];
         switch (c->op) {
