@@ -412,6 +412,9 @@ int main(void)
         EXPECT_FAIL(2, args, "frame number", out);
         snprintf(args, sizeof args, "render %s -o %s/%%d%%d.png --turntable 4", sphere, tmp);
         EXPECT_FAIL(2, args, "frame number", out);
+        /* in a folder's name, frames after the first had no folder (one frame written, exit 1) */
+        snprintf(args, sizeof args, "render %s -o %s/f%%d/img.png --turntable 3", sphere, tmp);
+        EXPECT_FAIL(2, args, "frame number in the file's name", out);
         snprintf(args, sizeof args, "render %s -o %s/%%d.png --turntable 4 --stats %s/s.json", sphere, tmp, tmp);
         EXPECT_FAIL(2, args, "--turntable", out);
         snprintf(args, sizeof args, "render %s -o %s/%%d.png --turntable 0", sphere, tmp);

@@ -393,8 +393,8 @@ int cli_render(int argc, char **argv)
     if (turntable) {
         if (!cli_frame_pattern_ok(output))
             return cli_usage_error("render",
-                                   "with --turntable, -o '%s' needs one frame number, e.g. frames/%%03d.png (or a "
-                                   ".mp4/.gif video)",
+                                   "with --turntable, -o '%s' needs one frame number in the file's name, e.g. "
+                                   "frames/%%03d.png (or a .mp4/.gif video)",
                                    output);
         return cli_turntable(&o, turntable, output, quiet);
     }

@@ -20,6 +20,7 @@ int cli_frame_pattern_ok(const char *pattern)
         if (*p == '0') ++p;
         if (*p >= '1' && *p <= '9') ++p;
         if (*p != 'd') return 0;
+        if (strchr(p, '/')) return 0; /* in the file's name: the folder is one for every frame */
         ++count;
     }
     return count == 1;
