@@ -241,6 +241,15 @@ static void check_failures_keep_work(void)
     snprintf(path, sizeof path, "%s/typo", LEAP_TEST_TMP);
     CHECK_MSG(access(path, F_OK) != 0, "%s made for a bench that could not start", path);
 
+    /* A usage error found once the volume is open (shading a segmentation) leaves no folder. */
+    snprintf(cmd, sizeof cmd, "rm -rf %s/shaded && %s bench %s/labels.vdb --sizes 16x16 --views 1 --steps 1 --modes naive "
+             "--repeats 1 --warmup 0 --look shade -o %s/shaded/deep 2>/dev/null", LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES,
+             LEAP_TEST_TMP);
+    rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/shaded", LEAP_TEST_TMP);
+    CHECK_MSG(rc == 2 && access(path, F_OK) != 0, "shaded segmentation: exit %d, folder %s", rc,
+              access(path, F_OK) == 0 ? "left" : "not made");
+
     snprintf(path, sizeof path, "%s/cut.vdb", LEAP_TEST_TMP);
     snprintf(cmd, sizeof cmd, "head -c 3000 %s/cloud.vdb > %s && rm -rf %s/part && %s bench %s/sphere.vdb %s "
              "--sizes 32x24 --views 1 --steps 1 --modes naive --repeats 1 --warmup 0 --no-reference -o %s/part "

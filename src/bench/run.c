@@ -442,14 +442,19 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
                              !found ? strerror(e) : S_ISDIR(st.st_mode) ? "it is a directory" : strerror(errno));
         }
     }
-    leap_result lr = leap_make_dirs(o->out, NULL, err);
+    leap_made_dirs made; /* removed again when the bench fails before its first row */
+    leap_result lr = leap_make_dirs(o->out, &made, err);
     if (lr) return lr;
     int vdb_runs = 0;
     if (o->vs_vdb) {
-        if (!(b.vdb = calloc(1, sizeof *b.vdb))) return leap_fail(err, LEAP_ERR_OOM, "out of memory");
+        if (!(b.vdb = calloc(1, sizeof *b.vdb))) {
+            leap_made_dirs_remove(&made);
+            return leap_fail(err, LEAP_ERR_OOM, "out of memory");
+        }
         snprintf(b.vdb->exe, sizeof b.vdb->exe, "%s", o->vdb_render_exe);
         if (!b.vdb->exe[0] && !leap_bench_find_vdb_render(b.vdb->exe, sizeof b.vdb->exe)) {
             free(b.vdb);
+            leap_made_dirs_remove(&made);
             return leap_fail(err, LEAP_ERR_USAGE, "vdb_render not found on PATH");
         }
         vdb_runner_check_volumes(b.vdb, o);
@@ -471,6 +476,7 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
             b.outcome->volumes_kept = done.nvolumes;
     }
     if (b.vdb) b.outcome->vdb_failures = b.vdb->failures;
+    if (lr && b.nrows == 0) leap_made_dirs_remove(&made);
     free(b.rows);
     free(b.fixed);
     free(b.vdb);
