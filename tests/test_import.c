@@ -529,6 +529,15 @@ static void test_raw(void)
     CHECK(leap_input_open(p_le, &o, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "needs exactly"));
     snprintf(spec, sizeof spec, "%dx%dx%d:uint16", NX, NY, NZ - 1);
     CHECK(leap_input_open(p_le, &o, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "a header?"));
+    /* A layout whose size passes 2^64 is said so (it wrapped, to 0 bytes here, which an empty
+     * file matched). */
+    const char *empty = tmp_file("empty.raw");
+    FILE *ef = fopen(empty, "wb");
+    if (ef) fclose(ef);
+    o.raw = "2097152x2097152x2097152:uint32";
+    CHECK_MSG(leap_input_open(empty, &o, &file, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "needs 3.68935e+19"),
+              "%s", err.msg);
+    o.raw = spec;
     leap_raw_layout layout;
     const char *bad[] = {"10x10:uint8", "10x10x10", "10x10x10:uint12", "0x10x10:uint8", "10x10x10:uint8:xe",
                          "10x10x-1:uint8"};

@@ -69,11 +69,18 @@ leap_result leap__input_open_raw(const char *path, const leap_input_options *o, 
     leap_raw_layout L;
     leap_result r = leap_input_parse_raw(o->raw, &L, err);
     if (r) return r;
-    const size_t n = (size_t)L.dim[0] * (size_t)L.dim[1] * (size_t)L.dim[2];
-    const uint64_t want = (uint64_t)n * (uint64_t)L.bytes;
     struct stat st;
     if (stat(path, &st) != 0) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
     if (!S_ISREG(st.st_mode)) return leap_fail(err, LEAP_ERR_IO, "'%s' is not a regular file", path);
+    /* The size in double first: the product of three dimensions below 2^31 and 8 bytes can pass
+     * 2^64 and wrap (to 0 for 2^21 cubed of 4 bytes, which an empty file then matched). */
+    const double want_d = (double)L.dim[0] * (double)L.dim[1] * (double)L.dim[2] * (double)L.bytes;
+    if (want_d >= 0x1p63)
+        return leap_fail(err, LEAP_ERR_FORMAT, "'%s' holds %llu bytes; --raw %s needs %.6g (%d x %d x %d voxels of %d "
+                         "byte%s)", path, (unsigned long long)st.st_size, o->raw, want_d, L.dim[0], L.dim[1], L.dim[2],
+                         L.bytes, L.bytes > 1 ? "s" : "");
+    const size_t n = (size_t)L.dim[0] * (size_t)L.dim[1] * (size_t)L.dim[2];
+    const uint64_t want = (uint64_t)n * (uint64_t)L.bytes;
     if ((uint64_t)st.st_size != want)
         return leap_fail(err, LEAP_ERR_FORMAT,
                          "'%s' holds %llu bytes; --raw %s needs exactly %llu (%d x %d x %d voxels of %d byte%s)%s",
