@@ -75,7 +75,7 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     if (r == LEAP_ERR_UNSUPPORTED) {
         char why[sizeof err->msg];
         snprintf(why, sizeof why, "%s", err->msg);
-        r = leap_fail(err, r, "the grid needs about %.0f MiB in memory, more than the budget of %.0f MiB "
+        r = leap_fail(err, r, "the grid needs about %.2f MiB in memory, more than the budget of %.2f MiB "
                       "(--memory-budget, LEAP_MEMORY_BUDGET), and %s", (double)need / (1 << 20),
                       (double)budget / (1 << 20), why);
     }
@@ -414,7 +414,7 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
                          "surface to light", s->march.mip > 0 ? "MIP (--mip)" : "minIP (--minip)");
     if (s->grid && leap_grid_on_demand(s->grid))
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "shading (--shade) needs the whole volume in memory; this grid "
-                         "is read on demand under a memory budget of %.0f MiB (--memory-budget)",
+                         "is read on demand under a memory budget of %.2f MiB (--memory-budget)",
                          (double)s->memory_budget / (1 << 20));
     const double terms[4] = {sh.ambient, sh.diffuse, sh.specular, sh.shininess};
     static const char *const names[4] = {"ambient", "diffuse", "specular", "shininess"};
