@@ -614,6 +614,16 @@ static void test_slices(void)
     leap_grid_destroy(folder);
     leap_grid_destroy(pattern);
     leap_grid_destroy(stack);
+    /* The command line takes --voxel for a stack as the README shows (it was refused: "--voxel
+     * applies to --raw files only"), and still refuses it for a .vdb, which gives its own. */
+    snprintf(args, sizeof args, "info %s --voxel 0.2,0.2,1", dir);
+    CHECK(run(args) == 0);
+    snprintf(path, sizeof path, "%s/out.txt", LEAP_TEST_TMP);
+    char *said = read_whole_file(path, NULL);
+    CHECK_MSG(said && strstr(said, "voxel size     0.2 x 0.2 x 1"), "%s", said ? said : "");
+    free(said);
+    snprintf(args, sizeof args, "info %s/sphere.vdb --voxel 0.2,0.2,1", LEAP_VOLUMES);
+    CHECK(run(args) == 2);
 
     /* A slice of another size, an RGB slice, an empty folder, a pattern matching nothing. */
     snprintf(args, sizeof args, "--pattern constant:color=0.5 9x6 1 -d uint16 -o %s/s12.tif", dir);

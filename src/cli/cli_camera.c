@@ -135,9 +135,11 @@ int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input
     return 0;
 }
 
-int cli_input_options_check(const char *verb, const leap_input_options *io)
+int cli_input_options_check(const char *verb, const char *input, const leap_input_options *io)
 {
-    if (io->voxel[0] > 0 && !io->raw) return cli_usage_error(verb, "--voxel applies to --raw files only");
+    if (io->voxel[0] > 0 && !io->raw && !(input && leap_input_is_slices(input)))
+        return cli_usage_error(verb, "--voxel applies to --raw files and image stacks only (other files give their "
+                                     "voxel size)");
     return 0;
 }
 
@@ -317,7 +319,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
 {
     if (!o->input) return cli_usage_error(verb, "no input volume given");
-    if (cli_input_options_check(verb, &o->scene.input)) return EXIT_USAGE;
+    if (cli_input_options_check(verb, o->input, &o->scene.input)) return EXIT_USAGE;
     if (o->has_orbit && (o->has_eye || o->has_target)) return cli_usage_error(verb, "--orbit conflicts with --eye/--target");
     if (o->has_eye != o->has_target) return cli_usage_error(verb, "--eye and --target go together");
     if (o->has_up && !(o->up[0] * o->up[0] + o->up[1] * o->up[1] + o->up[2] * o->up[2] > 0))

@@ -82,7 +82,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 /* The options of imported formats (--threshold, --raw, --voxel), also taken by info and
  * convert: returns as cli_camera_option does. cli_input_options_check: 0 or EXIT_USAGE. */
 int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input_options *io);
-int cli_input_options_check(const char *verb, const leap_input_options *io);
+int cli_input_options_check(const char *verb, const char *input, const leap_input_options *io);
 
 /* Writes one rendered image of o->width x o->height (render, turntable): the volume over
  * o->background (default black, transparent with o->alpha), with the scene's colour legend

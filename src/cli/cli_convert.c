@@ -65,7 +65,7 @@ int cli_convert(int argc, char **argv)
         }
     }
     if (!input) return cli_usage_error("convert", "no input volume given");
-    if (cli_input_options_check("convert", &io)) return EXIT_USAGE;
+    if (cli_input_options_check("convert", input, &io)) return EXIT_USAGE;
     if (!output) return cli_usage_error("convert", "no output file given (-o OUT.vdb)");
     const size_t n = strlen(output);
     if (n < 4 || strcasecmp(output + n - 4, ".vdb") != 0)
