@@ -59,6 +59,8 @@ typedef struct leap_dump_segment {
 #define LEAP_DUMP_UNMATCHED 8u   /* an event's order matched no box */
 #define LEAP_DUMP_ROUNDING 16u   /* renderer samples differ by lattice points that lie within float
                                     rounding of a segment or domain end (the GPU's ray is float) */
+#define LEAP_DUMP_MIP_PASSED 32u /* MIP/minIP: fewer renderer samples, from cells passed whole that
+                                    could not change the ray's extreme */
 
 typedef struct leap_dump_pixel {
     int x, y;

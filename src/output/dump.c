@@ -306,6 +306,8 @@ leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pi
         uint32_t diff = (uint32_t)abs((int32_t)p->lattice_samples - p->samples);
         if (stopped)
             p->flags |= LEAP_DUMP_EARLY_STOP;
+        else if (f->march.mip && (uint32_t)p->samples < p->lattice_samples)
+            p->flags |= LEAP_DUMP_MIP_PASSED;
         else if (p->in_domain && diff <= near_lattice_ends(f, p, step))
             p->flags |= LEAP_DUMP_ROUNDING;
         else

@@ -150,7 +150,7 @@ leap_result leap_dump_dir_write(leap_dump_dir *dir, const leap_dump_image_desc *
     progress(c, "writing events and segments...");
     if ((r = leap_dump_writer_create(dir->tmp[F_BIN], c->frame, &wr, err))) goto done;
     const uint32_t *lists = leap_renderer_pixel_lists(c->renderer);
-    uint64_t flag_counts[5] = {0}, list_mismatch = 0, events_total = 0, segments_total = 0, lattice_total = 0;
+    uint64_t flag_counts[6] = {0}, list_mismatch = 0, events_total = 0, segments_total = 0, lattice_total = 0;
     for (int y = 0; y < h && !r; ++y) {
         for (int x = 0; x < w && !r; ++x) {
             leap_dump_pixel p;
@@ -165,7 +165,7 @@ leap_result leap_dump_dir_write(leap_dump_dir *dir, const leap_dump_image_desc *
                 skip_valid[i] = 1;
                 skip_map[i] = 1.0f - c->samples[i] / c->naive_samples[i];
             }
-            for (int b = 0; b < 5; ++b) flag_counts[b] += (p.flags >> b) & 1u;
+            for (int b = 0; b < 6; ++b) flag_counts[b] += (p.flags >> b) & 1u;
             list_mismatch += p.event_count != lists[4 * i + 1] ||
                              p.segment_count != (lists[4 * i] & LEAP_PIXEL_COUNT_MASK);
             events_total += p.event_count;
@@ -301,6 +301,7 @@ leap_result leap_dump_dir_write(leap_dump_dir *dir, const leap_dump_image_desc *
     cJSON_AddNumberToObject(sj, "skipped_fraction",
                             naive_total > 0 ? 1.0 - (double)c->stats->total_samples / naive_total : 0.0);
     cJSON_AddNumberToObject(sj, "pixels_early_termination", (double)flag_counts[1]);
+    cJSON_AddNumberToObject(sj, "pixels_mip_passed", (double)flag_counts[5]);
     cJSON_AddNumberToObject(sj, "pixels_float_rounding", (double)flag_counts[4]);
     cJSON_AddNumberToObject(sj, "pixels_mismatch", (double)flag_counts[2]);
     cJSON_AddNumberToObject(sum, "pixels_unmatched_events", (double)flag_counts[3]);

@@ -43,6 +43,9 @@ static const char *samples_note(const leap_dump_pixel *p)
     if (!p->in_domain) return "the ray misses the volume's domain: nothing to sample";
     if (p->flags & LEAP_DUMP_OVERFLOW) return "the pixel's lists overflowed: it walked the occupancy tree instead (as --mode octree)";
     if (p->flags & LEAP_DUMP_EARLY_STOP) return "early ray termination stopped the ray before its last lattice point";
+    if (p->flags & LEAP_DUMP_MIP_PASSED)
+        return "the projection passed cells whole that could not change the ray's extreme (MIP/minIP take fewer "
+               "samples)";
     if (p->flags & LEAP_DUMP_ROUNDING)
         return "the renderer's count differs by lattice points lying within float rounding of a segment or "
                "domain end (the GPU computes the ray in float, this count in double)";
@@ -129,6 +132,7 @@ static char *pixel_json(const leap_dump_source *src, const leap_dump_frame *f, c
     cJSON_AddNumberToObject(sm, "renderer", p->samples);
     cJSON_AddNumberToObject(sm, "domain", p->domain_samples);
     cJSON_AddBoolToObject(sm, "early_termination", (p->flags & LEAP_DUMP_EARLY_STOP) != 0);
+    cJSON_AddBoolToObject(sm, "mip_passed", (p->flags & LEAP_DUMP_MIP_PASSED) != 0);
     cJSON_AddBoolToObject(sm, "match", (p->flags & LEAP_DUMP_MISMATCH) == 0);
     cJSON_AddBoolToObject(sm, "float_rounding", (p->flags & LEAP_DUMP_ROUNDING) != 0);
     cJSON_AddStringToObject(sm, "note", samples_note(p));
