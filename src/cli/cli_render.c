@@ -386,7 +386,8 @@ int cli_render(int argc, char **argv)
                                ".exr or .tif)", output);
     }
     if (!leap_image_can_write(output))
-        return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif)", output);
+        return cli_usage_error("render", "'%s': unknown image format (use .png, .exr or .tif%s)", output,
+                               turntable ? "; a video: .mp4 or .gif" : "");
     if (o.legend && (o.width < 64 || o.height < 48)) /* leap_legend_draw's smallest image */
         return cli_usage_error("render", "--legend needs an image of at least 64x48 pixels (--size %dx%d)", o.width,
                                o.height);

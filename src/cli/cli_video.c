@@ -89,7 +89,9 @@ int cli_turntable_video(const cli_camera_options *o, int frames, const char *out
         } else if (leap_publish_commit(&pub, &err)) {
             rc = cli_runtime_error("%s", err.msg);
         } else if (!quiet) {
-            fprintf(stderr, "leap: wrote %s (%d frames at 24 per second, encoded by ffmpeg)\n", output, frames);
+            const int w = gif ? o->width : (o->width + 1) / 2 * 2, h = gif ? o->height : (o->height + 1) / 2 * 2;
+            fprintf(stderr, "leap: wrote %s (%d frames of %dx%d at 24 per second, encoded by ffmpeg%s)\n", output,
+                    frames, w, h, w != o->width || h != o->height ? "; padded to even sides for H.264" : "");
         }
     }
     remove_frames(dir);
