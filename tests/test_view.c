@@ -592,6 +592,14 @@ int main(void)
      * script ends once its last state is drawn (it exited 0 before that frame). */
     rc = view_script(xvfb, tmp, "lasttf", "tf @/missing.json\n", vol, "--size 64x48");
     CHECK_MSG(rc == 1 && strstr(out_text, "missing.json"), "a last tf that fails: exit %d: %s", rc, out_text);
+    /* An object the volume lacks and a pixel outside the window are said (silently accepted, and
+     * "nothing above opacity 0", before). */
+    char labels[1024];
+    snprintf(labels, sizeof labels, "%s/labels.vdb", LEAP_VOLUMES);
+    rc = view_script(xvfb, tmp, "said", "show 99999\npick 1000 1000\nquit\n", labels, "--size 64x48");
+    CHECK_MSG(rc == 0 && strstr(out_text, "show 99999: the volume has no object with that ID") &&
+                  strstr(out_text, "pick 1000 1000: outside the 64x48 window"),
+              "exit %d: %s", rc, out_text);
 
     /* A value window above every value: the frame is blank, and the viewer says why. */
     {

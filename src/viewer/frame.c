@@ -80,8 +80,10 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     s->tf_apply_ms = leap__now_ms() - t;
     char why[256];
     if (!r && leap_scene_shows_nothing(s->scene, why, sizeof why))
-        session_note(s, LEAP_VIEWER_NOTE_STATUS, "nothing to show: %s ([ ] { } move the value window, t picks the "
-                     "next preset)", why);
+        session_note(s, LEAP_VIEWER_NOTE_STATUS, "nothing to show: %s%s", why,
+                     s->scene->atlas->empty ? ""
+                     : s->scene->labels     ? " (a shows every object)"
+                                            : " ([ ] { } move the value window, t picks the next preset)");
     return r;
 }
 
@@ -203,8 +205,13 @@ static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, 
         switch (o->op) {
         case LEAP_VIEWER_OBJECTS_ALL: leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 1); break;
         case LEAP_VIEWER_OBJECTS_NONE: leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 0); break;
-        case LEAP_VIEWER_OBJECTS_SHOW: leap_labels_set_visible(scene->labels, o->id, o->id, 1); break;
-        case LEAP_VIEWER_OBJECTS_HIDE: leap_labels_set_visible(scene->labels, o->id, o->id, 0); break;
+        case LEAP_VIEWER_OBJECTS_SHOW:
+        case LEAP_VIEWER_OBJECTS_HIDE:
+            if (leap_labels_find(scene->labels, o->id) < 0) /* as --show says of such an ID */
+                session_note(s, LEAP_VIEWER_NOTE_STATUS, "warning: %s %lld: the volume has no object with that ID",
+                             o->op == LEAP_VIEWER_OBJECTS_SHOW ? "show" : "hide", (long long)o->id);
+            leap_labels_set_visible(scene->labels, o->id, o->id, o->op == LEAP_VIEWER_OBJECTS_SHOW);
+            break;
         case LEAP_VIEWER_OBJECTS_ONLY:
             leap_labels_set_visible(scene->labels, INT64_MIN, INT64_MAX, 0);
             leap_labels_set_visible(scene->labels, s->picked_id, s->picked_id, 1);

@@ -173,16 +173,23 @@ int script_step(leap_viewer_session *s, script_run *run)
             run->wait_value = current_seq(s);
             break;
         case LEAP_VIEWER_OP_MARK: script_mark(s, run, c->text); break;
-        case LEAP_VIEWER_OP_PICK:
-            if (published_now(s).rendered_seq < current_seq(s)) { /* pick in the frame of the state so far */
+        case LEAP_VIEWER_OP_PICK: {
+            const session_published now = published_now(s);
+            if (now.rendered_seq < current_seq(s)) { /* pick in the frame of the state so far */
                 run->waiting = 1;
                 run->wait_value = current_seq(s);
                 continue;
+            }
+            if (!(c->num[0] >= 0 && c->num[1] >= 0 && c->num[0] < now.width && c->num[1] < now.height)) {
+                session_note(s, LEAP_VIEWER_NOTE_RESULT, "pick %g %g: outside the %dx%d window", c->num[0], c->num[1],
+                             now.width, now.height);
+                break;
             }
             run->wait_value = session_request_hover(s, c->num[0] + 0.5, c->num[1] + 0.5); /* the pixel's centre */
             run->wait_cmd = c;
             run->waiting = 6;
             break;
+        }
         case LEAP_VIEWER_OP_TF_SAVE:
             if (session_save_tf(s, c->text)) return -1;
             break;
