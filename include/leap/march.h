@@ -78,6 +78,25 @@ typedef struct leap_march {
     leap_shading shade;   /* not with mip, not for segmentations */
 } leap_march;
 
+/* Cuts a ray's interval [*t0, *t1] to where it keeps m's clipping planes (each plane itself
+ * kept), as every renderer cuts its domain interval; 0 when nothing is left. */
+static inline int leap_march_keep(const leap_march *m, const double o[3], const double d[3], double *t0, double *t1)
+{
+    for (int k = 0; k < m->clip_count && k < LEAP_MAX_CLIPS; ++k) {
+        const double *q = m->clip[k];
+        const double at_origin = q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3];
+        const double along = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
+        if (along == 0.0) {
+            if (!(at_origin >= 0.0)) return 0;
+        } else if (along > 0.0) {
+            if (-at_origin / along > *t0) *t0 = -at_origin / along;
+        } else if (-at_origin / along < *t1) {
+            *t1 = -at_origin / along;
+        }
+    }
+    return *t0 <= *t1;
+}
+
 #ifdef __cplusplus
 }
 #endif

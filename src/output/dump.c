@@ -265,17 +265,9 @@ leap_result leap_dump_frame_pixel(leap_dump_frame *f, int x, int y, leap_dump_pi
     leap_rays_at(&f->view, x + 0.5, y + 0.5, p->origin, p->dir);
     p->in_domain = leap_dump_clip_box(p->origin, p->dir, f->march.domain_min, f->march.domain_max, &p->t_enter,
                                       &p->t_exit);
-    /* The clipping planes cut the domain interval as every renderer does (leap_clip_keep); the
-     * lattice count left them out and called clipped pixels mismatches. */
-    for (int k = 0; p->in_domain && k < f->march.clip_count && k < LEAP_MAX_CLIPS; ++k) {
-        const double *q = f->march.clip[k];
-        const double at = q[0] * p->origin[0] + q[1] * p->origin[1] + q[2] * p->origin[2] + q[3];
-        const double along = q[0] * p->dir[0] + q[1] * p->dir[1] + q[2] * p->dir[2];
-        if (along > 0.0) p->t_enter = fmax(p->t_enter, -at / along);
-        else if (along < 0.0) p->t_exit = fmin(p->t_exit, -at / along);
-        else if (!(at >= 0.0)) p->in_domain = 0;
-        if (!(p->t_enter <= p->t_exit)) p->in_domain = 0;
-    }
+    /* The clipping planes cut the domain interval as every renderer does (the lattice count
+     * left them out and called clipped pixels mismatches). */
+    if (p->in_domain) p->in_domain = leap_march_keep(&f->march, p->origin, p->dir, &p->t_enter, &p->t_exit);
     double step = f->march.step, k_next = 0.0;
     for (uint32_t i = 0; i < ns; ++i) {
         leap_dump_segment *s = &f->segments[i];

@@ -102,19 +102,7 @@ static int lattice_range(const leap_march *m, const double o[3], const double d[
         if (t2 < tmax)
             tmax = t2;
     }
-    for (int k = 0; k < m->clip_count && k < LEAP_MAX_CLIPS; ++k) {
-        const double *q = m->clip[k];
-        const double at_origin = q[0] * o[0] + q[1] * o[1] + q[2] * o[2] + q[3];
-        const double along = q[0] * d[0] + q[1] * d[1] + q[2] * d[2];
-        if (along == 0.0) {
-            if (!(at_origin >= 0.0)) return 0;
-        } else if (along > 0.0) {
-            tmin = fmax(tmin, -at_origin / along);
-        } else {
-            tmax = fmin(tmax, -at_origin / along);
-        }
-    }
-    if (!(tmin <= tmax) || !isfinite(tmax))
+    if (!leap_march_keep(m, o, d, &tmin, &tmax) || !isfinite(tmax))
         return 0;
     double a = ceil(tmin / m->step), b = floor(tmax / m->step);
     if (a < 0.0)
