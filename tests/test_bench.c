@@ -89,6 +89,19 @@ static void check_succeeds(const char *cmd, const char *err_name, const char *wh
     free(err);
 }
 
+/* Runs cmd, whose stderr goes to LEAP_TEST_TMP/err_name, and checks that it exits `code` with
+ * `needle` in that stderr; returns the stderr (the caller frees it) for further checks. */
+static char *check_fails(const char *cmd, const char *err_name, int code, const char *needle, const char *what)
+{
+    char path[2048];
+    int rc = run_status(cmd);
+    snprintf(path, sizeof path, "%s/%s", LEAP_TEST_TMP, err_name);
+    char *err = read_whole_file(path, NULL);
+    CHECK_MSG(rc == code && err && strstr(err, needle), "%s: exit status %d, expected %d with '%s'; stderr: %s", what,
+              rc, code, needle, err ? err : "(none)");
+    return err;
+}
+
 /* A valid config over 64 KiB (padded with whitespace) is read whole; -o a/b/c creates the
  * missing parents. */
 static void check_config_large_and_nested_output(void)
@@ -212,13 +225,7 @@ static void check_vdb_render_missing(const char *path_env)
              "PATH=%s %s bench %s/sphere.vdb --sizes 32x24 --views 1 --steps 1 --vs-vdb-render -o %s/novdb "
              "2>%s/novdb.err",
              path_env, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
-    int rc = system(cmd);
-    CHECK_MSG(WIFEXITED(rc) && WEXITSTATUS(rc) == 2, "PATH=%s: exit status %d, expected 2", path_env,
-              WIFEXITED(rc) ? WEXITSTATUS(rc) : -1);
-    snprintf(path, sizeof path, "%s/novdb.err", LEAP_TEST_TMP);
-    char *err = read_whole_file(path, NULL);
-    CHECK_MSG(err && strstr(err, "vdb_render not found on PATH"), "stderr: %s", err ? err : "(none)");
-    free(err);
+    free(check_fails(cmd, "novdb.err", 2, "vdb_render not found on PATH", path_env));
     snprintf(path, sizeof path, "%s/novdb/results.csv", LEAP_TEST_TMP);
     CHECK_MSG(access(path, F_OK) != 0, "%s exists: the bench ran without vdb_render", path);
 }
@@ -232,11 +239,8 @@ static void check_failures_keep_work(void)
     snprintf(cmd, sizeof cmd, "rm -rf %s/typo && %s bench %s/sphere.vdb %s/no-such.vdb --sizes 32x24 --views 1 "
              "--steps 1 --modes naive --repeats 1 --warmup 0 --no-reference -o %s/typo 2>%s/typo.err",
              LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP, LEAP_TEST_TMP);
-    int rc = run_status(cmd);
-    snprintf(path, sizeof path, "%s/typo.err", LEAP_TEST_TMP);
-    char *err = read_whole_file(path, NULL);
-    CHECK_MSG(rc == 1 && err && strstr(err, "no-such.vdb") && !strstr(err, "sphere.vdb view"),
-              "missing volume: exit %d, stderr: %s", rc, err ? err : "(none)");
+    char *err = check_fails(cmd, "typo.err", 1, "no-such.vdb", "missing volume");
+    CHECK_MSG(err && !strstr(err, "sphere.vdb view"), "a frame ran before the missing volume was found: %s", err);
     free(err);
     snprintf(path, sizeof path, "%s/typo", LEAP_TEST_TMP);
     CHECK_MSG(access(path, F_OK) != 0, "%s made for a bench that could not start", path);
@@ -245,7 +249,7 @@ static void check_failures_keep_work(void)
     snprintf(cmd, sizeof cmd, "rm -rf %s/shaded && %s bench %s/labels.vdb --sizes 16x16 --views 1 --steps 1 --modes naive "
              "--repeats 1 --warmup 0 --look shade -o %s/shaded/deep 2>/dev/null", LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES,
              LEAP_TEST_TMP);
-    rc = run_status(cmd);
+    int rc = run_status(cmd);
     snprintf(path, sizeof path, "%s/shaded", LEAP_TEST_TMP);
     CHECK_MSG(rc == 2 && access(path, F_OK) != 0, "shaded segmentation: exit %d, folder %s", rc,
               access(path, F_OK) == 0 ? "left" : "not made");
@@ -269,12 +273,7 @@ static void check_failures_keep_work(void)
     snprintf(cmd, sizeof cmd, "rm -rf %s/limit && sh -c \"trap '' XFSZ; ulimit -f 1; exec %s bench %s/sphere.vdb "
              "--sizes 32x24 --views 1 --steps 1 --modes naive --repeats 1 --warmup 0 -o %s/limit\" 2>%s/limit.err",
              LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
-    rc = run_status(cmd);
-    snprintf(path, sizeof path, "%s/limit.err", LEAP_TEST_TMP);
-    err = read_whole_file(path, NULL);
-    CHECK_MSG(rc == 1 && err && strstr(err, "report.md: cannot write: File too large"), "file-size limit: exit %d, %s",
-              rc, err ? err : "(none)");
-    free(err);
+    free(check_fails(cmd, "limit.err", 1, "report.md: cannot write: File too large", "file-size limit"));
     snprintf(path, sizeof path, "%s/limit/report.md", LEAP_TEST_TMP);
     CHECK_MSG(access(path, F_OK) != 0, "%s written past the file-size limit", path);
 }

@@ -268,6 +268,27 @@ static int signal_during_write(int sig)
     return caught;
 }
 
+/* Runs argv (argv[0] the program) under a file-size limit of `bytes` (leap ignores SIGXFSZ, so
+ * a write past it fails); its stderr into text; returns the wait status. */
+static int run_fsize_limited(rlim_t bytes, const char *const *argv, char *text, size_t cap)
+{
+    char err_path[1100];
+    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
+    pid_t pid = fork();
+    if (pid == 0) {
+        struct rlimit rl = {bytes, bytes};
+        setrlimit(RLIMIT_FSIZE, &rl);
+        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        dup2(e, 2);
+        execv(argv[0], (char *const *)argv);
+        _exit(127);
+    }
+    int status = 0;
+    waitpid(pid, &status, 0);
+    read_text(err_path, text, cap);
+    return status;
+}
+
 /* 9. Signals and the file-size limit. */
 static void signals_and_limits(void)
 {
@@ -283,23 +304,9 @@ static void signals_and_limits(void)
     const char *names[] = {"big.exr", "big.png", "big.tif"};
     for (int i = 0; i < 3; ++i) {
         ++case_count;
-        pid_t pid = fork();
-        if (pid == 0) {
-            struct rlimit rl = {2048, 2048};
-            setrlimit(RLIMIT_FSIZE, &rl);
-            char err_path[1100];
-            snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-            int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-            dup2(e, 2);
-            execl(LEAP_EXE, LEAP_EXE, "render", sphere, "-o", out_path(names[i]), "--size", "256x256", "-q",
-                  (char *)NULL);
-            _exit(127);
-        }
-        int status = 0;
-        waitpid(pid, &status, 0);
-        char err_path[1100], text[4096];
-        snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-        read_text(err_path, text, sizeof text);
+        char text[4096];
+        const int status = run_fsize_limited(2048, ARGV(LEAP_EXE, "render", sphere, "-o", out_path(names[i]), "--size",
+                                                        "256x256", "-q"), text, sizeof text);
         CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 1, "[file-size limit %s] status %#x: %s", names[i],
                   status, text);
         CHECK_MSG(strstr(text, names[i]) && !strstr(text, "leap-tmp"), "[file-size limit %s] message: %s", names[i],
@@ -315,22 +322,8 @@ static void signals_and_limits(void)
     ++case_count;
     const char *good = out_path("good.vdb");
     write_text(good, "a good file\n");
-    pid_t pid = fork();
-    if (pid == 0) {
-        struct rlimit rl = {4096, 4096};
-        setrlimit(RLIMIT_FSIZE, &rl);
-        char err_path[1100];
-        snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-        int e = open(err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-        dup2(e, 2);
-        execl(LEAP_EXE, LEAP_EXE, "convert", sphere, "-o", good, "-q", (char *)NULL);
-        _exit(127);
-    }
-    int status = 0;
-    waitpid(pid, &status, 0);
-    char err_path[1100], text[4096], kept[64];
-    snprintf(err_path, sizeof err_path, "%s/stderr.txt", tmp_dir);
-    read_text(err_path, text, sizeof text);
+    char text[4096], kept[64];
+    const int status = run_fsize_limited(4096, ARGV(LEAP_EXE, "convert", sphere, "-o", good, "-q"), text, sizeof text);
     read_text(good, kept, sizeof kept);
     CHECK_MSG(WIFEXITED(status) && WEXITSTATUS(status) == 1 && strstr(text, "good.vdb: cannot write: File too large"),
               "[file-size limit, convert] status %#x: %s", status, text);
