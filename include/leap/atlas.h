@@ -117,6 +117,10 @@ void leap_atlas_destroy(leap_atlas *atlas); /* accepts NULL */
  * (LEAP_PAGE_CONST set) or, as the shader reads it, a slot position / label record offset. */
 uint32_t leap_atlas_cell_entry(const leap_atlas *atlas, const uint32_t cell[3]);
 
+/* The slot a slot cell's page entry points at, numbered x + slot_dims[0] * (y + slot_dims[1] * z)
+ * (the numbering of slot_ranges and slot_texels; a brick cache passes its own image's slot_dims). */
+uint32_t leap_atlas_entry_slot(const uint32_t slot_dims[3], uint32_t entry);
+
 /* Calls visit once per page-table region: a constant entry covering the cube of `edge` cells
  * from lo (it may reach past a->cells), or a page block (edge = 1 << block_shift) whose
  * cells' entries are cells[x + edge (y + edge z)] (entry is then its block index). Stops

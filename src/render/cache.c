@@ -53,13 +53,6 @@ static uint32_t pack_slot(const uint32_t dims[3], uint32_t slot)
     return x | y << LEAP_SLOT_BITS | z << (2 * LEAP_SLOT_BITS);
 }
 
-static uint32_t unpack_slot(const uint32_t dims[3], uint32_t entry)
-{
-    const uint32_t x = entry & LEAP_SLOT_MASK, y = entry >> LEAP_SLOT_BITS & LEAP_SLOT_MASK,
-                   z = entry >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK;
-    return x + dims[0] * (y + dims[1] * z);
-}
-
 typedef struct cache_fill {
     const leap_renderer *r;
     int as_float;
@@ -146,7 +139,7 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
     memcpy(pages, atlas->pages, atlas->page_words * 4);
     for (size_t w = atlas->block_base; w < atlas->page_words; ++w) {
         if (pages[w] & LEAP_PAGE_CONST) continue;
-        const uint32_t h = unpack_slot(atlas->slot_dims, pages[w]);
+        const uint32_t h = leap_atlas_entry_slot(atlas->slot_dims, pages[w]);
         c->entry_word[h] = (uint32_t)w;
         pages[w] = h < resident ? pack_slot(r->slot_dims, h) : LEAP_PAGE_MISSING | h;
     }

@@ -1137,6 +1137,13 @@ const uint32_t *leap_atlas_record_objects(const leap_atlas *atlas, uint32_t reco
     return w + LEAP_LABEL_HEADER;
 }
 
+uint32_t leap_atlas_entry_slot(const uint32_t slot_dims[3], uint32_t entry)
+{
+    const uint32_t x = entry & LEAP_SLOT_MASK, y = entry >> LEAP_SLOT_BITS & LEAP_SLOT_MASK,
+                   z = entry >> (2 * LEAP_SLOT_BITS) & LEAP_SLOT_MASK;
+    return x + slot_dims[0] * (y + slot_dims[1] * z);
+}
+
 uint32_t leap_atlas_cell_entry(const leap_atlas *a, const uint32_t cell[3])
 {
     const uint32_t shift = a->block_shift, up = LEAP_PAGE_NODE_SHIFT * a->mid_levels;

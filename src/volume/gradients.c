@@ -13,18 +13,6 @@
 
 #include "shared.h"
 
-/* Slot coordinate along axis i of a slot cell's page entry. */
-static uint32_t entry_slot(uint32_t entry, int i)
-{
-    return (entry >> (i * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
-}
-
-/* Index of a slot cell's slot (x + slot_dims[0] * (y + slot_dims[1] * z)), as slot_texels counts. */
-static size_t entry_slot_index(const leap_atlas *a, uint32_t entry)
-{
-    return entry_slot(entry, 0) + a->slot_dims[0] * (entry_slot(entry, 1) + a->slot_dims[1] * (size_t)entry_slot(entry, 2));
-}
-
 /* The stored value of voxel v (relative index space) through the page table, as the shader
  * reads it; v is clamped into the page grid (whose border cells are spare background). */
 static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
@@ -40,7 +28,7 @@ static uint16_t stored_value(const leap_atlas *a, const int32_t v_in[3])
     }
     const uint32_t entry = leap_atlas_cell_entry(a, cell);
     if (entry & LEAP_PAGE_CONST) return (uint16_t)(entry & 0xffffu);
-    const size_t slot = entry_slot_index(a, entry);
+    const size_t slot = leap_atlas_entry_slot(a->slot_dims, entry);
     const int32_t l[3] = {v[0] & (LEAP_CELL - 1), v[1] & (LEAP_CELL - 1), v[2] & (LEAP_CELL - 1)};
     return a->slot_texels[slot * LEAP_SLOT_TEXELS + (size_t)(l[0] + LEAP_SLOT * (l[1] + LEAP_SLOT * l[2]))];
 }
@@ -61,7 +49,7 @@ static int note_slot_cells(void *ctx, const uint32_t lo[3], uint32_t edge, uint3
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
         const uint32_t e = cells[k];
         if (e & LEAP_PAGE_CONST) continue;
-        const size_t slot = entry_slot_index(a, e);
+        const size_t slot = leap_atlas_entry_slot(a->slot_dims, e);
         vg->slot_cell[slot][0] = (int32_t)(lo[0] | (k & mask));
         vg->slot_cell[slot][1] = (int32_t)(lo[1] | ((k >> shift) & mask));
         vg->slot_cell[slot][2] = (int32_t)(lo[2] | (k >> (2 * shift)));
