@@ -532,6 +532,25 @@ int main(void)
     EXPECT_FAIL(2, args, "--range does not apply to a segmentation", out);
     snprintf(args, sizeof args, "render %s -o %s --label-opacity 0.1", sphere, out);
     EXPECT_FAIL(2, args, "--label-opacity applies to segmentations", out);
+    {
+        /* The refusal comes from the grid's metadata, before a voxel is read: a segmentation
+         * whose voxel data is corrupt is refused for --tf, where its read would fail. */
+        char bad[1024];
+        long size = 0;
+        snprintf(path, sizeof path, "%s/labels.vdb", LEAP_VOLUMES);
+        unsigned char *bytes = read_whole_file(path, &size);
+        CHECK(bytes && size > 4000);
+        if (bytes && size > 4000) {
+            memset(bytes + size * 6 / 10, 0xA5, 2000);
+            snprintf(bad, sizeof bad, "%s/corrupt_labels.vdb", tmp);
+            write_file(bad, (const char *)bytes, (size_t)size);
+            snprintf(args, sizeof args, "render %s -o %s --size 16x16 -q", bad, out);
+            EXPECT_FAIL(1, args, "corrupt", out);
+            snprintf(args, sizeof args, "render %s -o %s --tf hot", bad, out);
+            EXPECT_FAIL(2, args, "--tf does not apply to a segmentation", out);
+        }
+        free(bytes);
+    }
     /* '--stats -' prints the same JSON on standard output and makes no file named '-'. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --stats - -q", sphere, out);
     CHECK_MSG(run(args) == 0, "%s", out_text);

@@ -41,6 +41,10 @@ typedef struct leap_scene_desc {
     int clip_count;        /* clipping planes in world units: keep a x + b y + c z + d >= 0 */
     double clip[LEAP_MAX_CLIPS][4];
     leap_shading shade;    /* gradient shading (shade.on; leap_shading_default for --shade) */
+    int refuse_other_kind; /* 1 = tf or has_range on a segmentation, or label_opacity on a scalar
+                              volume, is LEAP_ERR_USAGE, found once the grid is open (before its
+                              atlas is built); 0 = each applies where it can (one set of options
+                              for volumes of both kinds, as the bench gives) */
     leap_progress_fn progress; /* optional: the stages of the build, and the atlas's part done */
     void *progress_user;
     uint64_t memory_budget; /* bytes; 0 = leap_scene_default_memory_budget(). A .vdb grid that

@@ -76,6 +76,10 @@ leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_i
  * there is no such grid; valid while the file is open). */
 const char *leap_vdb_grid_name(const leap_vdb_file *file, int index);
 
+/* leap_grid_info.labels of grid `index` (an integer grid: a segmentation), without reading the
+ * grid (0 when there is no such grid). */
+int leap_vdb_grid_labels(const leap_vdb_file *file, int index);
+
 /* The up direction the first grid that has one stores (leap_grid_info.up), read from the
  * metadata alone; returns 0 (up untouched) when no grid has one. */
 int leap_vdb_file_up(const leap_vdb_file *file, double up[3]);

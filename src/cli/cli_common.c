@@ -274,27 +274,12 @@ void cli_progress_bar_end(cli_progress_bar *bar)
 leap_result cli_scene_create(const leap_scene_desc *desc, int quiet, leap_scene **out, leap_error *err)
 {
     leap_scene_desc d = *desc;
+    d.refuse_other_kind = 1; /* options the volume's kind does not take are refused, not ignored */
     cli_progress_bar bar;
     cli_progress_bar_start(&bar);
     if (!quiet) d.progress = cli_progress_bar_report, d.progress_user = &bar;
     leap_result r = leap_scene_create(&d, out, err);
     cli_progress_bar_end(&bar);
-    /* Options that only one kind of volume takes are refused on the other, not ignored (the
-     * grid's kind is known once it is open). */
-    const char *not_here = NULL;
-    if (!r && (*out)->labels && (desc->tf || desc->has_range))
-        not_here = desc->tf ? "--tf" : "--range";
-    if (!r && !(*out)->labels && desc->label_opacity > 0) not_here = "--label-opacity";
-    if (not_here) {
-        const int labels = (*out)->labels != NULL;
-        leap_scene_destroy(*out);
-        *out = NULL;
-        r = labels ? leap_fail(err, LEAP_ERR_USAGE, "%s does not apply to a segmentation: its objects take colours "
-                               "hashed from their IDs (--objects sets colours and opacities, --label-opacity the "
-                               "opacity)", not_here)
-                   : leap_fail(err, LEAP_ERR_USAGE, "--label-opacity applies to segmentations (int32 or int64 grids, or "
-                               "--labels); this volume's values go through the transfer function (--tf)");
-    }
     return r;
 }
 

@@ -84,9 +84,23 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
 
 /* Reads the grid into memory, or on demand when it would not fit the budget: in memory a grid
  * takes its tree, and its atlas about as much again (the host's texels and the GPU image). */
-static leap_result open_grid(leap_scene *s, const char *path, const char *name, const leap_input_options *input,
+/* leap_scene_desc.refuse_other_kind: options that only the other kind of volume takes. */
+static leap_result refuse_other_kind(const leap_scene_desc *desc, int labels, leap_error *err)
+{
+    if (labels && (desc->tf || desc->has_range))
+        return leap_fail(err, LEAP_ERR_USAGE, "%s does not apply to a segmentation: its objects take colours hashed "
+                         "from their IDs (--objects sets colours and opacities, --label-opacity the opacity)",
+                         desc->tf ? "--tf" : "--range");
+    if (!labels && desc->label_opacity > 0)
+        return leap_fail(err, LEAP_ERR_USAGE, "--label-opacity applies to segmentations (int32 or int64 grids, or "
+                         "--labels); this volume's values go through the transfer function (--tf)");
+    return LEAP_OK;
+}
+
+static leap_result open_grid(leap_scene *s, const leap_scene_desc *desc, const leap_input_options *input,
                              leap_error *err)
 {
+    const char *path = desc->path, *name = desc->grid;
     leap_vdb_file *file = NULL;
     leap_result r = leap_input_open(path, input, &file, &s->input, err);
     if (r) return r;
@@ -110,7 +124,9 @@ static leap_result open_grid(leap_scene *s, const char *path, const char *name, 
         return leap_fail(err, LEAP_ERR_FORMAT, "%s: no scalar grid to render (grids: %s)", path,
                          names[0] ? names : "none");
     }
-    r = leap_scene_load_grid(file, index, path, s->memory_budget, &s->index, &s->grid, err);
+    /* Known from the grid's metadata: a refusal reads no voxel. */
+    if (desc->refuse_other_kind) r = refuse_other_kind(desc, desc->labels || leap_vdb_grid_labels(file, index), err);
+    if (!r) r = leap_scene_load_grid(file, index, path, s->memory_budget, &s->index, &s->grid, err);
     leap_vdb_close(file);
     return r;
 }
@@ -537,7 +553,7 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
     s->index.use = !use_index ? 0 : set_aside ? 2 : 1;
     if (set_aside) snprintf(s->index.note, sizeof s->index.note, "rebuilt: %.200s", set_aside);
     if (desc->progress) desc->progress(desc->progress_user, "reading the grid", 0);
-    leap_result r = open_grid(s, desc->path, desc->grid, &input, err);
+    leap_result r = open_grid(s, desc, &input, err);
     s->load_ms = leap__now_ms() - t;
     if (!r) {
         s->info = leap_grid_get_info(s->grid);

@@ -628,6 +628,11 @@ const char *leap_vdb_grid_name(const leap_vdb_file *file, int index)
     return file && index >= 0 && index < int(file->names.size()) ? file->names[size_t(index)].c_str() : nullptr;
 }
 
+int leap_vdb_grid_labels(const leap_vdb_file *file, int index)
+{
+    return file && index >= 0 && index < int(file->infos.size()) ? file->infos[size_t(index)].labels : 0;
+}
+
 leap_result leap_vdb_grid_info(const leap_vdb_file *file, int index, leap_grid_info *out, leap_error *err)
 {
     if (!file || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_vdb_grid_info: NULL argument");
