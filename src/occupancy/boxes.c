@@ -70,6 +70,9 @@ typedef struct vnode {
 typedef struct cut_entry {
     double cost[LEAP_CLASS_COUNT];
     uint8_t cls[LEAP_CLASS_COUNT];
+    double marched; /* marched_empty_cost of the whole node (INFINITY with UNKNOWN cells) */
+    uint8_t emits;  /* bit p: under a parent of class p the subtree emits a box (vbuild skips
+                       the others: most of a sparse tree) */
 } cut_entry;
 
 typedef struct vbuilder {
@@ -204,38 +207,64 @@ static double box_cost(const vbuilder *b, const double e[3])
     return b->box_fixed + b->hit_ns * 0.5 * (e[0] * e[1] + e[1] * e[2] + e[2] * e[0]);
 }
 
-/* Cheapest class and cost of a single-class subtree under a parent of class p. */
-static uint32_t leaf_choice(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p,
-                            double *cost)
+/* Cheapest class and cost, under a parent of each class p, of a single-class subtree of class
+ * cls inside the grid whose clipped extent is e (voxels) and box cost box; `constant`: an
+ * EMPTY one is stored as constants. Also what marching it whole costs (*march: INFINITY for
+ * UNKNOWN, 0 for NONEMPTY). */
+static void leaf_costs(const vbuilder *b, uint32_t cls, int constant, const double e[3], double box,
+                       double cost[LEAP_CLASS_COUNT], uint32_t choice[LEAP_CLASS_COUNT], double *march)
 {
-    const uint32_t cls = leap_occ_internal_ref_class(b->occ, ref);
-    double e[3];
-    if (!clipped_extent(b, org, height, e)) {
-        *cost = 0.0;
-        return p; /* outside the grid: never marched, never emitted */
-    }
-    const double box = box_cost(b, e);
     if (cls != LEAP_CLASS_EMPTY) {
-        *cost = cls != p ? box : 0.0;
-        return cls;
+        for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
+            cost[p] = cls != p ? box : 0.0;
+            choice[p] = cls;
+        }
+        *march = cls == LEAP_CLASS_UNKNOWN ? INFINITY : 0.0;
+        return;
     }
-    const double ns = leap_occ_internal_ref_constant(b->occ, ref) ? b->const_ns : b->dense_ns;
-    const double march = e[0] * e[1] * e[2] / b->step * ns;
-    const double as_empty = p != LEAP_CLASS_EMPTY ? box : 0.0;
-    const double as_marched = (p != LEAP_CLASS_NONEMPTY ? box : 0.0) + march;
-    *cost = as_empty <= as_marched ? as_empty : as_marched;
-    return as_empty <= as_marched ? LEAP_CLASS_EMPTY : LEAP_CLASS_NONEMPTY;
+    *march = e[0] * e[1] * e[2] / b->step * (constant ? b->const_ns : b->dense_ns);
+    for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
+        const double as_empty = p != LEAP_CLASS_EMPTY ? box : 0.0;
+        const double as_marched = (p != LEAP_CLASS_NONEMPTY ? box : 0.0) + *march;
+        cost[p] = as_empty <= as_marched ? as_empty : as_marched;
+        choice[p] = as_empty <= as_marched ? LEAP_CLASS_EMPTY : LEAP_CLASS_NONEMPTY;
+    }
 }
 
-static double child_cost(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3], uint32_t p)
+/* leaf_costs of the single-class subtree `ref` (edge 2^height cells at org); outside the grid
+ * it is never marched nor emitted. Returns what marching it costs (see leaf_costs). */
+static double leaf_choices(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3],
+                           double cost[LEAP_CLASS_COUNT], uint32_t choice[LEAP_CLASS_COUNT])
 {
-    if (stored_node(ref)) return b->table[ref].cost[p];
-    double c;
-    leaf_choice(b, ref, height, org, p, &c);
-    return c;
+    double e[3], march = 0.0;
+    if (!clipped_extent(b, org, height, e)) {
+        for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
+            cost[p] = 0.0;
+            choice[p] = p;
+        }
+        return march;
+    }
+    const uint32_t cls = leap_occ_internal_ref_class(b->occ, ref);
+    const int constant = cls == LEAP_CLASS_EMPTY && leap_occ_internal_ref_constant(b->occ, ref);
+    leaf_costs(b, cls, constant, e, box_cost(b, e), cost, choice, &march);
+    return march;
 }
 
-/* Fills the table bottom-up: children are stored after their parents. */
+/* The cheapest cost of the subtree `ref` under a parent of each class. */
+static void child_costs(const vbuilder *b, uint32_t ref, uint32_t height, const uint32_t org[3],
+                        double cost[LEAP_CLASS_COUNT])
+{
+    if (stored_node(ref)) {
+        memcpy(cost, b->table[ref].cost, sizeof b->table[ref].cost);
+        return;
+    }
+    uint32_t choice[LEAP_CLASS_COUNT];
+    leaf_choices(b, ref, height, org, cost, choice);
+}
+
+/* Fills the table bottom-up: children are stored after their parents. A node inside the grid
+ * prices its single-class children from one extent and box cost (the same figures
+ * clipped_extent and box_cost give each of them there). */
 static void cut_solve(vbuilder *b)
 {
     for (size_t i = leap_occ_internal_node_count(b->occ); i-- > 0;) {
@@ -244,13 +273,41 @@ static void cut_solve(vbuilder *b)
         double e[3];
         const int inside = clipped_extent(b, org, level, e);
         const double box = inside ? box_cost(b, e) : 0.0;
-        double sum[LEAP_CLASS_COUNT] = {0};
+        int whole = 1;
+        for (int a = 0; a < 3; ++a) whole = whole && (uint64_t)org[a] + ((uint64_t)1 << level) <= b->cells[a];
+        double child_e[3];
+        for (int a = 0; a < 3; ++a) child_e[a] = (double)((uint64_t)1 << (level - 1)) * LEAP_CELL;
+        const double child_box = box_cost(b, child_e);
+        double sum[LEAP_CLASS_COUNT] = {0}, marched = 0.0;
+        unsigned child_emits = 0; /* bit c: some child emits under this node of class c */
         for (int k = 0; k < 8; ++k) {
-            uint32_t corg[3];
-            child_origin(org, level, k, corg);
-            for (uint32_t c = 0; c < LEAP_CLASS_COUNT; ++c) sum[c] += child_cost(b, child[k], level - 1, corg, c);
+            double c[LEAP_CLASS_COUNT], march;
+            uint32_t choice[LEAP_CLASS_COUNT];
+            if (stored_node(child[k])) {
+                memcpy(c, b->table[child[k]].cost, sizeof c);
+                march = b->table[child[k]].marched;
+                child_emits |= b->table[child[k]].emits;
+                for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) sum[p] += c[p];
+                marched += march;
+                continue;
+            } else if (whole) {
+                const uint32_t cls = leap_occ_internal_ref_class(b->occ, child[k]);
+                const int constant = cls == LEAP_CLASS_EMPTY && leap_occ_internal_ref_constant(b->occ, child[k]);
+                leaf_costs(b, cls, constant, child_e, child_box, c, choice, &march);
+            } else {
+                uint32_t corg[3];
+                child_origin(org, level, k, corg);
+                march = leaf_choices(b, child[k], level - 1, corg, c, choice);
+            }
+            for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
+                sum[p] += c[p];
+                child_emits |= choice[p] != p ? 1u << p : 0u; /* a single-class child is emitted */
+            }
+            marched += march;
         }
         cut_entry *t = &b->table[i];
+        t->marched = marched;
+        t->emits = 0;
         for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
             uint32_t best = p;
             double best_cost = sum[p];
@@ -258,6 +315,7 @@ static void cut_solve(vbuilder *b)
                 if (sum[c] + box < best_cost) best = c, best_cost = sum[c] + box;
             t->cost[p] = best_cost;
             t->cls[p] = (uint8_t)best;
+            if ((best != p && inside) || (child_emits >> best & 1u)) t->emits |= (uint8_t)(1u << p);
         }
     }
 }
@@ -268,8 +326,10 @@ static uint32_t node_class(const vbuilder *b, uint32_t ref, uint32_t height, con
 {
     if (!b->cut) return leap_occ_internal_ref_class(b->occ, ref);
     if (stored_node(ref)) return b->table[ref].cls[p];
-    double c;
-    return leaf_choice(b, ref, height, org, p, &c);
+    double cost[LEAP_CLASS_COUNT];
+    uint32_t choice[LEAP_CLASS_COUNT];
+    leaf_choices(b, ref, height, org, cost, choice);
+    return choice[p];
 }
 
 /* Builds the vnodes of the subtree of `ref` (a node of edge 2^height cells at org). Returns
@@ -278,6 +338,7 @@ static uint32_t vbuild(vbuilder *b, uint32_t ref, uint32_t height, const uint32_
                        uint32_t pcls, int is_root)
 {
     if (b->oom) return NONE;
+    if (b->cut && stored_node(ref) && !(b->table[ref].emits >> pcls & 1u)) return NONE;
     const uint32_t cls = node_class(b, ref, height, org, pcls);
     /* Exact boxes keep the root's box whatever its class; the cut drops it when it is EMPTY
      * (the class outside every box), and anything outside the grid. */
@@ -335,6 +396,10 @@ static double marched_empty_cost(const vbuilder *b, uint32_t ref, uint32_t heigh
         volume *= (h - l) * LEAP_CELL;
     }
     if (stored_node(ref)) {
+        int whole = 1; /* the node lies inside the box: its sum is in the cut's table */
+        for (int a = 0; a < 3; ++a)
+            whole = whole && org[a] >= lo[a] && (uint64_t)org[a] + ((uint64_t)1 << height) <= hi[a];
+        if (whole) return b->table[ref].marched;
         uint32_t child[8];
         leap_occ_internal_node(b->occ, ref, NULL, NULL, child, NULL);
         double sum = 0.0;
@@ -400,7 +465,11 @@ leap_result leap_boxes_create(const leap_boxes_desc *desc, leap_boxes **out, lea
     const uint32_t org[3] = {0, 0, 0};
     const uint32_t root_ref = leap_occ_internal_root(occ, &b.depth);
     double cost = 0.0;
-    if (!b.oom && b.cut) cost = child_cost(&b, root_ref, b.depth, org, LEAP_CLASS_EMPTY);
+    if (!b.oom && b.cut) {
+        double root_cost[LEAP_CLASS_COUNT];
+        child_costs(&b, root_ref, b.depth, org, root_cost);
+        cost = root_cost[LEAP_CLASS_EMPTY];
+    }
     /* One box around every non-EMPTY cell needs no lists at all (the renderer marches its
      * chord): it wins when what the cut saves does not pay for building lists. */
     double nb_lo[3], nb_hi[3];
