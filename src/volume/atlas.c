@@ -54,6 +54,7 @@ typedef struct builder {
     int page_overflow;        /* the cell level of the page table did not fit */
     const leap_labels *labels; /* label atlas: its objects */
     leap_grid_reader *label_reader;
+    size_t label_words_cap, records_cap; /* label atlas: a->label_words, a->record_offsets */
     block_directory dir;
     uint32_t block_dims[3];   /* page blocks per axis */
     uint32_t background;      /* entry of a block no write touched */
@@ -415,84 +416,56 @@ static leap_result check_slot_estimate(builder *b, const uint64_t *unique, size_
     return LEAP_OK;
 }
 
-/* Label atlases: each candidate cell's footprint as object indices; one object makes a
- * constant entry, more a record (palette + packed indices, LEAP_LABEL_HEADER). */
-static leap_result fill_label_cells(builder *b, key_list *l, int dense, leap_error *err)
+/* Label atlases: a candidate cell's footprint as object indices; one object makes a constant
+ * entry (returned), more a record (palette + packed indices, LEAP_LABEL_HEADER) written to
+ * rec (room for LABEL_RECORD_MAX_WORDS; its record number, word 1, is set when committed) with
+ * *rec_words its length, and 0 returned. */
+#define LABEL_RECORD_MAX_WORDS (LEAP_LABEL_HEADER + LEAP_SLOT_TEXELS + (LEAP_SLOT_TEXELS * 16 + 31) / 32)
+static uint32_t label_cell(const leap_atlas *a, const leap_labels *labels, leap_grid_reader *reader,
+                           const uint32_t c[3], int dense, uint32_t *rec, uint32_t *rec_words)
 {
-    leap_atlas *a = b->a;
     int64_t ids[LEAP_SLOT_TEXELS];
     uint32_t idx[LEAP_SLOT_TEXELS], palette[LEAP_SLOT_TEXELS];
-    size_t cap = 0, rec_cap = 0;
-    leap_result r = LEAP_OK;
-    for (size_t i = 0; i < l->count && !r; ++i) {
-        uint64_t k = l->keys[i];
-        uint32_t c[3];
-        key_cell(a, k, c);
-        int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
-        cell_corner(a, c, 0, min);
-        leap_grid_reader_labels(b->label_reader, min, dim, ids);
-        /* Object indices, and the distinct ones in a small unsorted palette (cells hold few). */
-        int64_t last_id = 0;
-        uint32_t last = UINT32_MAX, count = 0, pos = 0;
-        for (int j = 0; j < LEAP_SLOT_TEXELS; ++j) {
-            if (last == UINT32_MAX || ids[j] != last_id) { /* runs of one label are common */
-                last_id = ids[j];
-                last = (uint32_t)leap_labels_find(b->labels, ids[j]);
-                pos = 0;
-                while (pos < count && palette[pos] != last) ++pos;
-                if (pos == count) palette[count++] = last;
-            }
-            idx[j] = pos;
+    int32_t min[3], dim[3] = {LEAP_SLOT, LEAP_SLOT, LEAP_SLOT};
+    cell_corner(a, c, 0, min);
+    leap_grid_reader_labels(reader, min, dim, ids);
+    /* Object indices, and the distinct ones in a small unsorted palette (cells hold few). */
+    int64_t last_id = 0;
+    uint32_t last = UINT32_MAX, count = 0, pos = 0;
+    for (int j = 0; j < LEAP_SLOT_TEXELS; ++j) {
+        if (last == UINT32_MAX || ids[j] != last_id) { /* runs of one label are common */
+            last_id = ids[j];
+            last = (uint32_t)leap_labels_find(labels, ids[j]);
+            pos = 0;
+            while (pos < count && palette[pos] != last) ++pos;
+            if (pos == count) palette[count++] = last;
         }
-        /* Ascending palette; voxels re-pointed through rank[] */
-        uint32_t order[LEAP_SLOT_TEXELS], rank[LEAP_SLOT_TEXELS];
-        for (uint32_t j = 0; j < count; ++j) order[j] = j;
-        for (uint32_t j = 1; j < count; ++j) /* insertion sort: count is small */
-            for (uint32_t m = j; m > 0 && palette[order[m]] < palette[order[m - 1]]; --m) {
-                uint32_t t = order[m];
-                order[m] = order[m - 1];
-                order[m - 1] = t;
-            }
-        uint32_t sorted[LEAP_SLOT_TEXELS];
-        for (uint32_t j = 0; j < count; ++j) {
-            sorted[j] = palette[order[j]];
-            rank[order[j]] = j;
-        }
-        memcpy(palette, sorted, count * sizeof *palette);
-        uint32_t entry;
-        if (count == 1 && !dense) {
-            entry = LEAP_PAGE_CONST | (palette[0] & LEAP_LABEL_INDEX_MASK);
-        } else {
-            uint32_t bits = 1;
-            while ((1u << bits) < count) bits <<= 1;
-            const size_t packed = ((size_t)LEAP_SLOT_TEXELS * bits + 31) / 32;
-            const size_t words = LEAP_LABEL_HEADER + count + packed;
-            if (a->label_word_count + words > LEAP_LABEL_INDEX_MASK) {
-                r = leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: the label cells need more than 2^31 words (8 GiB)");
-                break;
-            }
-            if (!leap__grow((void **)&a->label_words, &cap, a->label_word_count + words, sizeof(uint32_t)) ||
-                !leap__grow((void **)&a->record_offsets, &rec_cap, (size_t)a->record_count + 1, sizeof(uint32_t))) {
-                r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for the label cells");
-                break;
-            }
-            uint32_t *w = a->label_words + a->label_word_count;
-            memset(w, 0, words * sizeof *w);
-            w[0] = bits | count << 8;
-            w[1] = a->record_count;
-            memcpy(w + LEAP_LABEL_HEADER, palette, count * sizeof *palette);
-            uint32_t *bitsbuf = w + LEAP_LABEL_HEADER + count;
-            for (int j = 0; j < LEAP_SLOT_TEXELS; ++j) {
-                const size_t bit = (size_t)j * bits;
-                bitsbuf[bit / 32] |= rank[idx[j]] << (bit % 32);
-            }
-            entry = (uint32_t)a->label_word_count;
-            a->record_offsets[a->record_count++] = entry;
-            a->label_word_count += words;
-        }
-        r = set_cell(b, c, entry, err);
+        idx[j] = pos;
     }
-    return r;
+    if (count == 1 && !dense) return LEAP_PAGE_CONST | (palette[0] & LEAP_LABEL_INDEX_MASK);
+    /* Ascending palette; voxels re-pointed through rank[] */
+    uint32_t order[LEAP_SLOT_TEXELS], rank[LEAP_SLOT_TEXELS];
+    for (uint32_t j = 0; j < count; ++j) order[j] = j;
+    for (uint32_t j = 1; j < count; ++j) /* insertion sort: count is small */
+        for (uint32_t m = j; m > 0 && palette[order[m]] < palette[order[m - 1]]; --m) {
+            uint32_t t = order[m];
+            order[m] = order[m - 1];
+            order[m - 1] = t;
+        }
+    for (uint32_t j = 0; j < count; ++j) rank[order[j]] = j;
+    uint32_t bits = 1;
+    while ((1u << bits) < count) bits <<= 1;
+    const size_t packed = ((size_t)LEAP_SLOT_TEXELS * bits + 31) / 32;
+    *rec_words = (uint32_t)(LEAP_LABEL_HEADER + count + packed);
+    memset(rec, 0, *rec_words * sizeof *rec);
+    rec[0] = bits | count << 8;
+    for (uint32_t j = 0; j < count; ++j) rec[LEAP_LABEL_HEADER + j] = palette[order[j]];
+    uint32_t *bitsbuf = rec + LEAP_LABEL_HEADER + count;
+    for (int j = 0; j < LEAP_SLOT_TEXELS; ++j) {
+        const size_t bit = (size_t)j * bits;
+        bitsbuf[bit / 32] |= rank[idx[j]] << (bit % 32);
+    }
+    return 0;
 }
 
 /* The candidate cells are read in chunks by a few threads: a chunk's footprints are read and
@@ -520,6 +493,8 @@ typedef struct fill_shared {
 typedef struct fill_worker {
     fill_shared *sh;
     leap_grid_reader *reader;
+    uint32_t *records;                          /* label atlases: the chunk's records, in key order */
+    uint32_t record_words[FILL_CHUNK_KEYS];     /* and each one's length (0: a constant) */
     uint32_t entries[FILL_CHUNK_KEYS];          /* a constant entry, or LEAP_PAGE_CONST clear: a slot */
     uint32_t ranges[FILL_CHUNK_KEYS];           /* the chunk's slots' smallest | largest << 16 */
     uint16_t slots[FILL_CHUNK_KEYS * LEAP_SLOT_TEXELS]; /* the chunk's slots' texels, in key order */
@@ -532,11 +507,45 @@ static size_t chunk_keys(const fill_shared *sh, size_t k, size_t *first)
     return sh->keys->count - *first < FILL_CHUNK_KEYS ? sh->keys->count - *first : FILL_CHUNK_KEYS;
 }
 
-/* Chunk k's cells, in key order, into the builder: constants, or new slots. Under the lock. */
-static leap_result commit_chunk(fill_shared *sh, const fill_worker *w, size_t k)
+/* A label chunk's cells, in key order: constants, or records appended to the label words. */
+static leap_result commit_label_chunk(fill_shared *sh, fill_worker *w, size_t k)
 {
     builder *b = sh->b;
     leap_atlas *a = b->a;
+    size_t first;
+    const size_t n = chunk_keys(sh, k, &first);
+    const uint32_t *rec = w->records;
+    for (size_t i = 0; i < n; ++i) {
+        uint32_t c[3];
+        key_cell(a, sh->keys->keys[first + i], c);
+        uint32_t entry = w->entries[i];
+        if (!(entry & LEAP_PAGE_CONST)) {
+            const size_t words = w->record_words[i];
+            if (a->label_word_count + words > LEAP_LABEL_INDEX_MASK)
+                return leap_fail(sh->err, LEAP_ERR_UNSUPPORTED, "atlas: the label cells need more than 2^31 words (8 GiB)");
+            if (!leap__grow((void **)&a->label_words, &b->label_words_cap, a->label_word_count + words, sizeof(uint32_t)) ||
+                !leap__grow((void **)&a->record_offsets, &b->records_cap, (size_t)a->record_count + 1, sizeof(uint32_t)))
+                return leap_fail(sh->err, LEAP_ERR_OOM, "atlas: out of memory for the label cells");
+            uint32_t *to = a->label_words + a->label_word_count;
+            memcpy(to, rec, words * sizeof *rec);
+            to[1] = a->record_count;
+            rec += words;
+            entry = (uint32_t)a->label_word_count;
+            a->record_offsets[a->record_count++] = entry;
+            a->label_word_count += words;
+        }
+        leap_result r = set_cell(b, c, entry, sh->err);
+        if (r) return r;
+    }
+    return LEAP_OK;
+}
+
+/* Chunk k's cells, in key order, into the builder: constants, or new slots. Under the lock. */
+static leap_result commit_chunk(fill_shared *sh, fill_worker *w, size_t k)
+{
+    builder *b = sh->b;
+    leap_atlas *a = b->a;
+    if (a->labels) return commit_label_chunk(sh, w, k);
     size_t first, used = 0;
     const size_t n = chunk_keys(sh, k, &first);
     for (size_t i = 0; i < n; ++i) {
@@ -575,7 +584,15 @@ static void *fill_run(void *arg)
         if (k >= sh->chunk_count) break;
         size_t first, used = 0;
         const size_t n = chunk_keys(sh, k, &first);
-        for (size_t i = 0; i < n && !atomic_load_explicit(&sh->failed, memory_order_relaxed); ++i) {
+        uint32_t *rec = w->records;
+        for (size_t i = 0; a->labels && i < n && !atomic_load_explicit(&sh->failed, memory_order_relaxed); ++i) {
+            uint32_t c[3];
+            key_cell(a, sh->keys->keys[first + i], c);
+            w->record_words[i] = 0;
+            w->entries[i] = label_cell(a, sh->b->labels, w->reader, c, sh->dense, rec, &w->record_words[i]);
+            rec += w->record_words[i];
+        }
+        for (size_t i = 0; !a->labels && i < n && !atomic_load_explicit(&sh->failed, memory_order_relaxed); ++i) {
             uint32_t c[3], range;
             const leap_atlas_cells *known = sh->b->known;
             int constant;
@@ -621,7 +638,6 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
     for (size_t i = 0; i < l->count; ++i)
         if (i == 0 || l->keys[i] != l->keys[i - 1]) l->keys[unique++] = l->keys[i];
     l->count = unique;
-    if (a->labels) return fill_label_cells(b, l, dense, err);
     fill_shared sh = {.b = b, .grid = grid, .keys = l, .dense = dense, .budget = slot_budget(b->stream_texels), .err = err,
                       .chunk_count = (unique + FILL_CHUNK_KEYS - 1) / FILL_CHUNK_KEYS};
     if (b->known && b->known->count != unique)
@@ -634,7 +650,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (!b->record->entries || !b->record->ranges) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
         b->record->count = unique;
     }
-    leap_result r = b->known ? LEAP_OK : check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
+    leap_result r = b->known || a->labels ? LEAP_OK : check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
     if (r) return r;
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     size_t threads = cpus > 1 ? (size_t)cpus : 1;
@@ -645,6 +661,8 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
     for (size_t i = 0; i < threads && !r; ++i) {
         workers[i].sh = &sh;
         r = leap_grid_reader_create(grid, &workers[i].reader, err);
+        if (!r && a->labels && !(workers[i].records = malloc((size_t)FILL_CHUNK_KEYS * LABEL_RECORD_MAX_WORDS * sizeof(uint32_t))))
+            r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for the label cells");
     }
     /* Cells in key order (x fastest) read their leaf and its +x, +y, +z neighbours: with the
      * copy lowest in that order dropped first, a layer of leaves, two rows and the chunks in
@@ -667,7 +685,10 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (!r) r = leap_grid_read_status(grid, err);
     }
     if (share) leap_grid_share_leaves(grid, 0);
-    for (size_t i = 0; i < threads; ++i) leap_grid_reader_destroy(workers[i].reader);
+    for (size_t i = 0; i < threads; ++i) {
+        leap_grid_reader_destroy(workers[i].reader);
+        free(workers[i].records);
+    }
     free(workers);
     return r;
 }
