@@ -1240,6 +1240,15 @@ static void check_on_demand(const char *path, const char *name)
         leap_brick *bk = calloc(nb ? nb : 1, sizeof *bk);
         CHECK_OK(leap_grid_bricks_known(known, ranges, bk, &err), &err);
         CHECK_MSG(leap_grid_leaves_read(known) == 0 && !memcmp(bk, bb, nb * sizeof *bk), "%s: known bricks differ", path);
+        /* The layout alone (a segmentation's): the same bricks, no range, no leaf read. */
+        CHECK_OK(leap_grid_brick_layout(known, bk, &err), &err);
+        size_t layout_differ = 0;
+        for (size_t k = 0; k < nb; ++k)
+            layout_differ += memcmp(bk[k].origin, bb[k].origin, sizeof bk[k].origin) || bk[k].size != bb[k].size ||
+                             bk[k].is_tile != bb[k].is_tile || bk[k].tile_value != bb[k].tile_value ||
+                             !isnan(bk[k].value_min) || !isnan(bk[k].value_max);
+        CHECK_MSG(leap_grid_leaves_read(known) == 0 && layout_differ == 0, "%s: %zu bricks of the layout differ", path,
+                  layout_differ);
         leap_grid_reader *rk = NULL;
         CHECK_OK(leap_grid_reader_create(known, &rk, &err), &err);
         for (size_t k = 0; rk && ra && k < na; k += 1 + na / 64) {

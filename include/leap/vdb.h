@@ -185,6 +185,10 @@ size_t leap_grid_brick_count(const leap_grid *grid);
  * sorted by origin (z, then y, then x). */
 leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err);
 
+/* Like leap_grid_bricks without the value ranges (value_min and value_max NaN): reads no voxel.
+ * For a segmentation, whose cells are read as labels, not ranges. */
+leap_result leap_grid_brick_layout(const leap_grid *grid, leap_brick *out, leap_error *err);
+
 /* Like leap_grid_bricks, with the value ranges given instead of read (ranges[2i], ranges[2i+1]:
  * brick i's value_min, value_max, from an earlier leap_grid_bricks of the same grid): reads no
  * voxel. */

@@ -191,8 +191,10 @@ static leap_result list_bricks(leap_scene *s, leap_brick **out, size_t *count, l
                          s->index.path, s->index.index->brick_count, *count);
     *out = malloc((*count ? *count : 1) * sizeof **out);
     if (!*out) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", *count);
+    /* A segmentation's occupancy comes from its label cells: its bricks' value ranges go unused. */
     leap_result r = s->index.index ? leap_grid_bricks_known(s->grid, s->index.index->brick_ranges, *out, err)
-                             : leap_grid_bricks(s->grid, *out, err);
+                    : s->labels    ? leap_grid_brick_layout(s->grid, *out, err)
+                                   : leap_grid_bricks(s->grid, *out, err);
     s->bricks_ms = leap__now_ms() - t;
     return r;
 }

@@ -105,7 +105,8 @@ bool brick_before(const leap_brick &a, const leap_brick &b)
     return a.origin[0] < b.origin[0];
 }
 
-leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *out, leap_error *err)
+// ranges: 1 = read each brick's range, 0 = none (NaN; known, if given, fills them in).
+leap_result list_bricks(const leap_grid *grid, int ranges, const float *known, leap_brick *out, leap_error *err)
 {
     if (!grid || !out) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_bricks: NULL argument");
     return guarded(err, LEAP_ERR_FORMAT, std::string("grid '") + grid->info.name + "'", [&]() -> leap_result {
@@ -120,7 +121,7 @@ leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *o
         // brick after a first open on demand: what its scan gathered (LeafShell), and the tiles
         // and background its apron reaches.
         const OnDemand *od = grid->on_demand.get();
-        const LeafShell *shells = od && !known ? od->shells.get() : nullptr;
+        const LeafShell *shells = od && ranges ? od->shells.get() : nullptr;
         tbb::enumerable_thread_specific<LeafValues> values(grid);
         LeafValues topology;
         tbb::parallel_for(tbb::blocked_range<size_t>(0, nl + nt, 16), [&](const tbb::blocked_range<size_t> &r) {
@@ -136,7 +137,7 @@ leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *o
                     if (shells) {
                         v = brick_range(topology, root, o, b.size, false, 0.0f);
                         v.add(shells[i].range(od->background, od->finite));
-                    } else if (!known) v = brick_range(mine, root, o, b.size, false, 0.0f);
+                    } else if (ranges) v = brick_range(mine, root, o, b.size, false, 0.0f);
                 } else {
                     const TileRec &t = grid->tiles[i - nl];
                     o = t.origin;
@@ -144,11 +145,11 @@ leap_result list_bricks(const leap_grid *grid, const float *known, leap_brick *o
                            : t.level == 1 ? int32_t(Node1T::DIM) : int32_t(Node2T::DIM);
                     b.is_tile = 1;
                     b.tile_value = t.value;
-                    if (!known) v = brick_range(mine, root, o, b.size, true, t.value);
+                    if (ranges) v = brick_range(mine, root, o, b.size, true, t.value);
                 }
                 for (int a = 0; a < 3; ++a) b.origin[a] = o[a];
-                b.value_min = v.lo;
-                b.value_max = v.hi;
+                b.value_min = ranges ? v.lo : NAN;
+                b.value_max = ranges ? v.hi : NAN;
             }
         });
         leap_result status = leap_grid_read_status(grid, err);
@@ -169,7 +170,12 @@ extern "C" {
 
 leap_result leap_grid_bricks(const leap_grid *grid, leap_brick *out, leap_error *err)
 {
-    return list_bricks(grid, nullptr, out, err);
+    return list_bricks(grid, 1, nullptr, out, err);
+}
+
+leap_result leap_grid_brick_layout(const leap_grid *grid, leap_brick *out, leap_error *err)
+{
+    return list_bricks(grid, 0, nullptr, out, err);
 }
 
 int leap_grid_cell_range(const leap_grid *grid, const int32_t min[3], float *lo, float *hi)
@@ -196,7 +202,7 @@ int leap_grid_cell_range(const leap_grid *grid, const int32_t min[3], float *lo,
 leap_result leap_grid_bricks_known(const leap_grid *grid, const float *ranges, leap_brick *out, leap_error *err)
 {
     if (!ranges) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_bricks_known: NULL ranges");
-    return list_bricks(grid, ranges, out, err);
+    return list_bricks(grid, 0, ranges, out, err);
 }
 
 leap_result leap_grid_histogram(const leap_grid *grid, double lo, double hi, int bins, uint64_t *counts,
