@@ -20,6 +20,9 @@ struct leap_labels {
     object_look *looks;
     size_t count;
     int64_t background;
+    uint32_t *by_id;  /* open addressing on mix64(id): object index + 1, 0 where free (leap_labels_find
+                         runs once per run of one label in every cell an atlas builds) */
+    size_t id_mask;   /* by_id has id_mask + 1 entries, at least twice the objects */
 };
 
 /* splitmix64: a well-mixed hash, so neighbouring IDs get unrelated colours. */
@@ -70,6 +73,20 @@ leap_result leap_labels_create(const leap_grid *grid, double opacity, leap_label
         leap_labels_destroy(l);
         return r;
     }
+    size_t cap = 16;
+    while (cap < 2 * l->count) cap *= 2;
+    l->by_id = l->count < UINT32_MAX ? calloc(cap, sizeof *l->by_id) : NULL;
+    if (!l->by_id) {
+        const size_t count = l->count;
+        leap_labels_destroy(l);
+        return leap_fail(err, LEAP_ERR_OOM, "labels: out of memory for the index of %zu objects", count);
+    }
+    l->id_mask = cap - 1;
+    for (size_t i = 0; i < l->count; ++i) {
+        size_t h = mix64((uint64_t)l->objects[i].id) & l->id_mask;
+        while (l->by_id[h]) h = (h + 1) & l->id_mask;
+        l->by_id[h] = (uint32_t)i + 1;
+    }
     l->background = leap_grid_background_label(grid);
     for (size_t i = 0; i < l->count; ++i) {
         leap_labels_hash_colour(l->objects[i].id, l->looks[i].rgb);
@@ -85,6 +102,7 @@ void leap_labels_destroy(leap_labels *l)
     if (!l) return;
     free(l->objects);
     free(l->looks);
+    free(l->by_id);
     free(l);
 }
 
@@ -105,8 +123,9 @@ static size_t lower_bound(const leap_labels *l, int64_t id)
 
 int64_t leap_labels_find(const leap_labels *l, int64_t id)
 {
-    size_t i = lower_bound(l, id);
-    return i < l->count && l->objects[i].id == id ? (int64_t)i : -1;
+    for (size_t h = mix64((uint64_t)id) & l->id_mask; l->by_id[h]; h = (h + 1) & l->id_mask)
+        if (l->objects[l->by_id[h] - 1].id == id) return (int64_t)l->by_id[h] - 1;
+    return -1;
 }
 
 int leap_labels_is_background(const leap_labels *l, size_t index)
