@@ -70,7 +70,8 @@ typedef struct vnode {
 typedef struct cut_entry {
     double cost[LEAP_CLASS_COUNT];
     uint8_t cls[LEAP_CLASS_COUNT];
-    double marched; /* marched_empty_cost of the whole node (INFINITY with UNKNOWN cells) */
+    double marched; /* a node inside the grid: marched_empty_cost of all of it (INFINITY with
+                       UNKNOWN cells) */
     uint8_t emits;  /* bit p: under a parent of class p the subtree emits a box (vbuild skips
                        the others: most of a sparse tree) */
 } cut_entry;
@@ -282,28 +283,27 @@ static void cut_solve(vbuilder *b)
         unsigned child_emits = 0; /* bit c: some child emits under this node of class c */
         for (int k = 0; k < 8; ++k) {
             double c[LEAP_CLASS_COUNT], march;
-            uint32_t choice[LEAP_CLASS_COUNT];
+            unsigned emits = 0;
             if (stored_node(child[k])) {
                 memcpy(c, b->table[child[k]].cost, sizeof c);
                 march = b->table[child[k]].marched;
-                child_emits |= b->table[child[k]].emits;
-                for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) sum[p] += c[p];
-                marched += march;
-                continue;
-            } else if (whole) {
-                const uint32_t cls = leap_occ_internal_ref_class(b->occ, child[k]);
-                const int constant = cls == LEAP_CLASS_EMPTY && leap_occ_internal_ref_constant(b->occ, child[k]);
-                leaf_costs(b, cls, constant, child_e, child_box, c, choice, &march);
+                emits = b->table[child[k]].emits;
             } else {
-                uint32_t corg[3];
-                child_origin(org, level, k, corg);
-                march = leaf_choices(b, child[k], level - 1, corg, c, choice);
+                uint32_t choice[LEAP_CLASS_COUNT];
+                if (whole) {
+                    const uint32_t cls = leap_occ_internal_ref_class(b->occ, child[k]);
+                    const int constant = cls == LEAP_CLASS_EMPTY && leap_occ_internal_ref_constant(b->occ, child[k]);
+                    leaf_costs(b, cls, constant, child_e, child_box, c, choice, &march);
+                } else {
+                    uint32_t corg[3];
+                    child_origin(org, level, k, corg);
+                    march = leaf_choices(b, child[k], level - 1, corg, c, choice);
+                }
+                for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) emits |= choice[p] != p ? 1u << p : 0u; /* emitted */
             }
-            for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) {
-                sum[p] += c[p];
-                child_emits |= choice[p] != p ? 1u << p : 0u; /* a single-class child is emitted */
-            }
+            for (uint32_t p = 0; p < LEAP_CLASS_COUNT; ++p) sum[p] += c[p];
             marched += march;
+            child_emits |= emits;
         }
         cut_entry *t = &b->table[i];
         t->marched = marched;

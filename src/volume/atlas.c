@@ -469,8 +469,9 @@ static uint32_t label_cell(const leap_atlas *a, const leap_labels *labels, leap_
 }
 
 /* The candidate cells are read in chunks by a few threads: a chunk's footprints are read and
- * quantised on any thread, then committed in key order (slot numbers, page entries, copies
- * into the slots), so the atlas is the one a single thread builds. */
+ * quantised (a label atlas's: encoded, label_cell) on any thread, then committed in key order
+ * (slot numbers or label records, page entries, copies into the slots), so the atlas is the one
+ * a single thread builds. */
 #define FILL_CHUNK_KEYS 256
 #define FILL_MAX_THREADS 8
 
