@@ -82,8 +82,6 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     return r;
 }
 
-/* Reads the grid into memory, or on demand when it would not fit the budget: in memory a grid
- * takes its tree, and its atlas about as much again (the host's texels and the GPU image). */
 /* leap_scene_desc.refuse_other_kind: options that only the other kind of volume takes. */
 static leap_result refuse_other_kind(const leap_scene_desc *desc, int labels, leap_error *err)
 {
@@ -97,6 +95,8 @@ static leap_result refuse_other_kind(const leap_scene_desc *desc, int labels, le
     return LEAP_OK;
 }
 
+/* Reads the grid into memory, or on demand when it would not fit the budget: in memory a grid
+ * takes its tree, and its atlas about as much again (the host's texels and the GPU image). */
 static leap_result open_grid(leap_scene *s, const leap_scene_desc *desc, const leap_input_options *input,
                              leap_error *err)
 {
