@@ -19,6 +19,8 @@ void renderer_destroy_frame_buffers(leap_renderer *r)
     leap_gpu_buffer_destroy(gpu, &r->event_key);
     leap_gpu_buffer_destroy(gpu, &r->segments);
     leap_gpu_buffer_destroy(gpu, &r->pixel_lists);
+    free(r->lists_mask);
+    r->lists_mask = NULL;
     leap_gpu_buffer_destroy(gpu, &r->ray_lists);
     if (r->framebuffer) vkDestroyFramebuffer(gpu->device, r->framebuffer, NULL);
     r->framebuffer = VK_NULL_HANDLE;
@@ -59,6 +61,9 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_key, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
+    r->lists_all_dirty = 1; /* list facts of new buffers: unknown */
+    if (!lr && !(r->lists_mask = calloc(event_count_bytes(view) / 4 - pixels, sizeof *r->lists_mask)))
+        lr = leap_fail(err, LEAP_ERR_OOM, "out of host memory for a %dx%d frame", view->width, view->height);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, (LEAP_RAYS_HEADER + LEAP_RAYS_LISTS * pixels) * 4,
                                          usage | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT, &r->ray_lists, err);
     if (lr) return lr;
@@ -295,17 +300,33 @@ static void read_outputs(leap_renderer *r, const leap_rays *view, chunk_rect dra
 {
     const size_t pixels = (size_t)view->width * view->height;
     const float *out = r->out_rgba.mapped, *aux = r->out_aux.mapped;
-    if (rgba) memcpy(rgba, out, pixels * 4 * sizeof(float));
     st->composited_pixels = st->total_samples = st->naive_samples = st->waiting_pixels = 0;
     st->samples_max = st->events_max = st->segments_max = st->overflow_pixels = 0;
     uint64_t events = 0, segs = 0;
     uint32_t *pl = r->pixel_lists.mapped;
-    const uint32_t *event_counts = r->event_counts.mapped;
+    /* The event mask (LEAP_PIXEL_TILE): a bit per pixel with events, after the counts. */
+    const uint32_t *mask = (const uint32_t *)r->event_counts.mapped + pixels;
+    const size_t tiles_x = LEAP_MASK_TILES((uint32_t)view->width);
+    const size_t mask_words = 2 * tiles_x * LEAP_MASK_TILES((uint32_t)view->height);
     for (size_t i = 0, px = 0, py = 0; i < pixels; ++i, px = px + 1 < (size_t)view->width ? px + 1 : (++py, 0)) {
         const int outside = !chunk_rect_holds(drawn, px, py);
-        /* The resolve pass writes the list facts of a pixel without events only for the
-         * statistics (its naive count); else they are set here, for the lists' readers. */
-        if (listed && !r->count_naive && event_counts[i] == 0) memset(pl + 4 * i, 0, 4 * sizeof *pl);
+        if (listed && !r->count_naive) {
+            const size_t word = 2 * ((py / LEAP_PIXEL_TILE) * tiles_x + px / LEAP_PIXEL_TILE);
+            const uint32_t bit = (uint32_t)((py % LEAP_PIXEL_TILE) * LEAP_PIXEL_TILE + px % LEAP_PIXEL_TILE);
+            if (!(mask[word + bit / 32] >> (bit % 32) & 1u)) {
+                /* No events: not composited, transparent, no sample (most pixels of a sparse
+                 * frame, whose buffers are then not read). The resolve pass writes such a
+                 * pixel's list facts only for the statistics (its naive count); the lists'
+                 * readers find them cleared where an earlier frame wrote some. */
+                if ((r->lists_all_dirty || (r->lists_mask[word + bit / 32] >> (bit % 32) & 1u)) &&
+                    (pl[4 * i] | pl[4 * i + 1] | pl[4 * i + 2] | pl[4 * i + 3]))
+                    memset(pl + 4 * i, 0, 4 * sizeof *pl);
+                if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
+                if (depth) depth[i] = INFINITY;
+                if (samples) samples[i] = 0.0f;
+                continue;
+            }
+        }
         /* A ray the composite pass did not run for (LEAP_PIXEL_* in shared.h): transparent, no
          * sample, its naive count in the list facts (0 when not counted). */
         const int skipped = outside || (listed && pl[4 * i] == 0);
@@ -314,9 +335,10 @@ static void read_outputs(leap_renderer *r, const leap_rays *view, chunk_rect dra
         if (skipped) {
             if (!outside) memcpy(&naive, &pl[4 * i + 3], sizeof naive);
             if (rgba) memset(rgba + 4 * i, 0, 4 * sizeof(float));
-        } else if (waiting && rgba) {
-            if (mip) mip_colour(r, out[4 * i], mip < 0, rgba + 4 * i);
-            else rgba[4 * i + 3] = 1.0f - out[4 * i + 3];
+        } else if (rgba) {
+            memcpy(rgba + 4 * i, out + 4 * i, 4 * sizeof(float));
+            if (waiting && mip) mip_colour(r, out[4 * i], mip < 0, rgba + 4 * i);
+            else if (waiting) rgba[4 * i + 3] = 1.0f - out[4 * i + 3];
         }
         st->composited_pixels += !skipped;
         st->waiting_pixels += waiting;
@@ -334,6 +356,13 @@ static void read_outputs(leap_renderer *r, const leap_rays *view, chunk_rect dra
             if (s > st->segments_max) st->segments_max = s;
             st->overflow_pixels += (pl[4 * i] & LEAP_PIXEL_OVERFLOW) != 0;
         }
+    }
+    /* Which pixels' list facts the GPU wrote in this frame: all of them when it counted naive
+     * samples, else those with events. */
+    if (listed && r->count_naive) r->lists_all_dirty = 1;
+    if (listed && !r->count_naive) {
+        memcpy(r->lists_mask, mask, mask_words * sizeof *mask);
+        r->lists_all_dirty = 0;
     }
     if (!r->count_naive) st->naive_samples = 0;
     st->samples_mean = (double)st->total_samples / (double)pixels;

@@ -121,6 +121,9 @@ struct leap_renderer {
     leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, ray_lists, tree;
     uint32_t tree_top[4];    /* frame.tree_top: the walk's node 0 (leap_occupancy_flatten) */
     int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
+    uint32_t *lists_mask;    /* the event mask of the last listed frame read: the pixels whose list facts
+                                the GPU wrote (the others' are clear) */
+    int lists_all_dirty;     /* any pixel's list facts may be set (new buffers, a naive count) */
     size_t pixels_allocated;
     size_t last_frame_pixels; /* pixels of the last finished frame (0: none since the buffers were made) */
     /* From the uploaded atlas. */
