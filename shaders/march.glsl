@@ -139,15 +139,14 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
         cur.value = float(entry & 0xffffu) * (1.0 / 65535.0);
     } else {
         uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
-        // Along z the atlas's extent is a power of two (a cache's image, of fewer layers, too)
-        // and its sampler repeats: a texel coordinate the whole atlas's extent D above the
-        // slot's is the same place, and puts every slot cell's samples in [D, 2D), where floats
-        // lie on one grid (1/8192 of a texel apart for D = 1024). Rounded on that grid, a
-        // sample's offset in its cell does not depend on the slot's layer, and scaling by the
-        // extent is exact, so a brick cache of whole layers (its slots where the atlas has them
-        // along x and y) gives the whole atlas's image bit for bit.
-        cur.texel_base = vec3(slot * uint(LEAP_SLOT)) + vec3(0.5, 0.5, frame.atlas_inv_size.w + 0.5) -
-                         vec3(cell * LEAP_CELL);
+        // The image's extents are powers of two of at most M = LEAP_ATLAS_EXTENT_MAX and its
+        // sampler repeats: a texel coordinate M above the slot's along every axis is the same
+        // place, and puts every slot cell's samples in [M, 2M), where floats lie on one grid
+        // (1/8192 of a texel apart). Rounded on that grid, a sample's offset in its cell does not
+        // depend on where the slot lies or on the image's size, and scaling by the extents is
+        // exact: a brick cache, another brick layout or a lazily read atlas gives the same image
+        // bit for bit.
+        cur.texel_base = vec3(slot * uint(LEAP_SLOT)) + vec3(float(LEAP_ATLAS_EXTENT_MAX) + 0.5) - vec3(cell * LEAP_CELL);
         if (leap_mip) cur.slot = slot.x + frame.slot_dims.x * (slot.y + frame.slot_dims.y * slot.z);
         cur.missing = leap_cache && (entry & LEAP_PAGE_MISSING) != 0u;
         if (cur.missing) cur.slot = entry & (LEAP_PAGE_MISSING - 1u);

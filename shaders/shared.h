@@ -90,11 +90,12 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_PAGE_MISSING 0x40000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
-/* The atlas image's extent along z is a power of two of at most LEAP_ATLAS_DEPTH_MAX texels,
- * and its sampler repeats along z, so the shader may address a texel one whole atlas's extent
- * above its place (see leap_cursor_seek; the larger, the coarser its float grid there). */
-#define LEAP_ATLAS_DEPTH_MAX 1024
-#define LEAP_ATLAS_DEPTH_MIN 16 /* the least power of two that holds one layer of slots */
+/* The atlas image's extent along each axis is a power of two of at most LEAP_ATLAS_EXTENT_MAX
+ * texels (LEAP_SLOT slots per 9 texels, the rest spare), and its sampler repeats, so the shader
+ * addresses a texel LEAP_ATLAS_EXTENT_MAX above its place along every axis (see
+ * leap_cursor_seek; the larger, the coarser its float grid there). */
+#define LEAP_ATLAS_EXTENT_MAX 1024
+#define LEAP_ATLAS_EXTENT_MIN 16 /* the least power of two that holds a slot */
 
 /* Label atlases (segmentations). A constant cell's entry is LEAP_PAGE_CONST | object index
  * (31 bits); any other cell's entry is the offset of its record among the label words, which
@@ -214,8 +215,7 @@ LEAP_STRUCT(leap_frame_gpu) {
     LEAP_VEC4 world_row2;     /* 128 */
     LEAP_VEC4 domain_min;     /* 144: xyz, marching box */
     LEAP_VEC4 domain_max;     /* 160 */
-    LEAP_VEC4 atlas_inv_size; /* 176: 1 / atlas texels per axis; w: the whole atlas's texels
-                                 along z (leap_cursor_seek) */
+    LEAP_VEC4 atlas_inv_size; /* 176: 1 / atlas texels per axis (powers of two); w unused */
     LEAP_VEC4 march;          /* 192: step, step / step_ref, value_scale, value_offset (u = s*scale + offset) */
     LEAP_VEC4 limits;         /* 208: ert transmittance, depth opacity (of the table), lattice indices per
                                  composite chunk, scale of world_row* (a power of two) */

@@ -287,10 +287,10 @@ static long check_structure(const leap_atlas *a, const char *what)
     for (int i = 0; i < 3; ++i) {
         const uint32_t blocks = (a->cells[i] + (1u << a->block_shift) - 1) >> a->block_shift;
         CHECK_MSG(a->top_dims[i] == (blocks + (1u << nodes) - 1) >> nodes, "%s: top dims", what);
-        /* Along z a power of two holding the layers, with fewer than LEAP_SLOT texels to spare. */
+        /* Along each axis a power of two, with fewer than LEAP_SLOT texels to spare. */
         const uint32_t t = a->texel_dims[i];
-        CHECK_MSG(i < 2 ? t == a->slot_dims[i] * LEAP_SLOT
-                        : t >= LEAP_ATLAS_DEPTH_MIN && (t & (t - 1)) == 0 && t / LEAP_SLOT == a->slot_dims[i],
+        CHECK_MSG(t >= LEAP_ATLAS_EXTENT_MIN && t <= LEAP_ATLAS_EXTENT_MAX && (t & (t - 1)) == 0 &&
+                      t / LEAP_SLOT == a->slot_dims[i],
                   "%s: texel dims %u for %u slots", what, t, a->slot_dims[i]);
         CHECK_MSG(a->origin[i] % LEAP_CELL == 0, "%s: origin %d not a multiple of 8", what, a->origin[i]);
     }

@@ -580,7 +580,7 @@ int main(void)
                          "--size 200x150 --gpu-cache 64K");
         CHECK_MSG(rc == 0 && strstr(out_text, "incomplete pictures while bricks loaded"),
                   "cached session: exit %d: %s", rc, out_text);
-        /* One layer of the cloud's bricks is more than 64 KiB: said once, as leap render says it. */
+        /* The smallest cache image is more than 64 KiB: said once, as leap render says it. */
         const char *warned = strstr(out_text, "leap view: warning: the GPU brick cache takes");
         CHECK_MSG(warned && strstr(warned, "more than the 64.0 KiB --gpu-cache gives") &&
                       !strstr(warned + 20, "warning: the GPU brick cache"),

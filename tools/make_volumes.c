@@ -15,9 +15,11 @@
 static const char usage[] =
     "usage: leap_make_volumes DIR\n"
     "       leap_make_volumes --tubes OUT.vdb [--size N] [--objects K] [--seed S] [--int32]\n"
-    "       leap_make_volumes --fog OUT.vdb [--size N]\n"
+    "       leap_make_volumes --fog OUT.vdb [--size N] [--unrecorded]\n"
     "The --fog form writes a dense float grid 'density' of N^3 active voxels (default 256) whose\n"
-    "values vary everywhere (every 8^3 cell needs a brick): a large volume for memory tests.\n"
+    "values vary everywhere (every 8^3 cell needs a brick): a large volume for memory tests;\n"
+    "--unrecorded leaves out the record of its values that leap keeps in a file (as files\n"
+    "written elsewhere come: their first open under a budget reads every leaf).\n"
     "The second form writes one synthetic segmentation: K tube-shaped objects (random walks,\n"
     "radius 2-6 voxels, IDs random below 2^40, or 2^31 with --int32) densely packed in an N^3\n"
     "int64 grid 'labels' (defaults: N 512, K 10000, S 1).\n"
@@ -386,10 +388,12 @@ static void fog_planes(void *ctx, int32_t z0, int32_t nz, void *out)
 static int fog_main(int argc, char **argv)
 {
     int32_t n = 256;
+    const int unrecorded = argc >= 3 && !strcmp(argv[argc - 1], "--unrecorded");
+    argc -= unrecorded;
     if (argc == 4 && !strcmp(argv[2], "--size")) n = (int32_t)atoi(argv[3]);
     else if (argc != 2) n = 0;
     if (n < 8 || n > 2048) {
-        fprintf(stderr, "leap_make_volumes: --fog OUT.vdb [--size N] with 8 <= N <= 2048\n%s", usage);
+        fprintf(stderr, "leap_make_volumes: --fog OUT.vdb [--size N] [--unrecorded] with 8 <= N <= 2048\n%s", usage);
         return 2;
     }
     leap_dense_volume d = {.dim = {n, n, n}, .read_planes = fog_planes, .ctx = &n, .background = 0.0,
@@ -399,7 +403,7 @@ static int fog_main(int argc, char **argv)
     leap_grid *grid = NULL;
     leap_result r = leap_vdb_from_dense(argv[1], &d, &file, &err);
     if (!r) r = leap_vdb_load_grid(file, 0, &grid, &err);
-    if (!r) r = leap_grid_save(grid, NULL, argv[1], &err);
+    if (!r) r = (unrecorded ? leap_grid_save_unrecorded : leap_grid_save)(grid, NULL, argv[1], &err);
     leap_grid_destroy(grid);
     leap_vdb_close(file);
     if (r) {

@@ -55,6 +55,9 @@ typedef struct leap_atlas_desc {
                                             LEAP_ERR_FORMAT when their count is not the candidates' */
     leap_atlas_cells *record_cells;      /* scalar grids: filled with what this build found (the
                                             caller frees it with leap_atlas_cells_free) */
+    int lazy;                            /* with stream_texels: no cell is read; each one next to
+                                            data gets a slot, its range learned when the slot is
+                                            first read (leap_atlas_take_learned) */
     leap_progress_fn progress;           /* optional: the cells read so far */
     void *progress_user;
 } leap_atlas_desc;
@@ -76,10 +79,10 @@ typedef struct leap_atlas {
     size_t page_words;
     uint32_t slot_count;
     uint32_t slot_dims[3];     /* slots per atlas axis */
-    uint32_t texel_dims[3];    /* atlas texels per axis: slot_dims * LEAP_SLOT along x and y, a
-                                * power of two along z, so that a slot's layer does not change
-                                * its samples (leap_cursor_seek); a brick cache of whole layers
-                                * then gives the atlas's image bit for bit */
+    uint32_t texel_dims[3];    /* atlas texels per axis: powers of two of at most
+                                * LEAP_ATLAS_EXTENT_MAX, slot_dims = texel_dims / LEAP_SLOT (the
+                                * rest spare), so that where a slot lies does not change its
+                                * samples (leap_cursor_seek) */
     uint16_t *slot_texels;     /* LEAP_SLOT^3 texels per slot (x fastest), for slots
                                 * d = x + slot_dims[0] * (y + slot_dims[1] * z) < slot_count (the
                                 * others are unused). Only the GPU image holds the 3D layout of
@@ -91,7 +94,9 @@ typedef struct leap_atlas {
     leap_grid_reader *slot_readers[LEAP_ATLAS_READERS]; /* stream_texels: one per reading thread */
     uint32_t slot_reader_count;
     uint32_t *slot_ranges;     /* per slot (x + slot_dims[0] * (y + slot_dims[1] * z)): its smallest texel
-                                * | largest << 16 (MIP skipping) */
+                                * | largest << 16 (MIP skipping); a lazy atlas's are 0 | 65535 << 16
+                                * until the slot is read, then its own (set by leap_atlas_read_slots) */
+    struct leap_atlas_learning *learning; /* lazy atlases: the slots read, and those not yet taken */
     double value_min, value_max; /* texel 0 and 65535 stand for these values */
     double domain_min[3], domain_max[3]; /* marching box, relative index space */
     /* Label atlases: a constant cell's entry holds an object index; any other cell's entry is
@@ -143,6 +148,10 @@ leap_result leap_atlas_read_slot(const leap_atlas *atlas, uint32_t slot, uint16_
  * atlas reads a batch of many slots from several threads, each a run of consecutive ones. */
 leap_result leap_atlas_read_slots(const leap_atlas *atlas, const uint32_t *slots, size_t n, uint16_t *out,
                                   leap_error *err);
+
+/* A lazy atlas: the slots whose ranges were learned (first read) since the last call, into
+ * *slots (the caller frees it); returns their count (0, *slots NULL, for other atlases). */
+size_t leap_atlas_take_learned(const leap_atlas *atlas, uint32_t **slots);
 
 /* Before a batch of leap_atlas_read_slot: LEAP_ERR_FORMAT if the file of a grid read on demand
  * changed since it was opened (leap_grid_check_source); LEAP_OK for any other atlas. */

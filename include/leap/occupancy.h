@@ -90,6 +90,11 @@ void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *o
 /* Class of the leaf cell `cell` (cells outside the grid: the background's class). */
 uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell[3]);
 
+/* A cell whose range was not known (NaN brick ranges: a lazy scene's UNKNOWN cells) learns it:
+ * [lo, hi], every value its closed box holds. Returns 1 when it did (0: the cell's range was
+ * known, or the cell lies outside the grid); classify again to use it. */
+int leap_occupancy_learn_cell(leap_occupancy *occ, const int64_t cell[3], float lo, float hi);
+
 /* Bounding box, in index space relative to origin, of all NONEMPTY and UNKNOWN cells (closed
  * cell boxes). Returns 0 (and leaves lo/hi alone) when there are none. */
 int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);

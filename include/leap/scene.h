@@ -60,7 +60,9 @@ typedef struct leap_scene_index {
     char path[4096];         /* its file; "" when indexes are off */
     leap_file_stamp stamp;   /* the .vdb's identity before it was read */
     char note[256];          /* what became of it: "used", "written", "rebuilt: why", "not written:
-                                why", "off"; "" for a grid in memory */
+                                why", "not used: ... read lazily", "off"; "" for a grid in memory */
+    int lazy;                /* no index served and the grid records its leaves' scan: read lazily
+                                (leap_vdb_load_grid_lazily), no index written */
 } leap_scene_index;
 
 typedef struct leap_scene {
@@ -86,6 +88,12 @@ typedef struct leap_scene {
                                   (leap_renderer_bind_scene); 0 otherwise */
     leap_scene_index index;    /* a grid read on demand: its grid index */
     uint64_t leaves_read_to_open; /* a grid read on demand: leaves read until the scene was ready */
+    /* A grid read lazily (index.lazy): its cells next to data start UNKNOWN and learn their
+     * ranges as rays first need them (leap_scene_learn). */
+    uint64_t cells_unknown_at_open; /* the atlas's cells of unknown range at the open */
+    uint64_t cells_learned;         /* learned since */
+    uint64_t cells_learned_last;    /* by the last leap_scene_learn */
+    double learn_ms;                /* its re-classification and boxes */
     double load_ms;            /* opening the file and reading the grid */
     double bricks_ms;          /* listing the brick ranges for the occupancy */
     double atlas_ms, occupancy_ms, classify_ms, boxes_ms; /* the modules' own build times */
@@ -135,6 +143,13 @@ leap_result leap_scene_update_objects(leap_scene *scene, leap_error *err);
  * the step (exact boxes do not). Errors: LEAP_ERR_USAGE (not a positive number), LEAP_ERR_OOM.
  * A renderer holding the scene's boxes must be given them again (leap_renderer_set_occupancy). */
 leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err);
+
+/* A scene read lazily: the cells whose ranges the frames since the last call learned (their
+ * slots read by the brick cache: the rays needed them) take those ranges, and the occupancy and
+ * boxes are made again (cells_learned_last of them; nothing is done when there are none, or for
+ * other scenes). A renderer holding the scene must be given it again (leap_renderer_bind_scene)
+ * when cells_learned_last > 0. Errors: LEAP_ERR_OOM. */
+leap_result leap_scene_learn(leap_scene *scene, leap_error *err);
 
 /* Number of distinct integer values in the scene's range (for the label preset). */
 int leap_scene_label_count(double range_lo, double range_hi);

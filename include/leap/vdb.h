@@ -128,6 +128,18 @@ typedef struct leap_grid_scan {
 leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
                                          const uint64_t *leaf_offsets, leap_grid **out, leap_error *err);
 
+/* Files written by leap record in each float grid's metadata what a load finds in its leaves
+ * (leap_grid_scan: the value ranges and non-finite values; not for grids saved as half or with a
+ * non-finite background). leap_vdb_grid_recorded_scan: 1 and *out when grid `index` has one.
+ * A full load of a grid with a record checks it (LEAP_ERR_FORMAT when the leaves differ: a file
+ * changed after leap wrote it, its metadata kept). leap_vdb_load_grid_lazily: read on demand, as
+ * leap_vdb_load_grid_on_demand after the file's checks, with the recorded scan as `known`: no
+ * leaf is read to open; each leaf read later is checked against the record, and one that does
+ * not fit fails as an unreadable leaf does (leap_grid_read_status). LEAP_ERR_UNSUPPORTED for a
+ * grid without a record, or one whose leaves' offsets the check cannot find. */
+int leap_vdb_grid_recorded_scan(const leap_vdb_file *file, int index, leap_grid_scan *out);
+leap_result leap_vdb_load_grid_lazily(leap_vdb_file *file, int index, leap_grid **out, leap_error *err);
+
 /* A grid read on demand: where each leaf's values start in the file, in the order the grid's
  * leaves are iterated (leap_grid_get_scan's leaf_count of them), as its load's check of the
  * file found them or as given to it; NULL when not known (an instance of another grid). */
@@ -280,6 +292,9 @@ leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volum
  * metadata "up" (vec3d), through a temporary file and a rename, so a failure leaves any
  * previous file intact. Errors: LEAP_ERR_IO, LEAP_ERR_OOM. */
 leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char *path, leap_error *err);
+/* As leap_grid_save, without the record of the grid's scan (leap_vdb_grid_recorded_scan), as files
+ * written elsewhere come: their first open on demand reads every leaf (tests of that path). */
+leap_result leap_grid_save_unrecorded(const leap_grid *grid, const double up[3], const char *path, leap_error *err);
 
 /* ---- Writing (volume generator and tests) ---------------------------------------- */
 

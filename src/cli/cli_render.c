@@ -278,6 +278,11 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
         cJSON_AddNumberToObject(od, "leaves_read", (double)leap_grid_leaves_read(s->grid));
         cJSON_AddNumberToObject(od, "leaves_read_to_open", (double)s->leaves_read_to_open);
         cJSON_AddStringToObject(od, "index", s->index.note);
+        if (s->index.lazy) { /* the cells next to data start UNKNOWN; a cell is learned when a ray first reads it */
+            cJSON_AddNumberToObject(od, "cells_unknown_at_open", (double)s->cells_unknown_at_open);
+            cJSON_AddNumberToObject(od, "cells_learned", (double)s->cells_learned);
+            cJSON_AddNumberToObject(od, "learn_ms", s->learn_ms);
+        }
         if (s->index.path[0]) cJSON_AddStringToObject(od, "index_file", s->index.path);
         cJSON_AddNumberToObject(od, "gpu_cache_room", (double)s->gpu_cache_bytes);
     }
@@ -489,6 +494,7 @@ int cli_render(int argc, char **argv)
         r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)mode, rgba, depth, samples, &fs, &err);
         leap_renderer_set_progress(renderer, NULL, NULL); /* the bar ends with this block */
         cli_progress_bar_end(&bar);
+        if (!r) r = leap_scene_learn(scene, &err); /* a scene read lazily: what its rays read, for --stats */
         if (r) {
             rc = cli_exit_code(r);
             cli_input_error(o.input, o.scene.tf, r, err.msg);

@@ -588,7 +588,7 @@ typedef struct classifier {
 
 static uint32_t classify_range(const classifier *c, float vmin, float vmax)
 {
-    if (vmin != vmin || vmax != vmax) return LEAP_CLASS_NONEMPTY;
+    if (vmin != vmin || vmax != vmax) return LEAP_CLASS_UNKNOWN; /* not read yet (a lazy scene) */
     double u0, u1;
     if (c->flat) {
         u0 = u1 = 0.0;
@@ -726,6 +726,27 @@ uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell
         ref = n->child[k];
     }
     return ref_class(occ, ref);
+}
+
+int leap_occupancy_learn_cell(leap_occupancy *occ, const int64_t cell[3], float lo, float hi)
+{
+    for (int a = 0; a < 3; ++a)
+        if (cell[a] < 0 || cell[a] >= (int64_t)occ->cells[a]) return 0;
+    uint32_t ref = occ->root, level = occ->depth;
+    while (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
+        const occ_node *n = &occ->nodes[ref];
+        level = n->level - 1;
+        const uint32_t k = ((uint32_t)(cell[0] >> level) & 1u) | ((uint32_t)(cell[1] >> level) & 1u) << 1 |
+                           ((uint32_t)(cell[2] >> level) & 1u) << 2;
+        ref = n->child[k];
+    }
+    /* Unknown ranges never merge, so an unknown leaf is one cell (level 0). */
+    if (!(ref & OCC_REF_LEAF) || ref == OCC_REF_IMPLICIT || level != 0) return 0;
+    occ_range *r = &occ->ranges[ref & ~OCC_REF_LEAF];
+    if (r->lo == r->lo && r->hi == r->hi) return 0;
+    r->lo = lo;
+    r->hi = hi;
+    return 1;
 }
 
 int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3])

@@ -5,10 +5,9 @@
  * reaching it reports the slot and waits at that sample (composite.comp), and the frame's
  * next pass goes on once it is loaded. Each pass lets every waiting ray whose slot was loaded
  * take at least that cell, so a frame ends with every ray finished on any capacity of at
- * least one slot. The image holds whole layers of the atlas's slots (cache_shape): a slot lies
- * where it lies in the atlas's own image along x and y, and along z, where the extent is a power
- * of two and the sampler repeats, its place does not change its samples (leap_cursor_seek); so
- * every mode, through a cache of any size, gives the whole atlas's image bit for bit. */
+ * least one slot. The image has a shape of its own (cache_shape); where a slot lies does not
+ * change its samples (leap_cursor_seek), so every mode, through a cache of any size, gives the
+ * whole atlas's image bit for bit. */
 #include "renderer_internal.h"
 
 #include <stdlib.h>
@@ -16,27 +15,39 @@
 
 #include "leap/atlas.h"
 
-/* The image of a cache of `layers` of the atlas's layers of slots: the atlas's slots along x
- * and y, so that host slot h (the atlas's slot numbering) lies in image slot h % capacity at
- * the place it has in the atlas's own image along x and y; along z, a power-of-two extent. */
-static void cache_shape(const leap_atlas *atlas, uint32_t layers, uint32_t slot_dims[3], uint32_t texel_dims[3])
+/* The smallest cache image, 64 x 64 x 16 texels (49 slots): a cache of a few slots would load
+ * one slot a pass (a 200 x 150 frame of cloud.vdb through one slot: 8,419 passes, 19 s). */
+#define CACHE_EXTENT_MIN_XY 64
+
+/* The cache's image: powers of two of at most LEAP_ATLAS_EXTENT_MAX texels along each axis
+ * (as the atlas's own, so where a slot lies does not change its samples), the shape within
+ * `room` bytes at `bytes` a texel that holds the most slots up to `want`, then the fewest texels;
+ * the smallest when none fits, which may exceed a smaller room. Returns its slots. */
+static uint64_t cache_shape(uint64_t room, uint64_t bytes, uint64_t want, uint32_t slot_dims[3], uint32_t texel_dims[3])
 {
-    uint32_t extent = LEAP_ATLAS_DEPTH_MIN;
-    while (extent / LEAP_SLOT < layers) extent *= 2;
-    for (int a = 0; a < 2; ++a) slot_dims[a] = atlas->slot_dims[a], texel_dims[a] = atlas->texel_dims[a];
-    slot_dims[2] = layers;
-    texel_dims[2] = extent;
+    uint64_t best = 0, best_texels = 0;
+    for (uint32_t w = CACHE_EXTENT_MIN_XY; w <= LEAP_ATLAS_EXTENT_MAX; w *= 2)
+        for (uint32_t h = CACHE_EXTENT_MIN_XY; h <= LEAP_ATLAS_EXTENT_MAX; h *= 2)
+            for (uint32_t e = LEAP_ATLAS_EXTENT_MIN; e <= LEAP_ATLAS_EXTENT_MAX; e *= 2) {
+                const uint64_t texels = (uint64_t)w * h * e, smallest = w == CACHE_EXTENT_MIN_XY &&
+                                                                         h == CACHE_EXTENT_MIN_XY &&
+                                                                         e == LEAP_ATLAS_EXTENT_MIN;
+                uint64_t held = (uint64_t)(w / LEAP_SLOT) * (h / LEAP_SLOT) * (e / LEAP_SLOT);
+                if (held > want) held = want;
+                if ((texels * bytes > room && !smallest) || held < best || (held == best && texels >= best_texels))
+                    continue;
+                best = held, best_texels = texels;
+                texel_dims[0] = w, texel_dims[1] = h, texel_dims[2] = e;
+            }
+    for (int i = 0; i < 3; ++i) slot_dims[i] = texel_dims[i] / LEAP_SLOT;
+    return best;
 }
 
-/* Slots of the whole layers of the atlas that a power-of-two extent along z holds within
- * `room` bytes at `bytes` a texel: at least one layer, which may exceed a room smaller. */
+/* The slots a cache's image holds within `room` at `bytes` a texel (at most the atlas's). */
 static uint64_t cache_slots(const leap_atlas *atlas, uint64_t room, uint64_t bytes)
 {
-    const uint64_t layer = (uint64_t)atlas->slot_dims[0] * atlas->slot_dims[1],
-                   layer_bytes = layer * LEAP_SLOT * LEAP_SLOT * bytes;
-    uint64_t extent = LEAP_ATLAS_DEPTH_MIN;
-    while (extent * 2 <= LEAP_ATLAS_DEPTH_MAX && extent * 2 * layer_bytes <= room) extent *= 2;
-    return extent / LEAP_SLOT * layer;
+    uint32_t slot_dims[3], texel_dims[3];
+    return cache_shape(room, bytes, atlas->slot_count, slot_dims, texel_dims);
 }
 
 /* Float texels filter faster, 16-bit ones (the same values) hold twice the slots: float only
@@ -67,7 +78,8 @@ static void fill_texels(void *dst, size_t first, size_t count, const void *ctx)
     for (size_t i = 0; i < count; ++i) {
         const size_t n = first + i, x = n % td[0], y = n / td[0] % td[1], z = n / td[0] / td[1];
         const uint32_t slot = (uint32_t)(x / LEAP_SLOT + sd[0] * (y / LEAP_SLOT + (size_t)sd[1] * (z / LEAP_SLOT)));
-        const uint32_t host = slot < c->capacity ? c->host_of[slot] : CACHE_NONE;
+        const int spare = x >= sd[0] * LEAP_SLOT || y >= sd[1] * LEAP_SLOT; /* past the last slot of a row or column */
+        const uint32_t host = !spare && slot < c->capacity ? c->host_of[slot] : CACHE_NONE;
         const uint16_t v = host == CACHE_NONE ? 0
                            : c->atlas->slot_texels[(size_t)host * LEAP_SLOT_TEXELS + x % LEAP_SLOT +
                                                    LEAP_SLOT * (y % LEAP_SLOT + LEAP_SLOT * (z % LEAP_SLOT))];
@@ -120,8 +132,7 @@ leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uin
     for (uint32_t h = 0; h < atlas->slot_count; ++h) c->image_of[h] = h < resident ? h : CACHE_NONE;
     r->texel_bytes = (uint32_t)cache_texel_bytes(r, atlas);
     const int as_float = r->texel_bytes == sizeof(float);
-    const uint32_t layer = atlas->slot_dims[0] * atlas->slot_dims[1];
-    cache_shape(atlas, (capacity + layer - 1) / layer, r->slot_dims, r->texel_dims);
+    cache_shape(r->cache_room, r->texel_bytes, capacity, r->slot_dims, r->texel_dims);
     const cache_fill fill = {r, as_float};
     leap_result lr = leap_gpu_image_fill(r->gpu, as_float ? VK_FORMAT_R32_SFLOAT : VK_FORMAT_R16_UNORM, r->texel_dims,
                                          r->texel_bytes, fill_texels, &fill, &r->atlas, err);
@@ -195,7 +206,6 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
             c->image_of[h] = slot;
             c->loaded_in[slot] = service;
             pages[c->entry_word[h]] = pack_slot(r->slot_dims, slot);
-            ranges[slot] = c->atlas->slot_ranges[h];
             const uint32_t *d = r->slot_dims;
             origins[n][0] = slot % d[0] * LEAP_SLOT;
             origins[n][1] = slot / d[0] % d[1] * LEAP_SLOT;
@@ -207,6 +217,20 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
      * the last down (texel i's float covers 16-bit texels 2i and 2i + 1, already widened). A slot
      * that cannot be read ends the frame with that error. */
     if (!lr) lr = leap_atlas_read_slots(c->atlas, hosts, n, texels, err);
+    /* After the read: a lazy atlas learns a slot's range as it is first read. A lazy atlas's slot
+     * whose texels are one value becomes the constant entry the whole atlas's build would have
+     * made of its cell (so the samples are the same) and gives its place back. */
+    for (uint32_t i = 0; i < n && !lr; ++i) {
+        const uint32_t h = hosts[i], slot = c->image_of[h];
+        ranges[slot] = c->atlas->slot_ranges[h];
+        const uint16_t *t = (const uint16_t *)texels + (size_t)i * LEAP_SLOT_TEXELS;
+        int uniform = c->atlas->learning != NULL;
+        for (int k = 1; k < LEAP_SLOT_TEXELS && uniform; ++k) uniform = t[k] == t[0];
+        if (!uniform) continue;
+        pages[c->entry_word[h]] = LEAP_PAGE_CONST | t[0];
+        c->image_of[h] = CACHE_CONSTANT;
+        c->host_of[slot] = CACHE_NONE;
+    }
     if (!lr && r->texel_bytes == sizeof(float))
         for (size_t i = (size_t)n * LEAP_SLOT_TEXELS; i-- > 0;)
             ((float *)texels)[i] = renderer_texel_float(((const uint16_t *)texels)[i]);

@@ -376,7 +376,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
         f->keep[k] = (leap_vec4){(float)m->clip[k][0], (float)m->clip[k][1], (float)m->clip[k][2], (float)m->clip[k][3]};
     f->keep_count = (leap_uvec4){(uint32_t)clips, r->mid_levels, 0, 0};
     f->atlas_inv_size = (leap_vec4){1.0f / r->texel_dims[0], 1.0f / r->texel_dims[1], 1.0f / r->texel_dims[2],
-                                    (float)r->atlas_depth};
+                                    0.0f};
     double range = m->range_hi - m->range_lo;
     double scale = range != 0 ? (r->value_max - r->value_min) / range : 0.0;
     double offset = range != 0 ? (r->value_min - m->range_lo) / range : 0.0;

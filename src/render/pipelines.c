@@ -256,8 +256,8 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
         .maxLod = 0.0f,
     };
     LEAP_VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->linear_sampler));
-    /* The atlas's: repeating along z (leap_cursor_seek addresses texels the atlas's depth up). */
-    sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+    /* The atlas's: repeating (leap_cursor_seek addresses texels LEAP_ATLAS_EXTENT_MAX up). */
+    sci.addressModeU = sci.addressModeV = sci.addressModeW = VK_SAMPLER_ADDRESS_MODE_REPEAT;
     LEAP_VK_CHECK(vkCreateSampler(dev, &sci, NULL, &r->atlas_sampler));
     VkDescriptorPoolSize sizes[] = {
         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1},

@@ -211,7 +211,6 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
     if (capacity && !values)
         return shading_refuses_cache(r, atlas, err);
     leap_result lr = leap_gpu_buffer_create(r->gpu, page_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->pages, err);
-    r->atlas_depth = atlas->texel_dims[2];
     if (!lr && capacity) {
         lr = renderer_cache_upload(r, atlas, capacity, err);
     } else if (!lr) {
@@ -418,8 +417,8 @@ uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
 int leap_frame_cache_over(const leap_frame_stats *stats, uint64_t asked, char *out, size_t out_size)
 {
     if (!asked || stats->cache_image_bytes <= asked) return 0;
-    snprintf(out, out_size, "the GPU brick cache takes %.1f KiB, more than the %.1f KiB --gpu-cache gives: it holds at "
-             "least one whole layer of the volume's bricks (%u of them)", (double)stats->cache_image_bytes / 1024,
+    snprintf(out, out_size, "the GPU brick cache takes %.1f KiB, more than the %.1f KiB --gpu-cache gives: its "
+             "smallest image holds %u of the volume's bricks", (double)stats->cache_image_bytes / 1024,
              (double)asked / 1024, stats->cache_slots);
     return 1;
 }

@@ -54,13 +54,14 @@ typedef struct brick_cache {
     uint32_t capacity;       /* slots the atlas image holds; 0: no cache, every slot resident */
     uint32_t host_slots;     /* slots of the host atlas */
     uint32_t *host_of;       /* per image slot: the host slot it holds, or CACHE_NONE */
-    uint32_t *image_of;      /* per host slot: its image slot, or CACHE_NONE */
+    uint32_t *image_of;      /* per host slot: its image slot, CACHE_NONE, or CACHE_CONSTANT */
     uint32_t *entry_word;    /* per host slot: the page-table word of its cell */
     uint32_t *loaded_in;     /* per image slot: the service that loaded it (not evicted in it) */
     uint32_t service;        /* services so far */
     const leap_atlas *atlas; /* the host slots (not owned: the scene outlives its binding) */
 } brick_cache;
 #define CACHE_NONE UINT32_MAX
+#define CACHE_CONSTANT (UINT32_MAX - 1) /* a lazy atlas's slot found uniform: its cell is a constant entry */
 
 struct leap_renderer {
     leap_gpu *gpu;
@@ -97,7 +98,6 @@ struct leap_renderer {
     leap_image value_gradients;      /* shading: leap_value_gradients_fill of the atlas with the serial */
     uint64_t value_gradients_serial; /* 0: none */
     uint32_t texel_dims[3];          /* the volume's atlas texels per axis (the images' extent) */
-    uint32_t atlas_depth;            /* the whole atlas's texels along z (a cache's image may hold fewer) */
     leap_buffer pages;
     leap_buffer slot_ranges;   /* scalar atlases: per slot, its smallest | largest stored value << 16 */
     leap_image tf;     /* tf_raw's table for step tf_step (no image: not uploaded yet) */

@@ -58,7 +58,12 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     const uint64_t need = 2 * leap_vdb_grid_memory_estimate(file, grid);
     if (need <= budget) return leap_vdb_load_grid(file, grid, out, err);
     leap_result r = x->use ? find_index(x, path, leap_vdb_grid_name(file, grid), err) : LEAP_OK;
-    if (!r)
+    /* Without an index, a grid that records its leaves' scan is read lazily: no leaf to open. */
+    x->lazy = !r && x->use && !x->index && leap_vdb_grid_recorded_scan(file, grid, NULL);
+    if (x->lazy) {
+        r = leap_vdb_load_grid_lazily(file, grid, out, err);
+        if (!r) snprintf(x->note, sizeof x->note, "not used: the grid records its scan and is read lazily");
+    } else if (!r)
         r = leap_vdb_load_grid_on_demand(file, grid, x->index ? &x->index->scan : NULL,
                                          x->index && x->index->leaf_offset_count ? x->index->leaf_offsets : NULL, out, err);
     if (r && x->index) { /* an index that does not serve: the leaves are read */
@@ -192,9 +197,10 @@ static leap_result list_bricks(leap_scene *s, leap_brick **out, size_t *count, l
     *out = malloc((*count ? *count : 1) * sizeof **out);
     if (!*out) return leap_fail(err, LEAP_ERR_OOM, "out of memory for %zu bricks", *count);
     /* A segmentation's occupancy comes from its label cells: its bricks' value ranges go unused. */
-    leap_result r = s->index.index ? leap_grid_bricks_known(s->grid, s->index.index->brick_ranges, *out, err)
-                    : s->labels    ? leap_grid_brick_layout(s->grid, *out, err)
-                                   : leap_grid_bricks(s->grid, *out, err);
+    /* A lazy scene's come unknown: its cells learn their ranges as rays reach them. */
+    leap_result r = s->index.index             ? leap_grid_bricks_known(s->grid, s->index.index->brick_ranges, *out, err)
+                    : s->labels || s->index.lazy ? leap_grid_brick_layout(s->grid, *out, err)
+                                                 : leap_grid_bricks(s->grid, *out, err);
     s->bricks_ms = leap__now_ms() - t;
     return r;
 }
@@ -406,6 +412,31 @@ leap_result leap_scene_set_tf(leap_scene *s, const leap_tf *tf, double lo, doubl
     return build_boxes(s, err);
 }
 
+leap_result leap_scene_learn(leap_scene *s, leap_error *err)
+{
+    s->cells_learned_last = 0;
+    uint32_t *slots = NULL;
+    const size_t n = s->atlas ? leap_atlas_take_learned(s->atlas, &slots) : 0;
+    if (!n) return LEAP_OK;
+    const double t0 = leap__now_ms();
+    const leap_atlas *a = s->atlas;
+    const double step = (a->value_max - a->value_min) / 65535.0; /* as the atlas quantises */
+    uint64_t learned = 0;
+    for (size_t i = 0; i < n; ++i) {
+        const uint64_t key = a->slot_cells[slots[i]], range = a->slot_ranges[slots[i]];
+        const int64_t cell[3] = {(int64_t)(key % a->cells[0]), (int64_t)(key / a->cells[0] % a->cells[1]),
+                                 (int64_t)(key / a->cells[0] / a->cells[1])};
+        learned += (uint64_t)leap_occupancy_learn_cell(s->occupancy, cell, (float)(a->value_min + (range & 0xffffu) * step),
+                                                       (float)(a->value_min + (range >> 16) * step));
+    }
+    free(slots);
+    s->cells_learned += learned;
+    s->cells_learned_last = learned;
+    leap_result r = learned ? leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err) : LEAP_OK;
+    s->learn_ms = leap__now_ms() - t0;
+    return r;
+}
+
 leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err)
 {
     mip = mip > 0 ? LEAP_MIP_MAX : mip < 0 ? LEAP_MIP_MIN : 0;
@@ -586,15 +617,17 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
     if (!r) r = list_bricks(s, &bricks, &brick_count, err);
     if (!r) {
         const int streamed = leap_grid_on_demand(s->grid);
-        const int record = streamed && use_index && !s->index.index && s->index.path[0];
+        const int record = streamed && use_index && !s->index.index && !s->index.lazy && s->index.path[0];
         leap_atlas_desc ad = {.grid = s->grid, .labels = s->labels, .wide = desc->shade.on,
-                              .stream_texels = streamed, .share_bytes = streamed ? open_share_bytes(s) : 0,
+                              .stream_texels = streamed, .lazy = s->index.lazy,
+                              .share_bytes = streamed ? open_share_bytes(s) : 0,
                               .bricks = bricks, .brick_count = brick_count,
                               .known_cells = s->index.index ? &s->index.index->cells : NULL,
                               .record_cells = record ? &cells : NULL,
                               .progress = desc->progress, .progress_user = desc->progress_user};
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
+        if (!r && s->index.lazy) s->cells_unknown_at_open = s->atlas->slot_count;
         if (!r && ad.stream_texels) r = share_budget(s, err);
     }
     leap_grid_release_scan(s->grid); /* the bricks and the atlas are built */

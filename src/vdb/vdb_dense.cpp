@@ -59,7 +59,7 @@ vdb::GridBase::Ptr dense_to_grid(const leap_dense_volume &v)
 
 extern "C" {
 
-leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char *path, leap_error *err)
+static leap_result save(const leap_grid *grid, const double up[3], const char *path, bool record, leap_error *err)
 {
     if (!grid || !path) return leap_fail(err, LEAP_ERR_USAGE, "leap_grid_save: NULL argument");
     leap_publish pub;
@@ -77,7 +77,7 @@ leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char
         out->setName(grid->info.name);
         if (up) out->insertMeta("up", vdb::Vec3DMetadata(vdb::Vec3d(up[0], up[1], up[2])));
         vdb::GridCPtrVec grids{out};
-        write_vdb_file(pub.tmp, grids);
+        write_vdb_file(pub.tmp, grids, record);
         return LEAP_OK;
     });
     if (r) {
@@ -85,6 +85,16 @@ leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char
         return r;
     }
     return leap_publish_commit(&pub, err);
+}
+
+leap_result leap_grid_save(const leap_grid *grid, const double up[3], const char *path, leap_error *err)
+{
+    return save(grid, up, path, true, err);
+}
+
+leap_result leap_grid_save_unrecorded(const leap_grid *grid, const double up[3], const char *path, leap_error *err)
+{
+    return save(grid, up, path, false, err);
 }
 
 } // extern "C"

@@ -82,7 +82,8 @@ vdb::GridBase::Ptr dense_to_grid(const leap_dense_volume &volume);
 // Writes grids to a .vdb file as io::File does (with grid offsets, so it can be read on demand),
 // but on a stream whose failure is an error: io::File does not check its stream after writing,
 // so a full disk or a file-size limit left a file cut short, reported as written. Throws.
-void write_vdb_file(const std::string &path, const vdb::GridCPtrVec &grids);
+// Each float grid with its scan recorded (with_recorded_scan) unless `record` is false.
+void write_vdb_file(const std::string &path, const vdb::GridCPtrVec &grids, bool record = true);
 
 // Damage found by the structure checks below, before OpenVDB reads the bytes.
 struct Corrupt : std::runtime_error {
@@ -303,6 +304,23 @@ struct Scan {
     }
 };
 
+// The scan of a float tree's leaves as a load finds it (leap_grid_scan), and a grid's record of
+// it: write_vdb_file stores each float grid's in its metadata (SCAN_META), so that a
+// load can read the grid on demand without reading every leaf first (leap_vdb_load_grid_lazily).
+Scan scan_leaves(const FloatTree &tree);
+leap_grid_scan scan_summary(const Scan &s, uint64_t leaves);
+// The grid's recorded scan: false when it has none (or one that is not a scan).
+bool recorded_scan(const vdb::GridBase &g, leap_grid_scan *out);
+// A copy of the grid (sharing its tree) with its own scan recorded in place of any it had (none
+// for a grid that is not float, or is saved as half, whose values are rounded as written).
+vdb::GridBase::ConstPtr with_recorded_scan(const vdb::GridBase &g);
+#define SCAN_META "leap_scan" /* hex floats: leaves, non-finite values, stored and active ranges, active NaN, +Inf, -Inf */
+// Whether the scan a load found is the one recorded (a file whose values changed after leap
+// wrote it, its metadata kept, is not).
+bool same_scan(const leap_grid_scan &a, const leap_grid_scan &b);
+// Whether a leaf's values (as stored: before non-finite values are mapped) fit a recorded scan.
+bool leaf_fits_scan(const float *v, const LeafT::NodeMaskType &active, const leap_grid_scan &recorded);
+
 struct TileRec {
     vdb::Coord origin;
     int level; // 0: 8^3, 1: 128^3, 2: 4096^3
@@ -425,6 +443,10 @@ struct OnDemand {
     vdb::VersionId library_version;
     const void *stored_background_ptr = nullptr; // the tree's background, which OpenVDB's reader takes
     uint64_t tree_end = 0;
+    // A grid loaded lazily (leap_vdb_load_grid_lazily) takes the file's recorded scan on trust and
+    // checks each leaf it reads against it (leaf_fits_scan): a leaf that does not fit fails.
+    bool verify = false;
+    leap_grid_scan recorded{};
 
     explicit OnDemand(const std::string &path) : file(path) {}
     ~OnDemand()

@@ -145,6 +145,9 @@ void OnDemand::read(const LeafT &leaf, std::unique_ptr<LeafT> &copy)
         copy.reset(new LeafT(leaf)); // the copy's buffer still points into the file, or is empty
         float *v = copy->buffer().data(); // reads it (OpenVDB's LeafBuffer::doLoad), or allocates it
         if (by_offset) read_at_offset(*this, leaf, v);
+        if (verify && !leaf_fits_scan(v, leaf.getValueMask(), recorded))
+            throw std::runtime_error("its values lie outside those the grid's metadata records (the file was changed "
+                                     "after leap wrote it, its metadata kept: `leap convert` it again)");
         if (reset_background) copy->resetBackground(stored_background, background);
         if (nonfinite)
             for (vdb::Index n = 0; n < LeafT::SIZE; ++n) v[n] = sanitize(v[n], background, finite);

@@ -282,6 +282,108 @@ FloatTree::Ptr convert_tree(const vdb::GridBase &g)
     return FloatTree::Ptr(new FloatTree(src.tree()));
 }
 
+} // namespace
+
+namespace leap_vdb_detail {
+
+Scan scan_leaves(const FloatTree &tree)
+{
+    std::vector<const LeafT *> leaves;
+    leaves.reserve(tree.leafCount());
+    for (auto it = tree.cbeginLeaf(); it; ++it) leaves.push_back(it.getLeaf());
+    using Blocks = tbb::blocked_range<size_t>;
+    return tbb::parallel_reduce(
+        Blocks(0, leaves.size(), 64), Scan(),
+        [&](const Blocks &r, Scan s) {
+            for (size_t i = r.begin(); i != r.end(); ++i) {
+                const float *v = leaves[i]->buffer().data();
+                const auto &mask = leaves[i]->getValueMask();
+                for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+            }
+            return s;
+        },
+        [](Scan a, const Scan &b) {
+            a.merge(b);
+            return a;
+        });
+}
+
+leap_grid_scan scan_summary(const Scan &s, uint64_t leaves)
+{
+    leap_grid_scan k{};
+    k.leaf_count = leaves;
+    k.nonfinite = s.nonfinite;
+    k.stored_min = s.all.lo, k.stored_max = s.all.hi;
+    k.active_min = s.active.lo, k.active_max = s.active.hi;
+    k.active_nan = s.active_nan, k.active_pinf = s.active_pinf, k.active_ninf = s.active_ninf;
+    return k;
+}
+
+bool recorded_scan(const vdb::GridBase &g, leap_grid_scan *out)
+{
+    // [leaves, non-finite values, stored min, stored max, active min, active max, active NaN,
+    // +Inf, -Inf], as doubles: each count below 2^53, each float exact.
+    const auto m = g.getMetadata<vdb::StringMetadata>(SCAN_META);
+    if (!m) return false;
+    double f[9];
+    if (std::sscanf(m->value().c_str(), "%la %la %la %la %la %la %la %la %la", &f[0], &f[1], &f[2], &f[3], &f[4], &f[5],
+                    &f[6], &f[7], &f[8]) != 9)
+        return false;
+    for (int i : {0, 1, 6, 7, 8})
+        if (!(f[i] >= 0 && f[i] < 9007199254740992.0) || f[i] != std::floor(f[i])) return false;
+    for (int i : {2, 3, 4, 5})
+        if (std::isnan(f[i]) || double(float(f[i])) != f[i]) return false;
+    if (f[6] > 1 || f[7] > 1 || f[8] > 1) return false;
+    leap_grid_scan k{};
+    k.leaf_count = uint64_t(f[0]);
+    k.nonfinite = uint64_t(f[1]);
+    k.stored_min = float(f[2]), k.stored_max = float(f[3]);
+    k.active_min = float(f[4]), k.active_max = float(f[5]);
+    k.active_nan = int32_t(f[6]), k.active_pinf = int32_t(f[7]), k.active_ninf = int32_t(f[8]);
+    *out = k;
+    return true;
+}
+
+std::string scan_record(const leap_grid_scan &k)
+{
+    char s[512];
+    std::snprintf(s, sizeof s, "%a %a %a %a %a %a %a %a %a", double(k.leaf_count), double(k.nonfinite),
+                  double(k.stored_min), double(k.stored_max), double(k.active_min), double(k.active_max),
+                  double(k.active_nan), double(k.active_pinf), double(k.active_ninf));
+    return s;
+}
+
+bool same_scan(const leap_grid_scan &a, const leap_grid_scan &b)
+{
+    return scan_record(a) == scan_record(b);
+}
+
+vdb::GridBase::ConstPtr with_recorded_scan(const vdb::GridBase &g)
+{
+    vdb::MetaMap meta(g);
+    meta.removeMeta(SCAN_META);
+    const auto *fg = dynamic_cast<const vdb::FloatGrid *>(&g);
+    // A non-finite background is replaced as the grid is loaded, values that equal it too.
+    if (fg && !fg->saveFloatAsHalf() && std::isfinite(fg->background()))
+        meta.insertMeta(SCAN_META, vdb::StringMetadata(scan_record(
+                                       scan_summary(scan_leaves(fg->tree()), fg->tree().leafCount()))));
+    return g.copyGridReplacingMetadata(meta);
+}
+
+bool leaf_fits_scan(const float *v, const LeafT::NodeMaskType &active, const leap_grid_scan &k)
+{
+    Scan s;
+    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], active.isOn(n));
+    const auto within = [](const Range &r, float lo, float hi) { return r.empty() || (r.lo >= lo && r.hi <= hi); };
+    return within(s.all, k.stored_min, k.stored_max) && within(s.active, k.active_min, k.active_max) &&
+           (s.nonfinite == 0 || k.nonfinite > 0) && (!s.active_nan || k.active_nan) &&
+           (!s.active_pinf || k.active_pinf) && (!s.active_ninf || k.active_ninf);
+}
+
+} // namespace leap_vdb_detail
+
+namespace {
+
 Scan scan_from(const leap_grid_scan &k)
 {
     Scan s;
@@ -357,7 +459,7 @@ void gather_sides(const RootT &root, const LeafNumbers &numbers, const LeafT &le
 // Completes a loaded grid: maps non-finite values, finds the value ranges, tiles, counts and
 // bounds. A grid read on demand reads each leaf once here, into a copy, unless `known` says
 // what that finds.
-void scan_grid(leap_grid &g, const leap_grid_scan *known)
+void scan_grid(leap_grid &g, const leap_grid_scan *known, const leap_grid_scan *recorded)
 {
     OnDemand *od = g.on_demand.get();
     FloatTree &tree = g.grid->tree();
@@ -421,15 +523,11 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known)
             return a;
         });
 
+    if (!known && recorded && !same_scan(scan_summary(scan, leaves.size()), *recorded))
+        OPENVDB_THROW(vdb::IoError, "its leaves do not hold the values its metadata records for them (it was changed "
+                                    "after leap wrote it, its metadata kept): `leap convert` it again");
     if (od && scan.nonfinite) od->cell_parts = std::vector<CellParts>(); // footprints read, values mapped
-    if (od) {
-        leap_grid_scan &k = g.scan;
-        k.leaf_count = leaves.size();
-        k.nonfinite = scan.nonfinite;
-        k.stored_min = scan.all.lo, k.stored_max = scan.all.hi;
-        k.active_min = scan.active.lo, k.active_max = scan.active.hi;
-        k.active_nan = scan.active_nan, k.active_pinf = scan.active_pinf, k.active_ninf = scan.active_ninf;
-    }
+    if (od) g.scan = scan_summary(scan, leaves.size());
 
     // Tiles at every level (leaf depth excluded), active or not.
     auto tile_iter = tree.beginValueAll();
@@ -506,6 +604,7 @@ struct leap_vdb_file {
     std::vector<std::string> plain; // grid names as written
     std::vector<uint64_t> memory;   // leap_vdb_grid_memory_estimate
     mutable std::vector<leap_grid_info> infos; // backgrounds are filled in lazily
+    std::vector<leap_grid_scan> recorded;      // each grid's recorded scan (leaf_count 0: none)
     mutable std::vector<char> have_background;
     mutable int cached_index = -1; // grid read by leap_vdb_grid_info, not yet loaded
     mutable vdb::GridBase::Ptr cached_grid;
@@ -566,6 +665,9 @@ leap_result leap_vdb_open(const char *path, leap_vdb_file **out, leap_error *err
             vdb::GridBase::ConstPtr meta = f->streamed.empty() ? f->reader->read(gd, VdbReader::Part::meta) : f->streamed[i];
             meta_to_info(*meta, name, &info);
             f->infos.push_back(info);
+            leap_grid_scan scan{};
+            if (gd.isInstance() || !recorded_scan(*meta, &scan)) scan = leap_grid_scan{};
+            f->recorded.push_back(scan);
             uint64_t bytes = uint64_t(gd.getEndPos() - gd.getGridPos()) * (gd.saveFloatAsHalf() ? 2 : 1);
             if (auto m = meta->getMetadata<vdb::Int64Metadata>(vdb::GridBase::META_FILE_MEM_BYTES))
                 if (m->value() > 0) bytes = uint64_t(m->value());
@@ -603,6 +705,7 @@ leap_result leap_vdb_from_dense(const char *path, const leap_dense_volume *volum
         meta_to_info(*grid, name, &info);
         info.background = volume->background;
         f->infos.push_back(info);
+        f->recorded.push_back(leap_grid_scan{});
         f->have_background.assign(1, 1);
         f->memory.push_back(uint64_t(grid->memUsage())); // the budget's estimate, as a file's records it
         f->streamed.push_back(grid);
@@ -781,7 +884,9 @@ vdb::GridBase::Ptr read_on_demand(leap_vdb_file *file, size_t gi, bool checked, 
     return base;
 }
 
-leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap_grid_scan *known,
+// known: what the leaves hold (a grid index: the file's checks passed before; with `lazily`, the
+// file's recorded scan: the checks run, and each leaf read is checked against it).
+leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, bool lazily, const leap_grid_scan *known,
                       const uint64_t *leaf_offsets, leap_grid **out, leap_error *err)
 {
     if (out) *out = nullptr;
@@ -808,7 +913,7 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap
         {
             std::lock_guard<std::mutex> lock(file->mutex);
             if (on_demand)
-                base = read_on_demand(file, gi, known != nullptr, known ? leaf_offsets : nullptr,
+                base = read_on_demand(file, gi, known != nullptr && !lazily, known ? leaf_offsets : nullptr,
                                       known ? known->leaf_count : 0, od);
             else if (file->cached_index == index) base = std::move(file->cached_grid);
             else base = read_full_grid(file, gi);
@@ -816,6 +921,12 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap
                 file->cached_index = -1;
                 file->cached_grid.reset();
             }
+        }
+        if (lazily && !od->by_offset)
+            OPENVDB_THROW(vdb::IoError, "its leaves' offsets were not found, so it cannot be read lazily");
+        if (lazily) {
+            od->recorded = *known;
+            od->verify = true;
         }
         if (!base->constTransform().isLinear())
             return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: non-linear (frustum) transform is not supported",
@@ -842,7 +953,8 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, const leap
         }
         base.reset();
         g->on_demand = std::move(od);
-        scan_grid(*g, on_demand ? known : nullptr);
+        const leap_grid_scan *recorded = file->recorded[gi].leaf_count ? &file->recorded[gi] : nullptr;
+        scan_grid(*g, on_demand ? known : nullptr, recorded);
         leap_result r = leap_grid_read_status(g.get(), err);
         if (r) return r;
         *out = g.release();
@@ -856,13 +968,32 @@ extern "C" {
 
 leap_result leap_vdb_load_grid(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
 {
-    return load_grid(file, index, false, nullptr, nullptr, out, err);
+    return load_grid(file, index, false, false, nullptr, nullptr, out, err);
 }
 
 leap_result leap_vdb_load_grid_on_demand(leap_vdb_file *file, int index, const leap_grid_scan *known,
                                          const uint64_t *leaf_offsets, leap_grid **out, leap_error *err)
 {
-    return load_grid(file, index, true, known, leaf_offsets, out, err);
+    return load_grid(file, index, true, false, known, leaf_offsets, out, err);
+}
+
+int leap_vdb_grid_recorded_scan(const leap_vdb_file *file, int index, leap_grid_scan *out)
+{
+    if (!file || index < 0 || size_t(index) >= file->recorded.size() || !file->recorded[size_t(index)].leaf_count)
+        return 0;
+    if (out) *out = file->recorded[size_t(index)];
+    return 1;
+}
+
+leap_result leap_vdb_load_grid_lazily(leap_vdb_file *file, int index, leap_grid **out, leap_error *err)
+{
+    leap_grid_scan recorded;
+    if (!leap_vdb_grid_recorded_scan(file, index, &recorded)) {
+        if (out) *out = nullptr;
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': grid %d records no scan of its values (files written by "
+                         "leap do)", file ? file->path.c_str() : "?", index);
+    }
+    return load_grid(file, index, true, true, &recorded, nullptr, out, err);
 }
 
 const uint64_t *leap_grid_leaf_offsets(const leap_grid *grid)

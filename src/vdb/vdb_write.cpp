@@ -9,16 +9,19 @@ using namespace leap_vdb_detail;
 
 namespace leap_vdb_detail {
 
-void write_vdb_file(const std::string &path, const vdb::GridCPtrVec &grids)
+void write_vdb_file(const std::string &path, const vdb::GridCPtrVec &grids, bool record)
 {
     // io::File's own writer is Archive's seekable one on an unchecked std::ofstream.
     struct SeekableWriter : vdb::io::Archive {
         void write_to(std::ostream &os, const vdb::GridCPtrVec &g) const { Archive::write(os, g, true); }
     };
+    // Each grid with its scan recorded, on a copy that shares its tree.
+    vdb::GridCPtrVec recorded;
+    for (const vdb::GridBase::ConstPtr &g : grids) recorded.push_back(record ? with_recorded_scan(*g) : g);
     errno = 0;
     std::ofstream os(path, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
     if (!os) throw std::runtime_error(std::strerror(errno ? errno : EIO));
-    SeekableWriter().write_to(os, grids);
+    SeekableWriter().write_to(os, recorded);
     const int e = errno;
     if (os) os.close();
     if (!os) throw std::runtime_error(std::strerror(errno ? errno : e ? e : EIO));

@@ -13,8 +13,9 @@
 
 #include "shared.h"
 
-#define MAX_SLOTS_PER_AXIS (4096 / LEAP_SLOT) /* along x and y; along z LEAP_ATLAS_DEPTH_MAX */
-#define MAX_SLOTS_DEEP (LEAP_ATLAS_DEPTH_MAX / LEAP_SLOT)
+#define MAX_SLOTS_PER_AXIS (LEAP_ATLAS_EXTENT_MAX / LEAP_SLOT)
+/* A streamed atlas has no image: its slots are numbered x | y << 10 | z << 20 in page entries. */
+#define STREAM_SLOTS_PER_AXIS (LEAP_SLOT_MASK + 1)
 /* The page table is built before any device is chosen, so it keeps within the storage-buffer
  * range every Vulkan device guarantees (maxStorageBufferRange >= 2^27); the renderer checks
  * its own buffers against the device's actual limit. */
@@ -44,6 +45,7 @@ typedef struct builder {
     uint64_t *cells;          /* stream_texels: per slot, in allocation order, its cell key */
     size_t cells_cap;
     int stream_texels;
+    int lazy;                      /* leap_atlas_desc.lazy */
     uint64_t share_bytes;          /* leap_atlas_desc.share_bytes */
     const leap_atlas_cells *known; /* the cells' results, not read again */
     leap_progress_fn progress;
@@ -59,6 +61,16 @@ typedef struct builder {
     uint32_t block_dims[3];   /* page blocks per axis */
     uint32_t background;      /* entry of a block no write touched */
 } builder;
+
+/* A lazy atlas's learning: which slots were read (their ranges known), and those learned since
+ * leap_atlas_take_learned last took them. Reads come from the brick cache's service; the lock
+ * keeps a reader and a taker apart. */
+struct leap_atlas_learning {
+    pthread_mutex_t lock;
+    uint8_t *known;    /* per slot */
+    uint32_t *fresh;   /* learned, not yet taken */
+    size_t fresh_count, fresh_cap;
+};
 
 /* Page blocks are B^3 cells, B = 1 << a->block_shift. */
 static uint32_t block_edge(const leap_atlas *a) { return 1u << a->block_shift; }
@@ -250,39 +262,26 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
     return LEAP_OK;
 }
 
-/* Texels of an image of `slots` slots in layers (x, y) as square as may be, `extent` texels
- * deep; 0 when a side exceeds the 3D image limit, or when the extent is more than four times
- * the layer's longer side (the shader's coordinates along z lie on a float grid as coarse as
- * the extent, see leap_cursor_seek: no coarser than four times those along x and y). */
-static uint64_t layered_texels(uint64_t slots, uint64_t extent, uint64_t *sx, uint64_t *sy)
-{
-    const uint64_t layer = (slots + extent / LEAP_SLOT - 1) / (extent / LEAP_SLOT);
-    *sx = (uint64_t)ceil(sqrt((double)layer));
-    if (*sx > MAX_SLOTS_PER_AXIS) *sx = MAX_SLOTS_PER_AXIS;
-    *sy = (layer + *sx - 1) / *sx;
-    if (*sy > MAX_SLOTS_PER_AXIS || (extent > LEAP_ATLAS_DEPTH_MIN && extent > 4 * *sx * LEAP_SLOT)) return 0;
-    return *sx * *sy * LEAP_SLOT * LEAP_SLOT * extent;
-}
-
-/* The atlas image's shape for `slots` slots: layers of slots along x and y stacked along z in a
- * power-of-two extent, the deepest whose texels are within 1/16 of the fewest (small layers let
- * a brick cache of whole layers come in small steps). 0 when they exceed the 3D image limit. */
+/* The atlas image's shape for `slots` slots: a power of two of at most LEAP_ATLAS_EXTENT_MAX
+ * texels along each axis, holding extent / LEAP_SLOT slots along it (the few texels left over
+ * are spare), the fewest texels, then the deepest along z. Powers of two let the shader address
+ * every slot cell's samples on one float grid, wherever the slot lies (leap_cursor_seek): the
+ * samples do not depend on the layout. 0 when the slots exceed the largest image. */
 static int image_shape(uint64_t slots, uint32_t slot_dims[3], uint32_t texel_dims[3])
 {
-    uint64_t fewest = 0, sx, sy;
+    uint64_t fewest = 0;
     if (slots == 0) slots = 1;
-    for (uint32_t extent = LEAP_ATLAS_DEPTH_MIN; extent <= LEAP_ATLAS_DEPTH_MAX; extent *= 2) {
-        const uint64_t texels = layered_texels(slots, extent, &sx, &sy);
-        if (texels && (!fewest || texels < fewest)) fewest = texels;
-    }
+    for (uint32_t w = LEAP_ATLAS_EXTENT_MIN; w <= LEAP_ATLAS_EXTENT_MAX; w *= 2)
+        for (uint32_t h = LEAP_ATLAS_EXTENT_MIN; h <= LEAP_ATLAS_EXTENT_MAX; h *= 2)
+            for (uint32_t e = LEAP_ATLAS_EXTENT_MIN; e <= LEAP_ATLAS_EXTENT_MAX; e *= 2) {
+                const uint64_t held = (uint64_t)(w / LEAP_SLOT) * (h / LEAP_SLOT) * (e / LEAP_SLOT),
+                               texels = (uint64_t)w * h * e;
+                if (held < slots || (fewest && texels > fewest) || (texels == fewest && e < texel_dims[2])) continue;
+                fewest = texels;
+                texel_dims[0] = w, texel_dims[1] = h, texel_dims[2] = e;
+            }
     if (!fewest) return 0;
-    for (uint32_t extent = LEAP_ATLAS_DEPTH_MAX; extent >= LEAP_ATLAS_DEPTH_MIN; extent /= 2) {
-        const uint64_t texels = layered_texels(slots, extent, &sx, &sy);
-        if (!texels || texels * 16 > fewest * 17) continue;
-        slot_dims[0] = (uint32_t)sx, slot_dims[1] = (uint32_t)sy, slot_dims[2] = extent / LEAP_SLOT;
-        texel_dims[0] = (uint32_t)sx * LEAP_SLOT, texel_dims[1] = (uint32_t)sy * LEAP_SLOT, texel_dims[2] = extent;
-        break;
-    }
+    for (int i = 0; i < 3; ++i) slot_dims[i] = texel_dims[i] / LEAP_SLOT;
     return 1;
 }
 
@@ -300,8 +299,8 @@ static uint64_t atlas_texels_for(uint64_t n)
  * neither holds them all, only the page entries' slot numbers bound them. */
 static uint64_t slot_budget(int stream_texels)
 {
-    if (stream_texels) return (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_DEEP;
-    uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_DEEP;
+    if (stream_texels) return (uint64_t)STREAM_SLOTS_PER_AXIS * STREAM_SLOTS_PER_AXIS * (STREAM_SLOTS_PER_AXIS - 1);
+    uint64_t lo = 1, hi = (uint64_t)MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS * MAX_SLOTS_PER_AXIS;
     long pages = sysconf(_SC_AVPHYS_PAGES), page = sysconf(_SC_PAGESIZE);
     double host = pages > 0 && page > 0 ? (double)pages * (double)page : INFINITY;
     while (lo < hi) { /* largest n that fits (texels grow with n) */
@@ -597,7 +596,11 @@ static void *fill_run(void *arg)
             uint32_t c[3], range;
             const leap_atlas_cells *known = sh->b->known;
             int constant;
-            if (known) {
+            if (sh->b->lazy) { /* a slot of unknown range: any texel */
+                w->entries[i] = 0;
+                range = 0xffffu << 16;
+                constant = 0;
+            } else if (known) {
                 w->entries[i] = known->entries[first + i];
                 range = known->ranges[first + i];
                 constant = (w->entries[i] & LEAP_PAGE_CONST) != 0;
@@ -651,7 +654,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
         if (!b->record->entries || !b->record->ranges) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory");
         b->record->count = unique;
     }
-    leap_result r = b->known || a->labels ? LEAP_OK : check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
+    leap_result r = b->known || b->lazy || a->labels ? LEAP_OK : check_slot_estimate(b, l->keys, unique, grid, sh.budget, err);
     if (r) return r;
     long cpus = sysconf(_SC_NPROCESSORS_ONLN);
     size_t threads = cpus > 1 ? (size_t)cpus : 1;
@@ -670,7 +673,7 @@ static leap_result fill_candidates(builder *b, key_list *l, const leap_grid *gri
      * flight stay live. Less than that would drop the leaves needed next. */
     const size_t layer = ((size_t)a->cells[0] + 1) * ((size_t)a->cells[1] + 1) + 4 * ((size_t)a->cells[0] + 1) +
                          2 * threads * FILL_CHUNK_KEYS;
-    const int share = b->stream_texels && !b->known && b->share_bytes / leap_grid_shared_leaf_bytes() >= layer;
+    const int share = b->stream_texels && !b->known && !b->lazy && b->share_bytes / leap_grid_shared_leaf_bytes() >= layer;
     if (!r && share) leap_grid_share_leaves(grid, layer);
     if (!r) {
         atomic_init(&sh.next_chunk, 0);
@@ -792,7 +795,14 @@ static leap_result finish(builder *b, uint32_t seed, leap_error *err)
             perm[j] = t;
         }
     uint32_t texel_dims[3];
-    if (!image_shape(n, a->slot_dims, texel_dims)) {
+    if (b->stream_texels) { /* no image of its own: slots numbered within the page entries' fields */
+        a->slot_dims[0] = n < STREAM_SLOTS_PER_AXIS ? n : STREAM_SLOTS_PER_AXIS;
+        a->slot_dims[1] = (n + a->slot_dims[0] - 1) / a->slot_dims[0];
+        if (a->slot_dims[1] > STREAM_SLOTS_PER_AXIS) a->slot_dims[1] = STREAM_SLOTS_PER_AXIS;
+        a->slot_dims[2] = (uint32_t)((n + (uint64_t)a->slot_dims[0] * a->slot_dims[1] - 1) /
+                                     ((uint64_t)a->slot_dims[0] * a->slot_dims[1]));
+        for (int i = 0; i < 3; ++i) texel_dims[i] = a->slot_dims[i] * LEAP_SLOT;
+    } else if (!image_shape(n, a->slot_dims, texel_dims)) {
         free(perm);
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "atlas: %u bricks exceed the 3D texture limit", n);
     }
@@ -935,6 +945,7 @@ static void start_build(builder *b, leap_atlas *a, const leap_atlas_desc *desc)
     a->labels = desc->labels != NULL;
     a->wide = desc->wide && !a->labels;
     b->stream_texels = desc->stream_texels && !a->labels;
+    b->lazy = b->stream_texels && desc->lazy;
     b->share_bytes = desc->share_bytes;
     b->known = a->labels ? NULL : desc->known_cells;
     b->record = a->labels ? NULL : desc->record_cells;
@@ -1003,6 +1014,17 @@ leap_result leap_atlas_create(const leap_atlas_desc *desc, leap_atlas **out, lea
         return r;
     }
     if (a->labels) a->object_count = (uint32_t)leap_labels_count(desc->labels);
+    if (desc->lazy && a->slot_cells) {
+        a->learning = calloc(1, sizeof *a->learning);
+        if (a->learning) a->learning->known = calloc(a->slot_count ? a->slot_count : 1, 1);
+        if (!a->learning || !a->learning->known) {
+            free(a->learning);
+            a->learning = NULL;
+            leap_atlas_destroy(a);
+            return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for %u bricks", a->slot_count);
+        }
+        pthread_mutex_init(&a->learning->lock, NULL);
+    }
     if (a->slot_cells) {
         a->grid = desc->grid;
         const long cpus = sysconf(_SC_NPROCESSORS_ONLN);
@@ -1035,9 +1057,42 @@ void leap_atlas_destroy(leap_atlas *atlas)
     free(atlas->slot_cells);
     for (uint32_t i = 0; i < atlas->slot_reader_count; ++i) leap_grid_reader_destroy(atlas->slot_readers[i]);
     free(atlas->slot_ranges);
+    if (atlas->learning) {
+        pthread_mutex_destroy(&atlas->learning->lock);
+        free(atlas->learning->known);
+        free(atlas->learning->fresh);
+        free(atlas->learning);
+    }
     free(atlas->label_words);
     free(atlas->record_offsets);
     free(atlas);
+}
+
+/* A lazy atlas learns the range of each slot read for the first time: its texels' extremes
+ * (for MIP's skipping and, taken by the scene, for the occupancy). */
+static leap_result learn(const leap_atlas *a, const uint32_t *slots, size_t n, const uint16_t *texels, leap_error *err)
+{
+    struct leap_atlas_learning *l = a->learning;
+    pthread_mutex_lock(&l->lock);
+    leap_result r = LEAP_OK;
+    for (size_t i = 0; i < n && !r; ++i) {
+        if (l->known[slots[i]]) continue;
+        const uint16_t *t = texels + i * LEAP_SLOT_TEXELS;
+        uint16_t lo = t[0], hi = t[0];
+        for (int k = 1; k < LEAP_SLOT_TEXELS; ++k) {
+            lo = t[k] < lo ? t[k] : lo;
+            hi = t[k] > hi ? t[k] : hi;
+        }
+        if (!leap__grow((void **)&l->fresh, &l->fresh_cap, l->fresh_count + 1, sizeof *l->fresh)) {
+            r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for the bricks learned");
+            break;
+        }
+        l->fresh[l->fresh_count++] = slots[i];
+        l->known[slots[i]] = 1;
+        a->slot_ranges[slots[i]] = (uint32_t)lo | (uint32_t)hi << 16;
+    }
+    pthread_mutex_unlock(&l->lock);
+    return r;
 }
 
 leap_result leap_atlas_read_slot(const leap_atlas *a, uint32_t slot, uint16_t *out, leap_error *err)
@@ -1090,7 +1145,23 @@ leap_result leap_atlas_read_slots(const leap_atlas *a, const uint32_t *slots, si
         runs[t] = (slot_run){a, a->slot_readers[t], slots + lo, hi - lo, out + lo * LEAP_SLOT_TEXELS};
     }
     leap__run_jobs(read_run, runs, sizeof *runs, threads);
-    return leap_grid_read_status(a->grid, err);
+    leap_result r = leap_grid_read_status(a->grid, err);
+    if (!r && a->learning) r = learn(a, slots, n, out, err);
+    return r;
+}
+
+size_t leap_atlas_take_learned(const leap_atlas *a, uint32_t **slots)
+{
+    *slots = NULL;
+    if (!a->learning) return 0;
+    struct leap_atlas_learning *l = a->learning;
+    pthread_mutex_lock(&l->lock);
+    const size_t n = l->fresh_count;
+    *slots = l->fresh;
+    l->fresh = NULL;
+    l->fresh_count = l->fresh_cap = 0;
+    pthread_mutex_unlock(&l->lock);
+    return n;
 }
 
 leap_result leap_atlas_check_source(const leap_atlas *atlas, leap_error *err)
@@ -1111,15 +1182,17 @@ void leap_atlas_texels(const leap_atlas *a, size_t first, size_t count, uint16_t
 {
     const size_t row = a->texel_dims[0];
     size_t x = first % row, y = first / row % a->texel_dims[1], z = first / row / a->texel_dims[1];
+    const size_t row_texels = (size_t)a->slot_dims[0] * LEAP_SLOT; /* the rest of a row is spare */
     while (count > 0) {
         /* The rest of this texel row: LEAP_SLOT texels per slot along it, contiguous in each. */
         const size_t end = row - x < count ? row : x + count;
         count -= end - x;
+        const int spare_row = y >= (size_t)a->slot_dims[1] * LEAP_SLOT || z >= (size_t)a->slot_dims[2] * LEAP_SLOT;
         const size_t row_slot = a->slot_dims[0] * (y / LEAP_SLOT + (size_t)a->slot_dims[1] * (z / LEAP_SLOT));
         const uint16_t *in_slot = a->slot_texels + LEAP_SLOT * (y % LEAP_SLOT + LEAP_SLOT * (z % LEAP_SLOT));
         for (size_t d = row_slot + x / LEAP_SLOT, l = x % LEAP_SLOT; x < end; ++d, l = 0) {
             const uint16_t *src = in_slot + d * LEAP_SLOT_TEXELS;
-            const int used = d < a->slot_count; /* also false past the last layer of slots */
+            const int used = !spare_row && x < row_texels && d < a->slot_count;
             for (; l < LEAP_SLOT && x < end; ++l, ++x) *out++ = used ? src[l] : 0;
         }
         if (x == row) {

@@ -100,7 +100,8 @@ void leap_value_gradients_fill(const leap_value_gradients *vg, size_t first, siz
             ++t[2];
         }
         const size_t slot = t[0] / LEAP_SLOT + a->slot_dims[0] * (t[1] / LEAP_SLOT + a->slot_dims[1] * (t[2] / LEAP_SLOT));
-        const int spare = t[2] / LEAP_SLOT >= a->slot_dims[2]; /* past the last layer of slots */
+        const int spare = t[0] / LEAP_SLOT >= a->slot_dims[0] || t[1] / LEAP_SLOT >= a->slot_dims[1] ||
+                          t[2] / LEAP_SLOT >= a->slot_dims[2]; /* past the last slot along an axis */
         const int32_t *cell = spare ? NULL : vg->slot_cell[slot];
         uint16_t *o = out + 4 * i;
         if (spare || cell[0] == INT32_MIN) {
