@@ -221,13 +221,10 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
      * whose texels are one value becomes the constant entry the whole atlas's build would have
      * made of its cell (so the samples are the same) and gives its place back. */
     for (uint32_t i = 0; i < n && !lr; ++i) {
-        const uint32_t h = hosts[i], slot = c->image_of[h];
-        ranges[slot] = c->atlas->slot_ranges[h];
-        const uint16_t *t = (const uint16_t *)texels + (size_t)i * LEAP_SLOT_TEXELS;
-        int uniform = c->atlas->learning != NULL;
-        for (int k = 1; k < LEAP_SLOT_TEXELS && uniform; ++k) uniform = t[k] == t[0];
-        if (!uniform) continue;
-        pages[c->entry_word[h]] = LEAP_PAGE_CONST | t[0];
+        const uint32_t h = hosts[i], slot = c->image_of[h], range = c->atlas->slot_ranges[h];
+        ranges[slot] = range;
+        if (!c->atlas->learning || (range & 0xffffu) != range >> 16) continue;
+        pages[c->entry_word[h]] = LEAP_PAGE_CONST | (range & 0xffffu);
         c->image_of[h] = CACHE_CONSTANT;
         c->host_of[slot] = CACHE_NONE;
     }
