@@ -122,6 +122,16 @@ void leap_atlas_destroy(leap_atlas *atlas); /* accepts NULL */
  * (LEAP_PAGE_CONST set) or, as the shader reads it, a slot position / label record offset. */
 uint32_t leap_atlas_cell_entry(const leap_atlas *atlas, const uint32_t cell[3]);
 
+/* An image shape for atlas slots: a power of two of at most LEAP_ATLAS_EXTENT_MAX texels along
+ * each axis (at least min_side along x and y), holding extent / LEAP_SLOT slots along each (the
+ * few texels left over are spare); within max_texels the one that holds the most slots up to
+ * `want`, then the fewest texels, then the deepest along z; the smallest when none is within
+ * max_texels. Returns the slots it holds, at most `want`. Powers of two let the shader address
+ * every slot cell's samples on one float grid wherever the slot lies (leap_cursor_seek), so the
+ * samples do not depend on the layout: the atlas's image and a brick cache's take these shapes. */
+uint64_t leap_atlas_image_shape(uint64_t want, uint64_t max_texels, uint32_t min_side, uint32_t slot_dims[3],
+                                uint32_t texel_dims[3]);
+
 /* The slot a slot cell's page entry points at, numbered x + slot_dims[0] * (y + slot_dims[1] * z)
  * (the numbering of slot_ranges and slot_texels; a brick cache passes its own image's slot_dims). */
 uint32_t leap_atlas_entry_slot(const uint32_t slot_dims[3], uint32_t entry);

@@ -19,28 +19,12 @@
  * one slot a pass (a 200 x 150 frame of cloud.vdb through one slot: 8,419 passes, 19 s). */
 #define CACHE_EXTENT_MIN_XY 64
 
-/* The cache's image: powers of two of at most LEAP_ATLAS_EXTENT_MAX texels along each axis
- * (as the atlas's own, so where a slot lies does not change its samples), the shape within
- * `room` bytes at `bytes` a texel that holds the most slots up to `want`, then the fewest texels;
- * the smallest when none fits, which may exceed a smaller room. Returns its slots. */
+/* The cache's image: the shape within `room` bytes at `bytes` a texel that holds the most
+ * slots up to `want` (leap_atlas_image_shape); the smallest when none fits, which may exceed a
+ * smaller room. Returns its slots. */
 static uint64_t cache_shape(uint64_t room, uint64_t bytes, uint64_t want, uint32_t slot_dims[3], uint32_t texel_dims[3])
 {
-    uint64_t best = 0, best_texels = 0;
-    for (uint32_t w = CACHE_EXTENT_MIN_XY; w <= LEAP_ATLAS_EXTENT_MAX; w *= 2)
-        for (uint32_t h = CACHE_EXTENT_MIN_XY; h <= LEAP_ATLAS_EXTENT_MAX; h *= 2)
-            for (uint32_t e = LEAP_ATLAS_EXTENT_MIN; e <= LEAP_ATLAS_EXTENT_MAX; e *= 2) {
-                const uint64_t texels = (uint64_t)w * h * e, smallest = w == CACHE_EXTENT_MIN_XY &&
-                                                                         h == CACHE_EXTENT_MIN_XY &&
-                                                                         e == LEAP_ATLAS_EXTENT_MIN;
-                uint64_t held = (uint64_t)(w / LEAP_SLOT) * (h / LEAP_SLOT) * (e / LEAP_SLOT);
-                if (held > want) held = want;
-                if ((texels * bytes > room && !smallest) || held < best || (held == best && texels >= best_texels))
-                    continue;
-                best = held, best_texels = texels;
-                texel_dims[0] = w, texel_dims[1] = h, texel_dims[2] = e;
-            }
-    for (int i = 0; i < 3; ++i) slot_dims[i] = texel_dims[i] / LEAP_SLOT;
-    return best;
+    return leap_atlas_image_shape(want, room / bytes, CACHE_EXTENT_MIN_XY, slot_dims, texel_dims);
 }
 
 /* The slots a cache's image holds within `room` at `bytes` a texel (at most the atlas's). */

@@ -262,27 +262,33 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
     return LEAP_OK;
 }
 
-/* The atlas image's shape for `slots` slots: a power of two of at most LEAP_ATLAS_EXTENT_MAX
- * texels along each axis, holding extent / LEAP_SLOT slots along it (the few texels left over
- * are spare), the fewest texels, then the deepest along z. Powers of two let the shader address
- * every slot cell's samples on one float grid, wherever the slot lies (leap_cursor_seek): the
- * samples do not depend on the layout. 0 when the slots exceed the largest image. */
-static int image_shape(uint64_t slots, uint32_t slot_dims[3], uint32_t texel_dims[3])
+uint64_t leap_atlas_image_shape(uint64_t want, uint64_t max_texels, uint32_t min_side, uint32_t slot_dims[3],
+                                uint32_t texel_dims[3])
 {
-    uint64_t fewest = 0;
-    if (slots == 0) slots = 1;
-    for (uint32_t w = LEAP_ATLAS_EXTENT_MIN; w <= LEAP_ATLAS_EXTENT_MAX; w *= 2)
-        for (uint32_t h = LEAP_ATLAS_EXTENT_MIN; h <= LEAP_ATLAS_EXTENT_MAX; h *= 2)
+    uint64_t best = 0, best_texels = 0;
+    for (uint32_t w = min_side; w <= LEAP_ATLAS_EXTENT_MAX; w *= 2)
+        for (uint32_t h = min_side; h <= LEAP_ATLAS_EXTENT_MAX; h *= 2)
             for (uint32_t e = LEAP_ATLAS_EXTENT_MIN; e <= LEAP_ATLAS_EXTENT_MAX; e *= 2) {
-                const uint64_t held = (uint64_t)(w / LEAP_SLOT) * (h / LEAP_SLOT) * (e / LEAP_SLOT),
-                               texels = (uint64_t)w * h * e;
-                if (held < slots || (fewest && texels > fewest) || (texels == fewest && e < texel_dims[2])) continue;
-                fewest = texels;
+                const uint64_t texels = (uint64_t)w * h * e;
+                const int smallest = w == min_side && h == min_side && e == LEAP_ATLAS_EXTENT_MIN;
+                uint64_t held = (uint64_t)(w / LEAP_SLOT) * (h / LEAP_SLOT) * (e / LEAP_SLOT);
+                if (held > want) held = want;
+                if (texels > max_texels && !smallest) continue;
+                if (best_texels && !(held > best || (held == best && (texels < best_texels ||
+                                                                      (texels == best_texels && e > texel_dims[2])))))
+                    continue;
+                best = held, best_texels = texels;
                 texel_dims[0] = w, texel_dims[1] = h, texel_dims[2] = e;
             }
-    if (!fewest) return 0;
     for (int i = 0; i < 3; ++i) slot_dims[i] = texel_dims[i] / LEAP_SLOT;
-    return 1;
+    return best;
+}
+
+/* The atlas image's shape for `slots` slots; 0 when the slots exceed the largest image. */
+static int image_shape(uint64_t slots, uint32_t slot_dims[3], uint32_t texel_dims[3])
+{
+    if (slots == 0) slots = 1;
+    return leap_atlas_image_shape(slots, UINT64_MAX, LEAP_ATLAS_EXTENT_MIN, slot_dims, texel_dims) == slots;
 }
 
 /* Atlas texels placed for n slots, as finish() lays them out (0 if they exceed the 3D
