@@ -109,6 +109,10 @@ const char *leap_renderer_driver_name(const leap_renderer *r);
  * and rendering an unshaded frame before that fails with LEAP_ERR_USAGE. */
 leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, leap_error *err);
 
+/* After a frame of a scene read lazily: leap_scene_learn, and the renderer takes the occupancy
+ * and boxes made again when cells were learned (the next frames skip what was learned empty). */
+leap_result leap_renderer_learn_scene(leap_renderer *r, leap_scene *scene, leap_error *err);
+
 /* The parts of a binding, for tests and tools that vary one of them. */
 
 /* Uploads the atlas (the renderer keeps its own GPU copy; the atlas may be destroyed after,

@@ -147,8 +147,8 @@ leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err)
 /* A scene read lazily: the cells whose ranges the frames since the last call learned (their
  * slots read by the brick cache: the rays needed them) take those ranges, and the occupancy and
  * boxes are made again (cells_learned_last of them; nothing is done when there are none, or for
- * other scenes). A renderer holding the scene must be given it again (leap_renderer_bind_scene)
- * when cells_learned_last > 0. Errors: LEAP_ERR_OOM. */
+ * other scenes). A renderer holding the scene must be given its boxes again when
+ * cells_learned_last > 0 (leap_renderer_learn_scene does both). Errors: LEAP_ERR_OOM. */
 leap_result leap_scene_learn(leap_scene *scene, leap_error *err);
 
 /* Number of distinct integer values in the scene's range (for the label preset). */

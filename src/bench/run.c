@@ -61,9 +61,7 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_r
     leap_renderer_count_naive(renderer, count_naive);
     for (int i = 0; i < o->warmup + o->repeats; ++i) {
         leap_result lr = leap_renderer_render(renderer, view, &s->march, (leap_mode)mode, img, NULL, NULL, &st, err);
-        /* A scene read lazily learns the classes of the cells the frame read first. */
-        if (!lr) lr = leap_scene_learn(s, err);
-        if (!lr && s->cells_learned_last) leap_renderer_set_occupancy(renderer, s->occupancy, s->boxes);
+        if (!lr) lr = leap_renderer_learn_scene(renderer, s, err);
         if (lr) return lr;
         if (i < o->warmup) continue;
         int k = i - o->warmup;

@@ -713,33 +713,40 @@ void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *o
     out->classify_ms = occ->classify_ms;
 }
 
-uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell[3])
+/* The tree leaf that holds a cell inside the grid, and its level (0: the cell alone). */
+static uint32_t leaf_of_cell(const leap_occupancy *occ, const int64_t cell[3], uint32_t *level)
 {
-    for (int a = 0; a < 3; ++a)
-        if (cell[a] < 0 || cell[a] >= (int64_t)occ->cells[a]) return occ->bg_cls;
     uint32_t ref = occ->root;
+    *level = occ->depth;
     while (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
         const occ_node *n = &occ->nodes[ref];
-        const uint32_t sh = n->level - 1;
+        *level = n->level - 1;
+        const uint32_t sh = *level;
         const uint32_t k = ((uint32_t)(cell[0] >> sh) & 1u) | ((uint32_t)(cell[1] >> sh) & 1u) << 1 |
                            ((uint32_t)(cell[2] >> sh) & 1u) << 2;
         ref = n->child[k];
     }
-    return ref_class(occ, ref);
+    return ref;
+}
+
+static int cell_inside(const leap_occupancy *occ, const int64_t cell[3])
+{
+    for (int a = 0; a < 3; ++a)
+        if (cell[a] < 0 || cell[a] >= (int64_t)occ->cells[a]) return 0;
+    return 1;
+}
+
+uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell[3])
+{
+    uint32_t level;
+    return cell_inside(occ, cell) ? ref_class(occ, leaf_of_cell(occ, cell, &level)) : occ->bg_cls;
 }
 
 int leap_occupancy_learn_cell(leap_occupancy *occ, const int64_t cell[3], float lo, float hi)
 {
-    for (int a = 0; a < 3; ++a)
-        if (cell[a] < 0 || cell[a] >= (int64_t)occ->cells[a]) return 0;
-    uint32_t ref = occ->root, level = occ->depth;
-    while (ref != OCC_REF_IMPLICIT && !(ref & OCC_REF_LEAF)) {
-        const occ_node *n = &occ->nodes[ref];
-        level = n->level - 1;
-        const uint32_t k = ((uint32_t)(cell[0] >> level) & 1u) | ((uint32_t)(cell[1] >> level) & 1u) << 1 |
-                           ((uint32_t)(cell[2] >> level) & 1u) << 2;
-        ref = n->child[k];
-    }
+    if (!cell_inside(occ, cell)) return 0;
+    uint32_t level;
+    const uint32_t ref = leaf_of_cell(occ, cell, &level);
     /* Unknown ranges never merge, so an unknown leaf is one cell (level 0). */
     if (!(ref & OCC_REF_LEAF) || ref == OCC_REF_IMPLICIT || level != 0) return 0;
     occ_range *r = &occ->ranges[ref & ~OCC_REF_LEAF];

@@ -297,6 +297,13 @@ leap_result leap_renderer_bind_scene(leap_renderer *r, const leap_scene *scene, 
     return LEAP_OK;
 }
 
+leap_result leap_renderer_learn_scene(leap_renderer *r, leap_scene *scene, leap_error *err)
+{
+    leap_result lr = leap_scene_learn(scene, err);
+    if (!lr && scene->cells_learned_last) leap_renderer_set_occupancy(r, scene->occupancy, scene->boxes);
+    return lr;
+}
+
 leap_result leap_renderer_set_tf(leap_renderer *r, const leap_tf *tf, leap_error *err)
 {
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));

@@ -310,10 +310,7 @@ static leap_result render_rows(leap_viewer_session *s, const leap_viewer *st, co
     leap_renderer_set_partial(s->renderer, present_partial, &pf, LEAP_VIEWER_PARTIAL_MS);
     r = leap_renderer_render(s->renderer, &view, &march, st->mode, s->rgba, NULL, want_samples ? s->samples : NULL, &fs, err);
     leap_renderer_set_partial(s->renderer, NULL, NULL, 0);
-    /* A scene read lazily: the cells this frame's rays read first take their classes, so the
-     * next frames skip what is empty there. */
-    if (!r) r = leap_scene_learn(s->scene, err);
-    if (!r && s->scene->cells_learned_last) leap_renderer_set_occupancy(s->renderer, s->scene->occupancy, s->scene->boxes);
+    if (!r) r = leap_renderer_learn_scene(s->renderer, s->scene, err);
     if (r) return r;
     ff->waiting = fs.waiting_pixels;
     ff->cache_slots = fs.cache_slots;

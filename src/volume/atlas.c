@@ -1074,28 +1074,22 @@ void leap_atlas_destroy(leap_atlas *atlas)
     free(atlas);
 }
 
-/* A lazy atlas learns the range of each slot read for the first time: its texels' extremes
- * (for MIP's skipping and, taken by the scene, for the occupancy). */
-static leap_result learn(const leap_atlas *a, const uint32_t *slots, size_t n, const uint16_t *texels, leap_error *err)
+/* A lazy atlas learns the range of each slot read for the first time (read_cell's range: its
+ * texels' extremes), for MIP's skipping and, taken by the scene, for the occupancy. */
+static leap_result learn(const leap_atlas *a, const uint32_t *slots, size_t n, const uint32_t *ranges, leap_error *err)
 {
     struct leap_atlas_learning *l = a->learning;
     pthread_mutex_lock(&l->lock);
     leap_result r = LEAP_OK;
     for (size_t i = 0; i < n && !r; ++i) {
         if (l->known[slots[i]]) continue;
-        const uint16_t *t = texels + i * LEAP_SLOT_TEXELS;
-        uint16_t lo = t[0], hi = t[0];
-        for (int k = 1; k < LEAP_SLOT_TEXELS; ++k) {
-            lo = t[k] < lo ? t[k] : lo;
-            hi = t[k] > hi ? t[k] : hi;
-        }
         if (!leap__grow((void **)&l->fresh, &l->fresh_cap, l->fresh_count + 1, sizeof *l->fresh)) {
             r = leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for the bricks learned");
             break;
         }
         l->fresh[l->fresh_count++] = slots[i];
         l->known[slots[i]] = 1;
-        a->slot_ranges[slots[i]] = (uint32_t)lo | (uint32_t)hi << 16;
+        a->slot_ranges[slots[i]] = ranges[i];
     }
     pthread_mutex_unlock(&l->lock);
     return r;
@@ -1113,6 +1107,7 @@ typedef struct slot_run {
     const uint32_t *slots;
     size_t n;
     uint16_t *out;
+    uint32_t *ranges; /* each slot's range, or NULL */
 } slot_run;
 
 static void *read_run(void *arg)
@@ -1122,6 +1117,7 @@ static void *read_run(void *arg)
         uint32_t c[3], entry, range;
         key_cell(run->a, run->a->slot_cells[run->slots[i]], c);
         read_cell(run->a, run->reader, c, 1, run->out + i * LEAP_SLOT_TEXELS, &entry, &range);
+        if (run->ranges) run->ranges[i] = range;
     }
     return NULL;
 }
@@ -1145,14 +1141,17 @@ leap_result leap_atlas_read_slots(const leap_atlas *a, const uint32_t *slots, si
     size_t threads = n / READ_RUN_MIN;
     if (threads > a->slot_reader_count) threads = a->slot_reader_count;
     if (threads < 1) threads = 1;
+    uint32_t *ranges = a->learning ? malloc(n * sizeof *ranges) : NULL;
+    if (a->learning && !ranges) return leap_fail(err, LEAP_ERR_OOM, "atlas: out of memory for the bricks learned");
     slot_run runs[LEAP_ATLAS_READERS];
     for (size_t t = 0; t < threads; ++t) {
         const size_t lo = n * t / threads, hi = n * (t + 1) / threads;
-        runs[t] = (slot_run){a, a->slot_readers[t], slots + lo, hi - lo, out + lo * LEAP_SLOT_TEXELS};
+        runs[t] = (slot_run){a, a->slot_readers[t], slots + lo, hi - lo, out + lo * LEAP_SLOT_TEXELS, ranges ? ranges + lo : NULL};
     }
     leap__run_jobs(read_run, runs, sizeof *runs, threads);
     leap_result r = leap_grid_read_status(a->grid, err);
-    if (!r && a->learning) r = learn(a, slots, n, out, err);
+    if (!r && ranges) r = learn(a, slots, n, ranges, err);
+    free(ranges);
     return r;
 }
 
