@@ -151,6 +151,47 @@ static void check_without_naive(void)
     free(md);
 }
 
+/* --eye/--target: one view from that camera whatever --views says (its rows and the report
+ * say so), and the camera is the one given: looking away from the sphere, no ray samples it. */
+static void check_one_camera(void)
+{
+    static const struct {
+        const char *target;
+        int sees;
+    } cams[] = {{"0,0,0", 1}, {"0,0,400", 0}};
+    char cmd[4096], path[2048];
+    for (int c = 0; c < 2; ++c) {
+        snprintf(cmd, sizeof cmd, "rm -rf %s/cam && %s bench %s/sphere.vdb --sizes 32x24 --views 3 --steps 1 "
+                 "--modes naive,sparseleap --repeats 1 --warmup 0 --no-reference --eye 0,0,150 --target %s "
+                 "-o %s/cam 2>%s/cam.err", LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, cams[c].target, LEAP_TEST_TMP,
+                 LEAP_TEST_TMP);
+        check_succeeds(cmd, "cam.err", "bench --eye --target");
+        snprintf(path, sizeof path, "%s/cam/results.csv", LEAP_TEST_TMP);
+        char *csv = read_whole_file(path, NULL);
+        int rows = 0, sampled = 0;
+        if (csv) {
+            char *save = NULL, *header = strtok_r(csv, "\n", &save), f[64];
+            const int col = header ? csv_column(header, "naive_samples_per_pixel") : -1;
+            CHECK(col >= 0);
+            for (char *line = strtok_r(NULL, "\n", &save); line && col >= 0; line = strtok_r(NULL, "\n", &save)) {
+                csv_field(line, col, f, sizeof f);
+                sampled += atof(f) > 0;
+                ++rows;
+            }
+            free(csv);
+        }
+        CHECK_MSG(rows == 2, "--eye with --views 3: %d rows, expected one view of 2 modes", rows);
+        CHECK_MSG(sampled == (cams[c].sees ? 2 : 0), "target %s: %d rows with samples", cams[c].target, sampled);
+        snprintf(path, sizeof path, "%s/cam/report.md", LEAP_TEST_TMP);
+        char *md = read_whole_file(path, NULL);
+        CHECK(md && strstr(md, "One camera, eye 0,0,150, target "));
+        free(md);
+    }
+    snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --eye 0,0,150 -o %s/cam 2>/dev/null", LEAP_EXE, LEAP_VOLUMES,
+             LEAP_TEST_TMP);
+    CHECK_MSG(run_status(cmd) == 2, "--eye without --target must be a usage error");
+}
+
 /* A GPU cache smaller than one layer of the sphere's bricks: the cache's slots and passes in
  * every row, the cache in the report, and a note on a line of its own that it takes more than
  * --gpu-cache gives (leap render's warning). */
@@ -457,6 +498,7 @@ int main(void)
     check_config_bad_option();
     check_config_large_and_nested_output();
     check_without_naive();
+    check_one_camera();
     check_labels_shown_after_fixed_cost();
     check_failures_keep_work();
     check_cache();

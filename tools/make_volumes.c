@@ -16,14 +16,18 @@ static const char usage[] =
     "usage: leap_make_volumes DIR\n"
     "       leap_make_volumes --tubes OUT.vdb [--size N] [--objects K] [--seed S] [--int32]\n"
     "       leap_make_volumes --fog OUT.vdb [--size N] [--unrecorded]\n"
+    "       leap_make_volumes --stretched OUT.vdb --span S\n"
     "The --fog form writes a dense float grid 'density' of N^3 active voxels (default 256) whose\n"
     "values vary everywhere (every 8^3 cell needs a brick): a large volume for memory tests;\n"
     "--unrecorded leaves out the record of its values that leap keeps in a file (as files\n"
     "written elsewhere come: their first open under a budget reads every leaf).\n"
-    "The second form writes one synthetic segmentation: K tube-shaped objects (random walks,\n"
+    "The --stretched form writes a fog sphere 'density' of radius 124 voxels (249^3) and eight\n"
+    "active voxels of density 0 at the corners of a box S voxels wide (odd, 249 <= S <= 2^20 + 1)\n"
+    "centred on it: the same picture in a bounding box of any size.\n"
+    "The --tubes form writes one synthetic segmentation: K tube-shaped objects (random walks,\n"
     "radius 2-6 voxels, IDs random below 2^40, or 2^31 with --int32) densely packed in an N^3\n"
     "int64 grid 'labels' (defaults: N 512, K 10000, S 1).\n"
-    "The first writes the demo volumes into DIR (created if missing):\n"
+    "The first form writes the demo volumes into DIR (created if missing):\n"
     "  sphere.vdb   fog sphere, radius 40 voxels, constant core stored as 8^3 active tiles\n"
     "  blobs.vdb    60 small gaussian blobs scattered over a ~1000^3 voxel box\n"
     "  shell.vdb    hollow spherical shell, radius 50, 4 voxels thick\n"
@@ -55,7 +59,7 @@ static const char *out_dir;
 static int save(leap_vdb_writer *w, const char *name)
 {
     char path[4096];
-    snprintf(path, sizeof path, "%s/%s", out_dir, name);
+    snprintf(path, sizeof path, "%s%s%s", out_dir ? out_dir : "", out_dir ? "/" : "", name);
     leap_error err = {{0}};
     leap_result r = leap_vdb_writer_save(w, path, &err);
     leap_vdb_writer_destroy(w);
@@ -414,6 +418,33 @@ static int fog_main(int argc, char **argv)
     return 0;
 }
 
+/* leap_make_volumes --stretched OUT --span S: a fog sphere (density 1 inside radius 80,
+ * falling smoothly to 0 at 124) whose active bounding box eight invisible voxels stretch. */
+static int stretched_main(int argc, char **argv)
+{
+    char *end = NULL;
+    const long span = argc == 4 && !strcmp(argv[2], "--span") ? strtol(argv[3], &end, 10) : 0;
+    if (!end || *end || span < 249 || span > (1l << 20) + 1 || span % 2 == 0) {
+        fprintf(stderr, "leap_make_volumes: --stretched OUT.vdb --span S with S odd, 249 <= S <= 2^20 + 1\n%s", usage);
+        return 2;
+    }
+    int g;
+    leap_vdb_writer *w = new_grid_writer("density", LEAP_VDB_FLOAT, 1, &g);
+    if (!w) return 1;
+    const double radius = 124.0, core = 80.0;
+    for (int z = -124; z <= 124; ++z)
+        for (int y = -124; y <= 124; ++y)
+            for (int x = -124; x <= 124; ++x) {
+                const double r = sqrt((double)x * x + (double)y * y + (double)z * z);
+                const double d = 1.0 - smoothstep01((r - core) / (radius - core));
+                if (r < radius && d > 0.0) leap_vdb_writer_set(w, g, x, y, z, d);
+            }
+    const int32_t h = (int32_t)(span / 2);
+    for (int c = 0; c < 8; ++c)
+        leap_vdb_writer_set(w, g, c & 1 ? h : -h, c & 2 ? h : -h, c & 4 ? h : -h, 0.0);
+    return save(w, argv[1]) ? 0 : 1;
+}
+
 int main(int argc, char **argv)
 {
     if (argc == 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
@@ -422,6 +453,7 @@ int main(int argc, char **argv)
     }
     if (argc >= 3 && !strcmp(argv[1], "--tubes")) return tubes_main(argc - 1, argv + 1);
     if (argc >= 3 && !strcmp(argv[1], "--fog")) return fog_main(argc - 1, argv + 1);
+    if (argc >= 3 && !strcmp(argv[1], "--stretched")) return stretched_main(argc - 1, argv + 1);
     if (argc != 2 || argv[1][0] == '-') {
         fputs(usage, stderr);
         return 2;

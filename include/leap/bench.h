@@ -33,6 +33,8 @@ typedef struct leap_bench_desc {
     int sizes[LEAP_BENCH_MAX_ITEMS][2], nsizes; /* width, height */
     int views, repeats, warmup, no_reference, exact_boxes;
     double ref_factor, elevation;
+    double eye[3], target[3];      /* world space: one camera instead of the orbit's views */
+    int has_eye, has_target;
     const char *tf, *device, *out; /* tf: preset or file, NULL = per volume; out: directory */
     const char *show, *objects;    /* segmentations: objects shown (leap_scene_desc), NULL = all */
     int mip, shade;                /* every frame (and the reference) in MIP / minIP (leap_march.mip), or

@@ -95,6 +95,12 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
     } else if (!strcmp(name, "elevation")) {
         if (leap__parse_numbers(v, &o->elevation, 1, 1) != 1 || fabs(o->elevation) > 90)
             USAGE("--elevation '%s' must be in [-90, 90]", v);
+    } else if (!strcmp(name, "eye") || !strcmp(name, "target")) {
+        const int eye = !strcmp(name, "eye");
+        double *p = eye ? o->eye : o->target;
+        if (leap__parse_numbers(v, p, 3, 3) != 3 || !isfinite(p[0] + p[1] + p[2]))
+            USAGE("--%s '%s' must be three numbers X,Y,Z", name, v);
+        *(eye ? &o->has_eye : &o->has_target) = 1;
     } else if (!strcmp(name, "tf")) {
         o->tf = v;
     } else if (!strcmp(name, "show")) {

@@ -180,11 +180,17 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     report_file md_file, sp_file = {.f = NULL}, sg_file = {.f = NULL};
     FILE *md = report_open(&md_file, path);
     if (!md) return leap_fail(err, LEAP_ERR_IO, "%s: cannot write: %s", path, strerror(errno));
-    fprintf(md, "# leap bench\n\nDevice: %s. %d views on an orbit at elevation %g deg, %d timed frames after %d "
+    char views[256];
+    if (o->has_eye)
+        snprintf(views, sizeof views, "One camera, eye %g,%g,%g, target %g,%g,%g", o->eye[0], o->eye[1], o->eye[2],
+                 o->target[0], o->target[1], o->target[2]);
+    else
+        snprintf(views, sizeof views, "%d views on an orbit at elevation %g deg", o->views, o->elevation);
+    fprintf(md, "# leap bench\n\nDevice: %s. %s, %d timed frames after %d "
                 "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. Timed frames "
                 "are rendered as a user gets them, without the statistics' naive count; one more frame per "
                 "configuration, untimed, gives the samples, events and segments. ",
-            device, o->views, o->elevation, o->repeats, o->warmup);
+            device, views, o->repeats, o->warmup);
     if (o->gpu_cache_bytes)
         fprintf(md, "The volume's bricks go through a GPU cache of %.1f MiB (--gpu-cache): a frame whose rays need "
                     "bricks it does not hold takes more passes. ", (double)o->gpu_cache_bytes / (1 << 20));

@@ -227,9 +227,16 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
     leap_rays view;
     leap_result lr;
     double az = 360.0 * view_i / o->views;
-    if ((lr = leap_camera_orbit_about(s->center, s->radius, s->input.up, az, o->elevation, 0, 40, 0, &cam, err)) ||
-        (lr = leap_scene_rays(s, &cam, w, h, &view, err)))
+    if (o->has_eye) {
+        cam = (leap_camera){.fov_deg = 40};
+        memcpy(cam.eye, o->eye, sizeof cam.eye);
+        memcpy(cam.target, o->target, sizeof cam.target);
+        memcpy(cam.up, s->input.up, sizeof cam.up);
+        if (cam.up[0] == 0 && cam.up[1] == 0 && cam.up[2] == 0) cam.up[1] = 1; /* no hint: +Y */
+    } else if ((lr = leap_camera_orbit_about(s->center, s->radius, s->input.up, az, o->elevation, 0, 40, 0, &cam, err))) {
         return lr;
+    }
+    if ((lr = leap_scene_rays(s, &cam, w, h, &view, err))) return lr;
     char what[256];
     const float *refp = NULL;
     if (!o->no_reference) {
@@ -424,13 +431,18 @@ static leap_result run_all(bench_state *b, char *device, size_t device_n, leap_e
     return lr;
 }
 
-leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome, leap_error *err)
+leap_result leap_bench_run(const leap_bench_desc *given, leap_bench_outcome *outcome, leap_error *err)
 {
     leap_bench_outcome ignore;
+    if (outcome) *outcome = (leap_bench_outcome){.failed_volume = -1};
+    if (given->nvolumes < 1 || given->nvolumes > MAX_ITEMS || !given->out)
+        return leap_fail(err, LEAP_ERR_USAGE, "bench: no volume or no output directory");
+    if (given->has_eye != given->has_target) return leap_fail(err, LEAP_ERR_USAGE, "--eye and --target go together");
+    leap_bench_desc one_camera = *given; /* an explicit camera is one view */
+    if (given->has_eye) one_camera.views = 1;
+    const leap_bench_desc *o = &one_camera;
     bench_state b = {.o = o, .outcome = outcome ? outcome : &ignore};
     *b.outcome = (leap_bench_outcome){.failed_volume = -1};
-    if (o->nvolumes < 1 || o->nvolumes > MAX_ITEMS || !o->out)
-        return leap_fail(err, LEAP_ERR_USAGE, "bench: no volume or no output directory");
     /* A volume that cannot be opened fails the bench before anything runs, not hours into it. */
     for (int vi = 0; vi < o->nvolumes; ++vi) {
         struct stat st;
@@ -452,7 +464,7 @@ leap_result leap_bench_run(const leap_bench_desc *o, leap_bench_outcome *outcome
             leap_made_dirs_remove(&made);
             return leap_fail(err, LEAP_ERR_OOM, "out of memory");
         }
-        snprintf(b.vdb->exe, sizeof b.vdb->exe, "%s", o->vdb_render_exe);
+        snprintf(b.vdb->exe, sizeof b.vdb->exe, "%.*s", (int)sizeof b.vdb->exe - 1, o->vdb_render_exe);
         if (!b.vdb->exe[0] && !leap_bench_find_vdb_render(b.vdb->exe, sizeof b.vdb->exe)) {
             free(b.vdb);
             leap_made_dirs_remove(&made);
