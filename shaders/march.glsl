@@ -25,6 +25,10 @@ layout(constant_id = 4) const bool leap_shade = false;
 layout(constant_id = 5) const bool leap_page_middle = false;
 // The volume is read through the GPU brick cache: a cell may be missing (LEAP_PAGE_MISSING).
 layout(constant_id = 9) const bool leap_cache = false;
+// The modes that skip by the occupancy (octree, sparseleap, also a sparseleap frame's single
+// chord, marched by the bbox code) pass the slot cells marked LEAP_PAGE_EMPTY when compositing.
+layout(constant_id = 10) const bool leap_skip_empty = false;
+const bool leap_skips_empty_slots = leap_skip_empty && !leap_labels && !leap_mip;
 
 struct leap_ray {
     vec3 origin;
@@ -80,6 +84,7 @@ struct leap_cell_cursor {
     vec3 texel_base; // slot cells: atlas texel coordinate = texel_base + q (leap_cursor_seek)
     uint slot;       // slot cells: the slot's index (LEAP_BINDING_SLOT_RANGES); missing ones: the host atlas's
     bool missing;    // slot cells not resident in the brick cache (LEAP_PAGE_MISSING)
+    bool empty;      // slot cells classed EMPTY (LEAP_PAGE_EMPTY)
     uint object;     // label volumes, constant cells: the object index
     uint record;     // label volumes, other cells: the record's first word in pages[]
     uint header;     // and that word, read once per cell rather than at every sample
@@ -96,6 +101,7 @@ leap_cell_cursor leap_cursor_init()
     c.texel_base = vec3(0.0);
     c.slot = 0u;
     c.missing = false;
+    c.empty = false;
     c.object = 0u;
     c.record = 0u;
     c.header = 0u;
@@ -138,6 +144,8 @@ void leap_cursor_seek(inout leap_cell_cursor cur, ivec3 cell)
     } else if (cur.constant) {
         cur.value = float(entry & 0xffffu) * (1.0 / 65535.0);
     } else {
+        cur.empty = (entry & LEAP_PAGE_EMPTY) != 0u;
+        entry &= ~LEAP_PAGE_EMPTY;
         uvec3 slot = uvec3(entry, entry >> LEAP_SLOT_BITS, entry >> (2 * LEAP_SLOT_BITS)) & LEAP_SLOT_MASK;
         // The image's extents are powers of two of at most M = LEAP_ATLAS_EXTENT_MAX and its
         // sampler repeats: a texel coordinate M above the slot's along every axis is the same
@@ -483,7 +491,9 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
             q = r.origin + t * r.dir;
             cell = ivec3(floor(q)) >> LEAP_CELL_SHIFT;
             leap_cursor_seek(cur, cell);
-            if (leap_cache && cur.missing) { // a data miss: report the slot; the ray waits at sample j for a later pass
+            // A slot cell the occupancy classes EMPTY: the skipping modes pass it unread.
+            const bool skip = leap_skips_empty_slots && !cur.constant && cur.empty;
+            if (leap_cache && cur.missing && !skip) { // a data miss: report the slot; the ray waits at sample j for a later pass
                 atomicOr(misses[1u + cur.slot / 32u], 1u << (cur.slot % 32u));
                 misses[0] = 1u;
                 acc.waiting = true;
@@ -497,10 +507,11 @@ void leap_march_interval(leap_ray r, leap_lattice lat, float ta, float tb, inout
             x = clamp(cur.value * tf.scale + tf.offset, tf.lo, tf.hi); // MIP's table coordinate
             // MIP passes a cell none of whose samples can raise the extreme above what the ray
             // holds (a tie keeps the first t), constant or not. Compositing passes a constant
-            // cell of zero opacity, whose samples add nothing; they are lattice samples the ray
-            // takes, so they are counted.
+            // cell of zero opacity, and the skipping modes an EMPTY slot cell, whose samples add
+            // nothing; they are lattice samples the ray takes, so they are counted (as the
+            // segments' lattice points are: leap_dump_frame_pixel).
             if (leap_mip) bound = constant ? (frame.image.z != 0u ? -x : x) : leap_mip_cell_bound(cur, tf);
-            const bool pass = leap_mip ? bound <= acc.color.r : constant && c.a == 0.0;
+            const bool pass = leap_mip ? bound <= acc.color.r : (constant && c.a == 0.0) || skip;
             // A segmentation's cells of hidden objects are rarely one object each (a cell mixes
             // objects and background), so while objects are hidden the octree mode asks the tree
             // at every cell (with every object shown, that cost 14 % of aal's frame for nothing).

@@ -85,9 +85,16 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_PAGE_NODE_SHIFT 2 /* middle nodes are 4^3 entries */
 #define LEAP_PAGE_CONST 0x80000000u
 /* A slot cell not resident in the GPU brick cache: the entry holds LEAP_PAGE_MISSING | the
- * cell's slot in the host atlas (below 2^30). A ray that reaches such a cell reports it
+ * cell's slot in the host atlas (below 2^29). A ray that reaches such a cell reports it
  * (LEAP_BINDING_MISSES) and waits at that sample until a later pass finds it resident. */
 #define LEAP_PAGE_MISSING 0x40000000u
+/* A slot cell's entry, resident or missing, may carry LEAP_PAGE_EMPTY: under the frame's
+ * transfer function the occupancy classes the cell EMPTY (no sample in it has opacity), so the
+ * modes that skip by the occupancy (octree, sparseleap) pass it like a transparent constant,
+ * without reading or loading it; naive and bbox still sample it. Set by the renderer from the
+ * occupancy it is given (scalar volumes). A resident slot's position takes at most 7 bits per
+ * axis (LEAP_ATLAS_EXTENT_MAX / LEAP_SLOT slots), a missing cell's host slot is below 2^29. */
+#define LEAP_PAGE_EMPTY 0x20000000u
 #define LEAP_SLOT_BITS 10
 #define LEAP_SLOT_MASK 1023u
 /* The atlas image's extent along each axis is a power of two of at most LEAP_ATLAS_EXTENT_MAX

@@ -2,7 +2,8 @@
  * shipped volume, five kinds of camera and three transfer functions (one with opacity at the
  * background value), with exact boxes and with the cost-model cut (including cuts that leave
  * a single box, marched as its chord); per-pixel list overflow still gives the naive image
- * and is counted. Scenes come from leap_scene_create (grid, atlas, occupancy, boxes as the CLI
+ * and is counted. Slot cells the occupancy classes EMPTY are passed by octree and sparseleap
+ * (LEAP_PAGE_EMPTY), never loaded by a brick cache, and the marks follow the TF. Scenes come from leap_scene_create (grid, atlas, occupancy, boxes as the CLI
  * builds them) and are bound with leap_renderer_bind_scene; only the exact boxes are built here. */
 #include "gpu_fixture.h"
 #include "leap/vdb.h"
@@ -571,6 +572,137 @@ static leap_scene *load_scene(const char *file, const char *grid, const char *tf
     return s;
 }
 
+/* Two balls of density 0.6-1 at opposite corners of a 64^3 box of noise below 0.04: every cell
+ * is a slot, and under a TF transparent below 0.1 the noise's cells are EMPTY slot cells, which
+ * octree and sparseleap (its chord too) pass unread (LEAP_PAGE_EMPTY), while bbox, whose box is
+ * the balls' and holds most of the noise, and naive sample them. */
+static int make_noisy_ball(const char *path)
+{
+    leap_error err = {{0}};
+    mkdir(LEAP_TEST_TMP, 0755);
+    leap_vdb_writer *w = NULL;
+    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
+    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err) : -1;
+    uint32_t h = 12345;
+    for (int z = 0; z < 64 && g >= 0; ++z)
+        for (int y = 0; y < 64; ++y)
+            for (int x = 0; x < 64; ++x) {
+                h = h * 1664525u + 1013904223u;
+                const int c = x + y + z < 96 ? 12 : 51; /* the nearer ball's centre, along the diagonal */
+                const double r = sqrt((double)((x - c) * (x - c) + (y - c) * (y - c) + (z - c) * (z - c)));
+                leap_vdb_writer_set(w, g, x, y, z, r < 9 ? 1.0 - 0.4 * r / 9 : 0.04 * (h >> 8) / 16777216.0);
+            }
+    const int ok = g >= 0 && leap_vdb_writer_save(w, path, &err) == LEAP_OK;
+    CHECK_MSG(ok, "%s: %s", path, err.msg);
+    leap_vdb_writer_destroy(w);
+    return ok;
+}
+
+/* Transparent below `from` of the range, then a ramp. */
+static void threshold_tf(leap_tf *tf, double from)
+{
+    for (int i = 0; i < LEAP_TF_TABLE_SIZE; ++i) {
+        double u = (double)i / (LEAP_TF_TABLE_SIZE - 1);
+        tf->rgba[i][0] = (float)u, tf->rgba[i][1] = 0.6f, tf->rgba[i][2] = (float)(1 - u);
+        tf->rgba[i][3] = u < from ? 0.0f : (float)(0.05 + 0.5 * u);
+    }
+    snprintf(tf->name, sizeof tf->name, "from %g", from);
+}
+
+/* EMPTY slot cells: with the noise transparent, octree and sparseleap (cut and exact boxes, a
+ * single chord, and through a brick cache that evicts) equal naive bit for bit; octree takes less
+ * than half naive's samples (a passed cell's EMPTY tree leaf is skipped whole, uncounted), and
+ * through the cache both load less than half the bricks naive loads (sparseleap counts the
+ * lattice points it passes, as for constant cells, so its skipping shows there). A TF that shows
+ * the noise clears the marks (octree takes naive's samples, the cache loads as many bricks), and
+ * one that hides it again sets them. */
+static void check_empty_slots(leap_renderer *renderer, float *naive, float *img)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/noisy_ball.vdb", LEAP_TEST_TMP);
+    if (!make_noisy_ball(path)) return;
+    leap_error err = {{0}};
+    leap_renderer_desc small = {.cache_bytes = 96u << 10};
+    leap_renderer *cached = make_renderer_with(&small);
+    CHECK(cached != NULL);
+    uint64_t evicted = 0;
+    for (int exact = 0; exact < 2; ++exact) {
+        leap_scene_desc d = {.path = path, .step = 0.5, .exact_boxes = exact};
+        leap_scene *s = NULL;
+        CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+        if (!s) continue;
+        static const double from[3] = {0.1, 0.01, 0.1};
+        for (int t = 0; t < 3; ++t) {
+            leap_tf tf;
+            threshold_tf(&tf, from[t]);
+            CHECK_OK(leap_scene_set_tf(s, &tf, 0.0, 1.0, &err), &err);
+            for (int rr = 0; rr < 2; ++rr) {
+                leap_renderer *r = rr ? cached : renderer;
+                if (!r) continue;
+                CHECK_OK(leap_renderer_bind_scene(r, s, &err), &err);
+                for (int c = 0; c < 2; ++c) {
+                    leap_rays view;
+                    CHECK(view_for(s, c, &view));
+                    leap_frame_stats ns, st;
+                    CHECK_OK(leap_renderer_render(r, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err),
+                             &err);
+                    for (int m = LEAP_RENDER_BBOX; m < LEAP_RENDER_MODE_COUNT; ++m) {
+                        CHECK_OK(leap_renderer_render(r, &view, &s->march, (leap_mode)m, img, NULL, NULL, &st, &err),
+                                 &err);
+                        image_diff dd = compare_rgba(img, naive, W * H);
+                        const double share = (double)st.total_samples / (double)(ns.total_samples ? ns.total_samples : 1);
+                        printf("noisy ball %s %s%s %s %s: max %.2e, samples %.1f%% of naive%s, bricks loaded %llu "
+                               "(naive %llu)\n", exact ? "exact" : "cut", tf.name, rr ? " cached" : "", camera_names[c],
+                               leap_mode_name((leap_mode)m), dd.max_abs, 100 * share, st.single_box ? " (chord)" : "",
+                               (unsigned long long)st.cache_loaded, (unsigned long long)ns.cache_loaded);
+                        evicted += st.cache_evicted;
+                        CHECK_MSG(dd.nonfinite == 0 && dd.max_abs == 0, "noisy ball %s %s %s: max abs %g vs naive",
+                                  tf.name, camera_names[c], leap_mode_name((leap_mode)m), dd.max_abs);
+                        const int skips = (m == LEAP_RENDER_OCTREE || m == LEAP_RENDER_SPARSELEAP) && from[t] > 0.05;
+                        if (m == LEAP_RENDER_OCTREE)
+                            CHECK_MSG(from[t] > 0.05 ? share < 0.5 : st.total_samples == ns.total_samples,
+                                      "noisy ball %s octree: %.1f%% of naive's samples", tf.name, 100 * share);
+                        if (rr) CHECK_MSG(skips ? 2 * st.cache_loaded < ns.cache_loaded
+                                                : 2 * st.cache_loaded > ns.cache_loaded,
+                                          "noisy ball %s %s: %llu bricks loaded, naive %llu", tf.name,
+                                          leap_mode_name((leap_mode)m), (unsigned long long)st.cache_loaded,
+                                          (unsigned long long)ns.cache_loaded);
+                    }
+                }
+                /* A cut whose boxes cost too much to emit leaves one: the frame marches its chord,
+                 * and passes the EMPTY slot cells in it too. */
+                leap_boxes *one = NULL;
+                leap_boxes_desc bd = {.occupancy = s->occupancy, .merge_siblings = 1, .step = 0.5,
+                                      .costs = {.box_ns = 1e15}};
+                CHECK_OK(leap_boxes_create(&bd, &one, &err), &err);
+                leap_renderer_set_occupancy(r, s->occupancy, one);
+                leap_rays view;
+                CHECK(view_for(s, 0, &view));
+                leap_frame_stats ns, st;
+                CHECK_OK(leap_renderer_render(r, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err), &err);
+                CHECK_OK(leap_renderer_render(r, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err),
+                         &err);
+                image_diff dd = compare_rgba(img, naive, W * H);
+                const double share = (double)st.total_samples / (double)(ns.total_samples ? ns.total_samples : 1);
+                printf("noisy ball %s one box%s: %s, max %.2e, samples %.1f%% of naive, bricks loaded %llu (naive %llu)\n",
+                       tf.name, rr ? " cached" : "", st.single_box ? "chord" : "lists", dd.max_abs, 100 * share,
+                       (unsigned long long)st.cache_loaded, (unsigned long long)ns.cache_loaded);
+                CHECK(st.single_box);
+                CHECK(dd.nonfinite == 0 && dd.max_abs == 0);
+                CHECK(st.total_samples <= ns.total_samples); /* the chord's lattice points, passes counted */
+                if (rr) CHECK_MSG(from[t] > 0.05 ? 2 * st.cache_loaded < ns.cache_loaded : 2 * st.cache_loaded > ns.cache_loaded,
+                                  "noisy ball %s chord: %llu bricks loaded, naive %llu", tf.name,
+                                  (unsigned long long)st.cache_loaded, (unsigned long long)ns.cache_loaded);
+                leap_renderer_set_occupancy(r, NULL, NULL);
+                leap_boxes_destroy(one);
+            }
+        }
+        leap_scene_destroy(s);
+    }
+    CHECK_MSG(evicted > 0, "the small brick cache evicted nothing");
+    leap_renderer_destroy(cached);
+}
+
 /* The raster draws a box as a point when its screen rectangle fits the device's largest point
  * (255 pixels on lavapipe) and as two triangles otherwise (events.vert): in an image wider than
  * that, close cameras give boxes of both kinds, some cut by the screen's edges, and sparseleap
@@ -801,6 +933,7 @@ int main(void)
     check_cloud_structure(renderer);
     check_box_pixels(renderer);
     check_large_rectangles(renderer);
+    check_empty_slots(renderer, naive, img);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");

@@ -90,6 +90,13 @@ void leap_occupancy_get_stats(const leap_occupancy *occ, leap_occupancy_stats *o
 /* Class of the leaf cell `cell` (cells outside the grid: the background's class). */
 uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell[3]);
 
+/* Cells per axis (leap_occupancy_desc.cells). */
+void leap_occupancy_get_cells(const leap_occupancy *occ, uint32_t cells[3]);
+
+/* Changes (to a value no other occupancy had) whenever its classes may have changed: classify,
+ * reclassify, learn. */
+uint64_t leap_occupancy_classes_serial(const leap_occupancy *occ);
+
 /* A cell whose range was not known (NaN brick ranges: a lazy scene's UNKNOWN cells) learns it:
  * [lo, hi], every value its closed box holds. Returns 1 when it did (0: the cell's range was
  * known, or the cell lies outside the grid); classify again to use it. */

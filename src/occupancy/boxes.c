@@ -183,8 +183,9 @@ static void child_origin(const uint32_t org[3], uint32_t height, int k, uint32_t
  *   - an emitted box costs hit_ns per ray that crosses it (two raster events, their share of
  *     the resolve, one more segment to start in the composite), plus box_ns once per frame
  *     (set-up of its instance in the raster), divided by the ray density to share the units;
- *   - a marched EMPTY leaf costs its volume / step samples, at const_ns where the GPU volume
- *     stores it as constants and dense_ns where it is sampled from the atlas.
+ *   - a marched EMPTY leaf costs its volume / step samples, at const_ns where the composite
+ *     passes it (the GPU volume stores it as constants, or, for scalar volumes, marks its slot
+ *     cells LEAP_PAGE_EMPTY) and dense_ns where it samples it (a segmentation's slot cells).
  * A NONEMPTY leaf is always marched (a constant offset, left out). UNKNOWN leaves keep their
  * class (an occupancy miss must be reported). The minimum is found bottom-up over the stored
  * nodes for each possible parent class; a single-class subtree (implicit or stored leaf) is
@@ -445,7 +446,10 @@ leap_result leap_boxes_create(const leap_boxes_desc *desc, leap_boxes **out, lea
     b.hit_ns = desc->costs.hit_ns > 0 ? desc->costs.hit_ns : CUT_HIT_NS;
     b.dense_ns = desc->costs.dense_sample_ns > 0 ? desc->costs.dense_sample_ns : CUT_DENSE_NS;
     b.const_ns = desc->costs.const_sample_ns > 0 ? desc->costs.const_sample_ns : CUT_CONST_NS;
-    leap_occ_internal_cells(occ, b.cells);
+    /* The composite passes a scalar volume's EMPTY slot cells as it passes constants
+     * (LEAP_PAGE_EMPTY); it samples a segmentation's. */
+    if (!leap_occ_internal_labels(occ)) b.dense_ns = b.const_ns;
+    leap_occupancy_get_cells(occ, b.cells);
     /* Ray density: the frame's pixels spread over the square of the grid's diagonal, about
      * what a camera framing the grid sees. */
     double diag2 = 0.0;

@@ -58,6 +58,7 @@ typedef struct occ_range {
 } occ_range;
 
 struct leap_occupancy {
+    uint64_t classes_serial;  /* changes whenever a class may have changed (leap_occupancy_classes_serial) */
     uint32_t cells[3];
     uint32_t depth;           /* root edge = 2^depth cells */
     float background;
@@ -617,6 +618,18 @@ static uint32_t classify_range(const classifier *c, float vmin, float vmax)
     return c->prefix[i1 + 1] - c->prefix[i0] > 0 ? LEAP_CLASS_NONEMPTY : LEAP_CLASS_EMPTY;
 }
 
+/* A serial unique across occupancies, so that a renderer never mistakes one for another. */
+static void classes_changed(leap_occupancy *occ)
+{
+    static uint64_t next;
+    occ->classes_serial = __atomic_add_fetch(&next, 1, __ATOMIC_RELAXED);
+}
+
+uint64_t leap_occupancy_classes_serial(const leap_occupancy *occ)
+{
+    return occ->classes_serial;
+}
+
 leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, double range_lo,
                                     double range_hi, leap_error *err)
 {
@@ -642,6 +655,7 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
     update_counts(occ);
     occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
     occ->classify_ms = leap__now_ms() - t0;
+    classes_changed(occ);
     return LEAP_OK;
 }
 
@@ -682,6 +696,7 @@ leap_result leap_occupancy_reclassify_sets(leap_occupancy *occ, const uint8_t *s
     update_counts(occ);
     occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
     occ->classify_ms = leap__now_ms() - t0;
+    classes_changed(occ);
     return LEAP_OK;
 }
 
@@ -698,6 +713,7 @@ leap_result leap_occupancy_classify_sets(leap_occupancy *occ, const uint8_t *set
     update_counts(occ);
     occ->bounds_found = leap_occ_internal_bounds(occ, occ->bounds_lo, occ->bounds_hi);
     occ->classify_ms = leap__now_ms() - t0;
+    classes_changed(occ);
     return LEAP_OK;
 }
 
@@ -742,6 +758,11 @@ uint32_t leap_occupancy_cell_class(const leap_occupancy *occ, const int64_t cell
     return cell_inside(occ, cell) ? ref_class(occ, leaf_of_cell(occ, cell, &level)) : occ->bg_cls;
 }
 
+void leap_occupancy_get_cells(const leap_occupancy *occ, uint32_t cells[3])
+{
+    for (int a = 0; a < 3; ++a) cells[a] = occ->cells[a];
+}
+
 int leap_occupancy_learn_cell(leap_occupancy *occ, const int64_t cell[3], float lo, float hi)
 {
     if (!cell_inside(occ, cell)) return 0;
@@ -753,6 +774,7 @@ int leap_occupancy_learn_cell(leap_occupancy *occ, const int64_t cell[3], float 
     if (r->lo == r->lo && r->hi == r->hi) return 0;
     r->lo = lo;
     r->hi = hi;
+    classes_changed(occ);
     return 1;
 }
 
@@ -792,6 +814,11 @@ uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32
 
 size_t leap_occ_internal_node_count(const leap_occupancy *occ) { return occ->node_count; }
 
+int leap_occ_internal_labels(const leap_occupancy *occ)
+{
+    return occ->label_sets != 0;
+}
+
 int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref)
 {
     float lo, hi;
@@ -799,7 +826,3 @@ int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref)
     return !occ->label_sets || lo < (float)occ->label_singletons;
 }
 
-void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3])
-{
-    memcpy(cells, occ->cells, sizeof occ->cells);
-}

@@ -18,9 +18,10 @@ uint32_t leap_occ_internal_node(const leap_occupancy *occ, uint32_t node, uint32
 size_t leap_occ_internal_node_count(const leap_occupancy *occ);
 /* 1 if the single-class subtree `ref` (implicit or a stored leaf) holds one value throughout,
  * so the GPU volume stores it as page-table constants (cheap to march). */
+/* 1 for a segmentation's tree (leaves hold label sets). */
+int leap_occ_internal_labels(const leap_occupancy *occ);
 int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref);
 /* Cells per axis of the grid (the tree's root cube may reach beyond them). */
-void leap_occ_internal_cells(const leap_occupancy *occ, uint32_t cells[3]);
 /* Bounds of the NONEMPTY and UNKNOWN cells under the current classification, by a walk of
  * the tree (walk.c); returns 0 when there are none. */
 int leap_occ_internal_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);

@@ -41,7 +41,7 @@ static void bounds_walk(const leap_occupancy *occ, uint32_t ref, uint32_t level,
 int leap_occ_internal_bounds(const leap_occupancy *occ, double lo[3], double hi[3])
 {
     uint32_t cells[3], depth;
-    leap_occ_internal_cells(occ, cells);
+    leap_occupancy_get_cells(occ, cells);
     if (cells[0] == 0 || cells[1] == 0 || cells[2] == 0) return 0;
     const uint32_t root = leap_occ_internal_root(occ, &depth);
     if (leap_occ_internal_ref_class(occ, OCC_REF_IMPLICIT) != LEAP_CLASS_EMPTY) {

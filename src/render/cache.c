@@ -97,6 +97,9 @@ void renderer_cache_release(leap_renderer *r)
 leap_result renderer_cache_upload(leap_renderer *r, const leap_atlas *atlas, uint32_t capacity, leap_error *err)
 {
     renderer_cache_release(r);
+    if (atlas->slot_count > LEAP_PAGE_EMPTY) /* a missing cell's entry holds its host slot below that bit */
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "the volume has %u bricks; a brick cache numbers at most %u",
+                         atlas->slot_count, LEAP_PAGE_EMPTY);
     brick_cache *c = &r->cache;
     c->capacity = capacity;
     c->host_slots = atlas->slot_count;
@@ -182,14 +185,14 @@ leap_result renderer_cache_service(leap_renderer *r, leap_frame_stats *st, leap_
             const uint32_t slot = h % c->capacity, old = c->host_of[slot];
             if (c->loaded_in[slot] == service || c->image_of[h] != CACHE_NONE) continue;
             if (old != CACHE_NONE) {
-                pages[c->entry_word[old]] = LEAP_PAGE_MISSING | old;
+                pages[c->entry_word[old]] = (pages[c->entry_word[old]] & LEAP_PAGE_EMPTY) | LEAP_PAGE_MISSING | old;
                 c->image_of[old] = CACHE_NONE;
                 ++st->cache_evicted;
             }
             c->host_of[slot] = h;
             c->image_of[h] = slot;
             c->loaded_in[slot] = service;
-            pages[c->entry_word[h]] = pack_slot(r->slot_dims, slot);
+            pages[c->entry_word[h]] = (pages[c->entry_word[h]] & LEAP_PAGE_EMPTY) | pack_slot(r->slot_dims, slot);
             const uint32_t *d = r->slot_dims;
             origins[n][0] = slot % d[0] * LEAP_SLOT;
             origins[n][1] = slot / d[0] % d[1] * LEAP_SLOT;

@@ -442,10 +442,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     const int listed = lists && !chord; /* the frame builds per-pixel lists */
     /* The tree is walked by octree and by sparseleap pixels whose lists overflow (not in a chord frame). */
     if ((mode == LEAP_RENDER_OCTREE || listed) && (lr = upload_tree(r, err))) return lr;
+    if (mode == LEAP_RENDER_OCTREE || mode == LEAP_RENDER_SPARSELEAP) renderer_mark_empty_slots(r);
     const leap_mode pass_mode = chord ? LEAP_RENDER_BBOX : mode;
     const int kind = renderer_composite_kind(r, march);
     VkPipeline composite = VK_NULL_HANDLE;
-    if ((lr = renderer_composite_pipeline(r, pass_mode, kind, &composite, err))) return lr;
+    if ((lr = renderer_composite_pipeline(r, pass_mode, chord, kind, &composite, err))) return lr;
     VkPipeline overflow = VK_NULL_HANDLE; /* sparseleap: the overflowed rays' tree walk */
     VkPipeline resolve[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
     if (listed && ((lr = renderer_overflow_pipeline(r, kind, &overflow, err)) ||

@@ -124,6 +124,7 @@ typedef struct spec_values {
     uint32_t ray_pass;        /* constant_id 6: LEAP_RAY_PASS_IMAGE or a list, LEAP_RAYS_* (shared.h) */
     VkBool32 count_naive;     /* constant_id 7 (resolve) */
     VkBool32 cache;           /* constant_id 9 */
+    VkBool32 skip_empty;      /* constant_id 10 */
 } spec_values;
 
 static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_values values, VkPipeline *out,
@@ -139,8 +140,9 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
         {6, offsetof(spec_values, ray_pass), sizeof values.ray_pass},
         {7, offsetof(spec_values, count_naive), sizeof values.count_naive},
         {9, offsetof(spec_values, cache), sizeof values.cache},
+        {10, offsetof(spec_values, skip_empty), sizeof values.skip_empty},
     };
-    VkSpecializationInfo spec = {9, entries, sizeof values, &values};
+    VkSpecializationInfo spec = {10, entries, sizeof values, &values};
     VkComputePipelineCreateInfo cpci = {
         .sType = VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO,
         .stage = {.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO, .stage = VK_SHADER_STAGE_COMPUTE_BIT,
@@ -161,12 +163,14 @@ int renderer_composite_kind(const leap_renderer *r, const leap_march *m)
     return r->tf_precorrected ? COMPOSITE_PRECORRECTED : COMPOSITE_PER_SAMPLE;
 }
 
-/* The pipeline cached at *slot, created on first use for these constants. */
-static leap_result cached_composite(leap_renderer *r, leap_mode mode, int kind, uint32_t ray_pass, VkPipeline *out,
-                                    leap_error *err)
+/* The pipeline cached at *slot, created on first use for these constants. `chord`: a sparseleap
+ * frame's single chord, marched by the bbox mode's code. */
+static leap_result cached_composite(leap_renderer *r, leap_mode mode, int chord, int kind, uint32_t ray_pass,
+                                    VkPipeline *out, leap_error *err)
 {
     const int volume = (r->mid_levels > 0) | (r->cache.capacity > 0) << 1;
-    VkPipeline *slot = ray_pass == LEAP_RAYS_OVERFLOW ? &r->overflow[kind][volume] : &r->composite[mode][kind][volume];
+    VkPipeline *slot = ray_pass == LEAP_RAYS_OVERFLOW ? &r->overflow[kind][volume]
+                                                      : &r->composite[chord ? COMPOSITE_CHORD : mode][kind][volume];
     if (!*slot) {
         /* Label opacities are corrected for the step in the object table, like a precorrected
          * TF; MIP reads the table's opacities as they are (no step correction at all). */
@@ -174,7 +178,8 @@ static leap_result cached_composite(leap_renderer *r, leap_mode mode, int kind, 
                                   kind == COMPOSITE_SHADED_PRECORRECTED,
                               (uint32_t)mode, kind == COMPOSITE_LABELS, kind == COMPOSITE_MIP,
                               kind == COMPOSITE_SHADED_PER_SAMPLE || kind == COMPOSITE_SHADED_PRECORRECTED,
-                              volume & 1, ray_pass, VK_FALSE, volume >> 1};
+                              volume & 1, ray_pass, VK_FALSE, volume >> 1,
+                              chord || mode == LEAP_RENDER_OCTREE || mode == LEAP_RENDER_SPARSELEAP};
         leap_result lr = create_compute(r, r->composite_module, values, slot, err);
         if (lr) return lr;
     }
@@ -184,17 +189,17 @@ static leap_result cached_composite(leap_renderer *r, leap_mode mode, int kind, 
 
 /* Only long boxes' pipelines walk middle page levels: the walk costs 3-10 % of the frame in every
  * other one; only a brick cache's pipelines handle missing cells: 1-3.5 % (lavapipe, measured). */
-leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out,
-                                      leap_error *err)
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int chord, int kind, VkPipeline *out,
+                                       leap_error *err)
 {
     /* sparseleap marches the rays the resolve pass lists */
     const uint32_t pass = mode == LEAP_RENDER_SPARSELEAP ? LEAP_RAYS_MARCH : LEAP_RAY_PASS_IMAGE;
-    return cached_composite(r, mode, kind, pass, out, err);
+    return cached_composite(r, mode, chord, kind, pass, out, err);
 }
 
 leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *out, leap_error *err)
 {
-    return cached_composite(r, LEAP_RENDER_OCTREE, kind, LEAP_RAYS_OVERFLOW, out, err);
+    return cached_composite(r, LEAP_RENDER_OCTREE, 0, kind, LEAP_RAYS_OVERFLOW, out, err);
 }
 
 leap_result renderer_resolve_pipelines(leap_renderer *r, VkPipeline stages[2], leap_error *err)

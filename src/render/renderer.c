@@ -60,6 +60,8 @@ leap_result leap_renderer_create(const leap_renderer_desc *desc, leap_renderer *
     return LEAP_OK;
 }
 
+static void forget_slot_cells(leap_renderer *r);
+
 void leap_renderer_destroy(leap_renderer *r)
 {
     if (!r) return;
@@ -76,6 +78,7 @@ void leap_renderer_destroy(leap_renderer *r)
         leap_gpu_buffer_destroy(gpu, &r->slot_ranges);
         leap_gpu_buffer_destroy(gpu, &r->misses);
         renderer_cache_release(r);
+        forget_slot_cells(r);
         leap_gpu_image_destroy(gpu, &r->atlas);
         leap_gpu_image_destroy(gpu, &r->value_gradients);
         leap_gpu_buffer_destroy(gpu, &r->frame);
@@ -89,7 +92,7 @@ void leap_renderer_destroy(leap_renderer *r)
                 if (r->resolve[s][c]) vkDestroyPipeline(dev, r->resolve[s][c], NULL);
         if (r->resolve_module) vkDestroyShaderModule(dev, r->resolve_module, NULL);
         if (r->render_pass) vkDestroyRenderPass(dev, r->render_pass, NULL);
-        for (int m = 0; m < LEAP_RENDER_MODE_COUNT; ++m)
+        for (int m = 0; m <= COMPOSITE_CHORD; ++m)
             for (int i = 0; i < COMPOSITE_KINDS; ++i)
                 for (int l = 0; l < COMPOSITE_VOLUMES; ++l)
                     if (r->composite[m][i][l]) vkDestroyPipeline(dev, r->composite[m][i][l], NULL);
@@ -177,6 +180,87 @@ static leap_result upload_values(leap_renderer *r, const leap_atlas *atlas, leap
     return lr;
 }
 
+/* The slot cells of a scalar atlas: their page-table words and cells (leap_atlas_visit). */
+typedef struct slot_cell_list {
+    const leap_atlas *atlas;
+    leap_renderer *r;
+    size_t n;
+} slot_cell_list;
+
+static int note_slot_cell_words(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
+{
+    (void)entry;
+    slot_cell_list *l = ctx;
+    if (!cells) return 0;
+    const leap_atlas *a = l->atlas;
+    const uint32_t shift = a->block_shift;
+    for (uint32_t k = 0; k < edge * edge * edge; ++k) {
+        if (cells[k] & LEAP_PAGE_CONST) continue;
+        const uint64_t x = lo[0] | (k & (edge - 1)), y = lo[1] | (k >> shift & (edge - 1)), z = lo[2] | (k >> (2 * shift));
+        if (l->n == l->r->slot_cell_count) return 1; /* more slot entries than slots: not this atlas */
+        l->r->slot_words[l->n] = (uint32_t)(cells + k - a->pages);
+        l->r->slot_cell_keys[l->n++] = x + a->cells[0] * (y + (uint64_t)a->cells[1] * z);
+    }
+    return 0;
+}
+
+static void forget_slot_cells(leap_renderer *r)
+{
+    free(r->slot_words);
+    free(r->slot_cell_keys);
+    r->slot_words = NULL;
+    r->slot_cell_keys = NULL;
+    r->slot_cell_count = 0;
+}
+
+/* Keeps where each slot cell's entry lies, so that the occupancy's classes can mark them. */
+static leap_result list_slot_cells(leap_renderer *r, const leap_atlas *atlas, leap_error *err)
+{
+    forget_slot_cells(r);
+    if (atlas->labels || !atlas->slot_count) return LEAP_OK;
+    r->slot_words = malloc(atlas->slot_count * sizeof *r->slot_words);
+    r->slot_cell_keys = malloc(atlas->slot_count * sizeof *r->slot_cell_keys);
+    if (!r->slot_words || !r->slot_cell_keys) {
+        forget_slot_cells(r);
+        return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the places of %u bricks",
+                         atlas->slot_count);
+    }
+    r->slot_cell_count = atlas->slot_count;
+    slot_cell_list l = {atlas, r, 0};
+    if (leap_atlas_visit(atlas, note_slot_cell_words, &l)) {
+        forget_slot_cells(r);
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "renderer: the atlas's page table has more brick entries than bricks");
+    }
+    r->slot_cell_count = l.n;
+    for (int i = 0; i < 3; ++i) r->cells[i] = atlas->cells[i];
+    return LEAP_OK;
+}
+
+/* LEAP_PAGE_EMPTY on each slot cell the bound occupancy classes EMPTY, off on the others (none
+ * with an occupancy of another shape), when the occupancy or its classes changed since the last
+ * marking. */
+void renderer_mark_empty_slots(leap_renderer *r)
+{
+    uint32_t *pages = r->pages.mapped;
+    const leap_occupancy *occ = r->occupancy;
+    const uint64_t serial = occ ? leap_occupancy_classes_serial(occ) : 0;
+    if (!pages || !r->slot_words || (occ == r->marked_occupancy && serial == r->marked_serial)) return;
+    r->marked_occupancy = occ;
+    r->marked_serial = serial;
+    uint32_t occ_cells[3] = {0, 0, 0};
+    if (occ) leap_occupancy_get_cells(occ, occ_cells);
+    if (memcmp(occ_cells, r->cells, sizeof occ_cells)) occ = NULL;
+    for (size_t i = 0; i < r->slot_cell_count; ++i) {
+        uint32_t *e = &pages[r->slot_words[i]];
+        if (*e & LEAP_PAGE_CONST) continue; /* a lazy slot found uniform */
+        const uint64_t key = r->slot_cell_keys[i];
+        const int64_t cell[3] = {(int64_t)(key % r->cells[0]), (int64_t)(key / r->cells[0] % r->cells[1]),
+                                 (int64_t)(key / r->cells[0] / r->cells[1])};
+        const int empty = occ && leap_occupancy_cell_class(occ, cell) == LEAP_CLASS_EMPTY;
+        *e = empty ? *e | LEAP_PAGE_EMPTY : *e & ~LEAP_PAGE_EMPTY;
+    }
+}
+
 /* values = 0: a shaded scene's atlas, whose frames read its values with the gradients
  * (leap_renderer_set_value_gradients); unshaded frames need them uploaded (bind_scene). */
 static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int values, uint64_t stream_bytes,
@@ -238,6 +322,10 @@ static leap_result set_volume(leap_renderer *r, const leap_atlas *atlas, int val
     r->block_base = atlas->block_base;
     r->mid_levels = atlas->mid_levels;
     leap_atlas_march_domain(atlas, &r->domain);
+    lr = list_slot_cells(r, atlas, err); /* the page table holds no mark now */
+    if (lr) return lr;
+    r->marked_occupancy = NULL;
+    r->marked_serial = 0;
     r->atlas_serial = atlas->serial;
     r->has_volume = 1;
     return LEAP_OK;

@@ -21,6 +21,10 @@ enum {
 /* What a composite pipeline reads the volume through (renderer_composite_pipeline): bit 0, a page
  * table with middle levels (a long box); bit 1, the brick cache (cells may be missing). */
 #define COMPOSITE_VOLUMES 4
+/* The composite pipelines' first index beyond the modes: a sparseleap frame whose boxes reduce
+ * to one marches its chord through the bbox mode's code, passing EMPTY slot cells as sparseleap
+ * does (renderer_composite_pipeline). */
+#define COMPOSITE_CHORD LEAP_RENDER_MODE_COUNT
 #define RASTER_GROW_PIXELS 0.25f      /* box growth for raster coverage (snapping is 1/256 px) */
 
 typedef struct chunk_rect {
@@ -84,7 +88,7 @@ struct leap_renderer {
      * constants, so each pipeline holds only the code it runs. Created on first use from
      * composite_module. */
     VkShaderModule composite_module;
-    VkPipeline composite[LEAP_RENDER_MODE_COUNT][COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* [mode][kind][volume bits, COMPOSITE_VOLUMES] */
+    VkPipeline composite[COMPOSITE_CHORD + 1][COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* [mode or COMPOSITE_CHORD][kind][volume bits, COMPOSITE_VOLUMES] */
     VkPipeline overflow[COMPOSITE_KINDS][COMPOSITE_VOLUMES]; /* sparseleap's overflowed rays (list LEAP_RAYS_OVERFLOW) */
     VkRenderPass render_pass;
     VkFramebuffer framebuffer;
@@ -138,12 +142,24 @@ struct leap_renderer {
     uint64_t cache_room;  /* bytes the bound volume's cache image may take (0: no limit) */
     brick_cache cache;
     leap_buffer misses;   /* LEAP_BINDING_MISSES */
+    /* Scalar volumes: each slot cell's page-table word and cell (x + cells[0] * (y + cells[1] * z)),
+     * for LEAP_PAGE_EMPTY (renderer_mark_empty_slots). */
+    uint32_t *slot_words;
+    uint64_t *slot_cell_keys;
+    size_t slot_cell_count;
+    uint32_t cells[3];
+    const leap_occupancy *marked_occupancy; /* what the marks follow (renderer_mark_empty_slots) */
+    uint64_t marked_serial;
     /* Not owned. */
     const leap_occupancy *occupancy;
     const leap_boxes *box_set;
     int lists_valid;
     chunk_rect drawn; /* the pixels the last frame composited; the others are transparent, no sample */
 };
+
+/* Marks the slot cells the bound occupancy classes EMPTY (LEAP_PAGE_EMPTY) in the page table,
+ * when the occupancy or its classes changed since the last marking. */
+void renderer_mark_empty_slots(leap_renderer *r);
 
 /* Texels of the bound volume's image (the atlas, or the brick cache holding part of it). */
 static inline uint64_t renderer_texels(const leap_renderer *r)
@@ -163,7 +179,8 @@ struct leap_gpu *leap_renderer_gpu(leap_renderer *r);
 leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err);
 /* kind: 0, 1 = scalar volume with opacity corrected per sample / in the table, 2 = labels. */
 int renderer_composite_kind(const leap_renderer *r, const leap_march *m);
-leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int kind, VkPipeline *out, leap_error *err);
+leap_result renderer_composite_pipeline(leap_renderer *r, leap_mode mode, int chord, int kind, VkPipeline *out,
+                                       leap_error *err);
 leap_result renderer_overflow_pipeline(leap_renderer *r, int kind, VkPipeline *out, leap_error *err);
 /* The resolve pass's two stages for the renderer's leap_renderer_count_naive setting. */
 leap_result renderer_resolve_pipelines(leap_renderer *r, VkPipeline stages[2], leap_error *err);
