@@ -498,6 +498,13 @@ static leap_result add_label_cells(builder *b, const leap_atlas *a, leap_error *
     return LEAP_OK;
 }
 
+/* A serial unique across occupancies, so that a renderer never mistakes one for another. */
+static void classes_changed(leap_occupancy *occ)
+{
+    static uint64_t next;
+    occ->classes_serial = __atomic_add_fetch(&next, 1, __ATOMIC_RELAXED);
+}
+
 leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupancy **out,
                                   leap_error *err)
 {
@@ -507,6 +514,7 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     const double t0 = leap__now_ms();
     leap_occupancy *occ = calloc(1, sizeof *occ);
     if (!occ) return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory");
+    classes_changed(occ);
     uint32_t maxc = 0;
     for (int a = 0; a < 3; ++a) {
         occ->cells[a] = desc->cells[a];
@@ -618,12 +626,6 @@ static uint32_t classify_range(const classifier *c, float vmin, float vmax)
     return c->prefix[i1 + 1] - c->prefix[i0] > 0 ? LEAP_CLASS_NONEMPTY : LEAP_CLASS_EMPTY;
 }
 
-/* A serial unique across occupancies, so that a renderer never mistakes one for another. */
-static void classes_changed(leap_occupancy *occ)
-{
-    static uint64_t next;
-    occ->classes_serial = __atomic_add_fetch(&next, 1, __ATOMIC_RELAXED);
-}
 
 uint64_t leap_occupancy_classes_serial(const leap_occupancy *occ)
 {
