@@ -255,15 +255,35 @@ static int modes_equal_naive(leap_renderer *renderer, const leap_scene *s, int c
     return fewer;
 }
 
-/* Dark balls (0 at the centre, 1 at the rim) scattered in a 64^3 box of background 1: where
- * minIP shows something, and cells of 1 alone are skippable under a TF transparent at 1. */
-static int make_dips(const char *path)
+/* A writer with one float fog grid 'density' of background `background` (*g: its index, -1
+ * when either failed, which the checks report). */
+static leap_vdb_writer *fog_writer(double background, int *g)
 {
     leap_error err = {{0}};
     mkdir(LEAP_TEST_TMP, 0755);
     leap_vdb_writer *w = NULL;
     CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
-    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 1.0, NULL, 1, &err) : -1;
+    *g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, background, NULL, 1, &err) : -1;
+    CHECK_MSG(*g >= 0, "%s", err.msg);
+    return w;
+}
+
+/* Saves the grid to path and frees the writer; 1 when saved. */
+static int save_fog(leap_vdb_writer *w, int g, const char *path)
+{
+    leap_error err = {{0}};
+    const int ok = g >= 0 && leap_vdb_writer_save(w, path, &err) == LEAP_OK;
+    CHECK_MSG(ok, "%s: %s", path, err.msg);
+    leap_vdb_writer_destroy(w);
+    return ok;
+}
+
+/* Dark balls (0 at the centre, 1 at the rim) scattered in a 64^3 box of background 1: where
+ * minIP shows something, and cells of 1 alone are skippable under a TF transparent at 1. */
+static int make_dips(const char *path)
+{
+    int g;
+    leap_vdb_writer *w = fog_writer(1.0, &g);
     static const int balls[5][4] = {{12, 14, 20, 7}, {40, 20, 44, 9}, {26, 44, 30, 6}, {50, 50, 12, 5}, {20, 36, 52, 8}};
     for (int b = 0; b < 5 && g >= 0; ++b)
         for (int z = -balls[b][3]; z <= balls[b][3]; ++z)
@@ -272,10 +292,7 @@ static int make_dips(const char *path)
                     const double r = sqrt((double)(x * x + y * y + z * z)) / balls[b][3];
                     if (r < 1) leap_vdb_writer_set(w, g, balls[b][0] + x, balls[b][1] + y, balls[b][2] + z, r);
                 }
-    const int ok = g >= 0 && leap_vdb_writer_save(w, path, &err) == LEAP_OK;
-    CHECK_MSG(ok, "%s: %s", path, err.msg);
-    leap_vdb_writer_destroy(w);
-    return ok;
+    return save_fog(w, g, path);
 }
 
 /* Opaque where dark, transparent from 0.9 up. */
@@ -578,11 +595,8 @@ static leap_scene *load_scene(const char *file, const char *grid, const char *tf
  * the balls' and holds most of the noise, and naive sample them. */
 static int make_noisy_ball(const char *path)
 {
-    leap_error err = {{0}};
-    mkdir(LEAP_TEST_TMP, 0755);
-    leap_vdb_writer *w = NULL;
-    CHECK_OK(leap_vdb_writer_create(&w, &err), &err);
-    int g = w ? leap_vdb_writer_add_grid(w, "density", LEAP_VDB_FLOAT, 0.0, NULL, 1, &err) : -1;
+    int g;
+    leap_vdb_writer *w = fog_writer(0.0, &g);
     uint32_t h = 12345;
     for (int z = 0; z < 64 && g >= 0; ++z)
         for (int y = 0; y < 64; ++y)
@@ -592,10 +606,7 @@ static int make_noisy_ball(const char *path)
                 const double r = sqrt((double)((x - c) * (x - c) + (y - c) * (y - c) + (z - c) * (z - c)));
                 leap_vdb_writer_set(w, g, x, y, z, r < 9 ? 1.0 - 0.4 * r / 9 : 0.04 * (h >> 8) / 16777216.0);
             }
-    const int ok = g >= 0 && leap_vdb_writer_save(w, path, &err) == LEAP_OK;
-    CHECK_MSG(ok, "%s: %s", path, err.msg);
-    leap_vdb_writer_destroy(w);
-    return ok;
+    return save_fog(w, g, path);
 }
 
 /* Transparent below `from` of the range, then a ramp. */

@@ -54,6 +54,13 @@ static double smoothstep01(double t)
     return t * t * (3.0 - 2.0 * t);
 }
 
+/* A fog ball's density at distance r from its centre: 1 inside `core`, falling smoothly to 0
+ * at `radius`. */
+static double fog_ball(double r, double core, double radius)
+{
+    return r < radius ? 1.0 - smoothstep01((r - core) / (radius - core)) : 0.0;
+}
+
 static const char *out_dir;
 
 static int save(leap_vdb_writer *w, const char *name)
@@ -123,9 +130,8 @@ static int make_sphere(void)
                 for (int z = bz; z < bz + 8; ++z)
                     for (int y = by; y < by + 8; ++y)
                         for (int x = bx; x < bx + 8; ++x) {
-                            const double r = sqrt((double)x * x + (double)y * y + (double)z * z);
-                            const double d = 1.0 - smoothstep01((r - core) / (radius - core));
-                            if (r < radius && d > 0.0) leap_vdb_writer_set(w, g, x, y, z, d);
+                            const double d = fog_ball(sqrt((double)x * x + (double)y * y + (double)z * z), core, radius);
+                            if (d > 0.0) leap_vdb_writer_set(w, g, x, y, z, d);
                         }
             }
     return save(w, "sphere.vdb");
@@ -435,9 +441,8 @@ static int stretched_main(int argc, char **argv)
     for (int z = -124; z <= 124; ++z)
         for (int y = -124; y <= 124; ++y)
             for (int x = -124; x <= 124; ++x) {
-                const double r = sqrt((double)x * x + (double)y * y + (double)z * z);
-                const double d = 1.0 - smoothstep01((r - core) / (radius - core));
-                if (r < radius && d > 0.0) leap_vdb_writer_set(w, g, x, y, z, d);
+                const double d = fog_ball(sqrt((double)x * x + (double)y * y + (double)z * z), core, radius);
+                if (d > 0.0) leap_vdb_writer_set(w, g, x, y, z, d);
             }
     const int32_t h = (int32_t)(span / 2);
     for (int c = 0; c < 8; ++c)

@@ -88,8 +88,9 @@ typedef struct leap_atlas {
                                 * others are unused). Only the GPU image holds the 3D layout of
                                 * texel_dims (leap_atlas_texels), so the host keeps one copy.
                                 * NULL for an atlas built with stream_texels. */
-    uint64_t *slot_cells;      /* stream_texels: per slot (numbered as slot_texels), its cell
-                                * (x + cells[0] * (y + cells[1] * z)), read again by leap_atlas_read_slot */
+    uint64_t *slot_cells;      /* stream_texels: per slot (numbered as slot_texels), its cell's key
+                                * (x + cells[0] * (y + cells[1] * z): leap_atlas_key_cell), read
+                                * again by leap_atlas_read_slot */
     const leap_grid *grid;     /* stream_texels: the grid the slots are read from */
     leap_grid_reader *slot_readers[LEAP_ATLAS_READERS]; /* stream_texels: one per reading thread */
     uint32_t slot_reader_count;
@@ -158,6 +159,9 @@ leap_result leap_atlas_read_slot(const leap_atlas *atlas, uint32_t slot, uint16_
  * atlas reads a batch of many slots from several threads, each a run of consecutive ones. */
 leap_result leap_atlas_read_slots(const leap_atlas *atlas, const uint32_t *slots, size_t n, uint16_t *out,
                                   leap_error *err);
+
+/* The cell of a cell key (x + cells[0] * (y + cells[1] * z), as slot_cells holds them). */
+void leap_atlas_key_cell(const leap_atlas *atlas, uint64_t key, uint32_t cell[3]);
 
 /* A lazy atlas: the slots whose ranges were learned (first read) since the last call, into
  * *slots (the caller frees it); returns their count (0, *slots NULL, for other atlases). */

@@ -231,8 +231,7 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
         cam = (leap_camera){.fov_deg = 40};
         memcpy(cam.eye, o->eye, sizeof cam.eye);
         memcpy(cam.target, o->target, sizeof cam.target);
-        memcpy(cam.up, s->input.up, sizeof cam.up);
-        if (cam.up[0] == 0 && cam.up[1] == 0 && cam.up[2] == 0) cam.up[1] = 1; /* no hint: +Y */
+        memcpy(cam.up, s->input.up, sizeof cam.up); /* as the orbit's */
     } else if ((lr = leap_camera_orbit_about(s->center, s->radius, s->input.up, az, o->elevation, 0, 40, 0, &cam, err))) {
         return lr;
     }

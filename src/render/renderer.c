@@ -196,10 +196,10 @@ static int note_slot_cell_words(void *ctx, const uint32_t lo[3], uint32_t edge, 
     const uint32_t shift = a->block_shift;
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
         if (cells[k] & LEAP_PAGE_CONST) continue;
-        const uint64_t x = lo[0] | (k & (edge - 1)), y = lo[1] | (k >> shift & (edge - 1)), z = lo[2] | (k >> (2 * shift));
         if (l->n == l->r->slot_cell_count) return 1; /* more slot entries than slots: not this atlas */
-        l->r->slot_words[l->n] = (uint32_t)(cells + k - a->pages);
-        l->r->slot_cell_keys[l->n++] = x + a->cells[0] * (y + (uint64_t)a->cells[1] * z);
+        uint32_t *cell = l->r->slot_cells[l->n];
+        cell[0] = lo[0] | (k & (edge - 1)), cell[1] = lo[1] | (k >> shift & (edge - 1)), cell[2] = lo[2] | (k >> (2 * shift));
+        l->r->slot_words[l->n++] = (uint32_t)(cells + k - a->pages);
     }
     return 0;
 }
@@ -207,9 +207,9 @@ static int note_slot_cell_words(void *ctx, const uint32_t lo[3], uint32_t edge, 
 static void forget_slot_cells(leap_renderer *r)
 {
     free(r->slot_words);
-    free(r->slot_cell_keys);
+    free(r->slot_cells);
     r->slot_words = NULL;
-    r->slot_cell_keys = NULL;
+    r->slot_cells = NULL;
     r->slot_cell_count = 0;
 }
 
@@ -219,8 +219,8 @@ static leap_result list_slot_cells(leap_renderer *r, const leap_atlas *atlas, le
     forget_slot_cells(r);
     if (atlas->labels || !atlas->slot_count) return LEAP_OK;
     r->slot_words = malloc(atlas->slot_count * sizeof *r->slot_words);
-    r->slot_cell_keys = malloc(atlas->slot_count * sizeof *r->slot_cell_keys);
-    if (!r->slot_words || !r->slot_cell_keys) {
+    r->slot_cells = malloc(atlas->slot_count * sizeof *r->slot_cells);
+    if (!r->slot_words || !r->slot_cells) {
         forget_slot_cells(r);
         return leap_fail(err, LEAP_ERR_OOM, "renderer: out of host memory for the places of %u bricks",
                          atlas->slot_count);
@@ -253,9 +253,7 @@ void renderer_mark_empty_slots(leap_renderer *r)
     for (size_t i = 0; i < r->slot_cell_count; ++i) {
         uint32_t *e = &pages[r->slot_words[i]];
         if (*e & LEAP_PAGE_CONST) continue; /* a lazy slot found uniform */
-        const uint64_t key = r->slot_cell_keys[i];
-        const int64_t cell[3] = {(int64_t)(key % r->cells[0]), (int64_t)(key / r->cells[0] % r->cells[1]),
-                                 (int64_t)(key / r->cells[0] / r->cells[1])};
+        const int64_t cell[3] = {r->slot_cells[i][0], r->slot_cells[i][1], r->slot_cells[i][2]};
         const int empty = occ && leap_occupancy_cell_class(occ, cell) == LEAP_CLASS_EMPTY;
         *e = empty ? *e | LEAP_PAGE_EMPTY : *e & ~LEAP_PAGE_EMPTY;
     }

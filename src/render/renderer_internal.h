@@ -142,10 +142,10 @@ struct leap_renderer {
     uint64_t cache_room;  /* bytes the bound volume's cache image may take (0: no limit) */
     brick_cache cache;
     leap_buffer misses;   /* LEAP_BINDING_MISSES */
-    /* Scalar volumes: each slot cell's page-table word and cell (x + cells[0] * (y + cells[1] * z)),
-     * for LEAP_PAGE_EMPTY (renderer_mark_empty_slots). */
+    /* Scalar volumes: each slot cell's page-table word and cell, for LEAP_PAGE_EMPTY
+     * (renderer_mark_empty_slots). */
     uint32_t *slot_words;
-    uint64_t *slot_cell_keys;
+    uint32_t (*slot_cells)[3];
     size_t slot_cell_count;
     uint32_t cells[3];
     const leap_occupancy *marked_occupancy; /* what the marks follow (renderer_mark_empty_slots) */

@@ -423,9 +423,10 @@ leap_result leap_scene_learn(leap_scene *s, leap_error *err)
     const double step = (a->value_max - a->value_min) / 65535.0; /* as the atlas quantises */
     uint64_t learned = 0;
     for (size_t i = 0; i < n; ++i) {
-        const uint64_t key = a->slot_cells[slots[i]], range = a->slot_ranges[slots[i]];
-        const int64_t cell[3] = {(int64_t)(key % a->cells[0]), (int64_t)(key / a->cells[0] % a->cells[1]),
-                                 (int64_t)(key / a->cells[0] / a->cells[1])};
+        const uint64_t range = a->slot_ranges[slots[i]];
+        uint32_t c[3];
+        leap_atlas_key_cell(a, a->slot_cells[slots[i]], c);
+        const int64_t cell[3] = {c[0], c[1], c[2]};
         learned += (uint64_t)leap_occupancy_learn_cell(s->occupancy, cell, (float)(a->value_min + (range & 0xffffu) * step),
                                                        (float)(a->value_min + (range >> 16) * step));
     }

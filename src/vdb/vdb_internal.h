@@ -293,6 +293,11 @@ struct Scan {
         else if (v > 0) active_pinf = true;
         else active_ninf = true;
     }
+    // A leaf's values as stored, with its active mask.
+    void add_leaf(const float *v, const LeafT::NodeMaskType &mask)
+    {
+        for (vdb::Index n = 0; n < LeafT::SIZE; ++n) add(v[n], mask.isOn(n));
+    }
     void merge(const Scan &o)
     {
         nonfinite += o.nonfinite;

@@ -296,9 +296,7 @@ Scan scan_leaves(const FloatTree &tree)
         Blocks(0, leaves.size(), 64), Scan(),
         [&](const Blocks &r, Scan s) {
             for (size_t i = r.begin(); i != r.end(); ++i) {
-                const float *v = leaves[i]->buffer().data();
-                const auto &mask = leaves[i]->getValueMask();
-                for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+                s.add_leaf(leaves[i]->buffer().data(), leaves[i]->getValueMask());
             }
             return s;
         },
@@ -373,7 +371,7 @@ vdb::GridBase::ConstPtr with_recorded_scan(const vdb::GridBase &g)
 bool leaf_fits_scan(const float *v, const LeafT::NodeMaskType &active, const leap_grid_scan &k)
 {
     Scan s;
-    for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], active.isOn(n));
+    s.add_leaf(v, active);
     const auto within = [](const Range &r, float lo, float hi) { return r.empty() || (r.lo >= lo && r.hi <= hi); };
     return within(s.all, k.stored_min, k.stored_max) && within(s.active, k.active_min, k.active_max) &&
            (s.nonfinite == 0 || k.nonfinite > 0) && (!s.active_nan || k.active_nan) &&
@@ -509,9 +507,8 @@ void scan_grid(leap_grid &g, const leap_grid_scan *known, const leap_grid_scan *
                 const LeafT &leaf = *leaves[i];
                 if (od) od->read(leaf, copy);
                 const float *v = od ? copy->buffer().data() : leaf.buffer().data();
-                const auto &mask = leaf.getValueMask();
                 const uint64_t nonfinite = s.nonfinite;
-                for (vdb::Index n = 0; n < LeafT::SIZE; ++n) s.add(v[n], mask.isOn(n));
+                s.add_leaf(v, leaf.getValueMask());
                 if (od)
                     gather_sides(root, *od->numbers, leaf, uint32_t(i), v, s.nonfinite == nonfinite, od->shells.get(),
                                  od->cell_parts[i]);

@@ -187,7 +187,6 @@ typedef struct key_list {
     size_t count, cap;
 } key_list;
 
-/* The cell of a key (x + cells[0] * (y + cells[1] * z)). */
 static void key_cell(const leap_atlas *a, uint64_t key, uint32_t c[3])
 {
     c[0] = (uint32_t)(key % a->cells[0]);
@@ -1153,6 +1152,11 @@ leap_result leap_atlas_read_slots(const leap_atlas *a, const uint32_t *slots, si
     if (!r && ranges) r = learn(a, slots, n, ranges, err);
     free(ranges);
     return r;
+}
+
+void leap_atlas_key_cell(const leap_atlas *atlas, uint64_t key, uint32_t cell[3])
+{
+    key_cell(atlas, key, cell);
 }
 
 size_t leap_atlas_take_learned(const leap_atlas *a, uint32_t **slots)
