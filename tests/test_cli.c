@@ -159,12 +159,17 @@ int main(void)
         {"--gpu-cache 12Q", "--gpu-cache"},
         {"--gpu-cache 0", "--gpu-cache"},
         {"--memory-budget lots", "--memory-budget"},
-        {"--memory-budget 1", "too small"}, /* read on demand, but not even its topology fits */
     };
     for (size_t i = 0; i < sizeof usage_errors / sizeof usage_errors[0]; ++i) {
         snprintf(args, sizeof args, "render %s -o %s %s", sphere, out, usage_errors[i].opts);
         EXPECT_FAIL(2, args, usage_errors[i].needle, out);
     }
+    /* A budget below what the grid's bookkeeping takes read on demand: the file's need, not a
+     * malformed option, so exit 1 as for a grid that cannot be read on demand; the message names
+     * the file, the budget as given and the least that serves. */
+    snprintf(args, sizeof args, "render %s -o %s --memory-budget 1", sphere, out);
+    EXPECT_FAIL(1, args, "a memory budget of 1 byte is too small", out);
+    CHECK_MSG(strstr(out_text, sphere) && strstr(out_text, "at least"), "%s", out_text);
     /* A typo gets the closest name; a word far from every name gets none. */
     static const struct {
         const char *opts, *suggestion;

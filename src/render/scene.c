@@ -52,6 +52,15 @@ static leap_result find_index(leap_scene_index *x, const char *path, const char 
     return r;
 }
 
+/* A budget as a user reads it: MiB, or KiB or bytes below one MiB (not "0.00 MiB"). */
+static const char *budget_text(uint64_t bytes, char text[32])
+{
+    if (bytes >= (1u << 20)) snprintf(text, 32, "%.2f MiB", (double)bytes / (1 << 20));
+    else if (bytes >= 1024) snprintf(text, 32, "%.2f KiB", (double)bytes / 1024);
+    else snprintf(text, 32, "%llu byte%s", (unsigned long long)bytes, bytes == 1 ? "" : "s");
+    return text;
+}
+
 leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path, uint64_t budget,
                                  leap_scene_index *x, leap_grid **out, leap_error *err)
 {
@@ -80,9 +89,10 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     if (r == LEAP_ERR_UNSUPPORTED) {
         char why[sizeof err->msg];
         snprintf(why, sizeof why, "%s", err->msg);
-        r = leap_fail(err, r, "the grid needs about %.2f MiB in memory, more than the budget of %.2f MiB "
+        char text[32];
+        r = leap_fail(err, r, "the grid needs about %.2f MiB in memory, more than the budget of %s "
                       "(--memory-budget, LEAP_MEMORY_BUDGET), and %s", (double)need / (1 << 20),
-                      (double)budget / (1 << 20), why);
+                      budget_text(budget, text), why);
     }
     return r;
 }
@@ -156,17 +166,22 @@ static uint64_t on_demand_bytes(const leap_scene *s)
            threads * ON_DEMAND_THREAD_BYTES + ON_DEMAND_FIXED_BYTES;
 }
 
-/* A grid read on demand: the GPU brick cache gets what the budget leaves (at least a brick). */
-static leap_result share_budget(leap_scene *s, leap_error *err)
+/* A grid read on demand: the GPU brick cache gets what the budget leaves (at least a brick).
+ * Too small a budget is this file's need against the option, not a malformed option: exit 1,
+ * as for a grid that cannot be read on demand at all. */
+static leap_result share_budget(leap_scene *s, const char *path, leap_error *err)
 {
     const leap_atlas *a = s->atlas;
     const uint64_t held = on_demand_bytes(s) + (uint64_t)a->page_words * 4 +
                           (uint64_t)a->slot_count * (sizeof *a->slot_cells + sizeof *a->slot_ranges);
     const uint64_t least = held + LEAP_SLOT_TEXELS * sizeof(float);
+    char text[32];
     if (least > s->memory_budget)
-        return leap_fail(err, LEAP_ERR_USAGE, "a memory budget of %.1f MiB is too small for this grid read on demand: "
-                         "its topology, tables and bookkeeping take %.1f MiB", (double)s->memory_budget / (1 << 20),
-                         (double)held / (1 << 20));
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: a memory budget of %s is too small for this grid read on "
+                         "demand: its topology, tables and bookkeeping take %.2f MiB; give --memory-budget (or "
+                         "LEAP_MEMORY_BUDGET) at least %.2f MiB", path ? path : "the volume",
+                         budget_text(s->memory_budget, text), (double)held / (1 << 20),
+                         (double)least / (1 << 20));
     s->gpu_cache_bytes = s->memory_budget - held;
     return LEAP_OK;
 }
@@ -629,7 +644,7 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         r = leap_atlas_create(&ad, &s->atlas, err);
         if (!r) s->atlas_ms = s->atlas->build_ms;
         if (!r && s->index.lazy) s->cells_unknown_at_open = s->atlas->slot_count;
-        if (!r && ad.stream_texels) r = share_budget(s, err);
+        if (!r && ad.stream_texels) r = share_budget(s, desc->path, err);
     }
     leap_grid_release_scan(s->grid); /* the bricks and the atlas are built */
     if (!r && cells.entries) save_index(s, desc->path, bricks, brick_count, &cells);
