@@ -600,6 +600,26 @@ int main(void)
     }
     snprintf(args, sizeof args, "info %s/missing.vdb", tmp);
     CHECK(run(args) == 1 && strstr(out_text, "missing.vdb"));
+    /* --objects on floats with integer values: with --labels (as render takes it) they are a
+     * segmentation of objects 3 and 7; without, the report says why it lists none; with a
+     * fraction among them --labels is refused (exit 2). 4^3 float32 raw volumes. */
+    float ints[64] = {0}, frac[64];
+    for (int i = 0; i < 64; ++i) ints[i] = i < 8 ? 3.0f : i >= 40 && i < 44 ? 7.0f : 0.0f;
+    memcpy(frac, ints, sizeof frac);
+    frac[20] = 0.5f;
+    char ints_path[1100], frac_path[1100];
+    snprintf(ints_path, sizeof ints_path, "%s/ints.raw", tmp);
+    snprintf(frac_path, sizeof frac_path, "%s/frac.raw", tmp);
+    write_file(ints_path, (const char *)ints, sizeof ints);
+    write_file(frac_path, (const char *)frac, sizeof frac);
+    snprintf(args, sizeof args, "info %s --raw 4x4x4:float32 --labels --objects", ints_path);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "3 label values") && strstr(out_text, "                   3            8") &&
+                  strstr(out_text, "                   7            4"),
+              "%s", out_text);
+    snprintf(args, sizeof args, "info %s --raw 4x4x4:float32 --objects", ints_path);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "not a segmentation (float values"), "%s", out_text);
+    snprintf(args, sizeof args, "info %s --raw 4x4x4:float32 --labels --objects", frac_path);
+    CHECK_MSG(run(args) == 2 && strstr(out_text, "not an integer"), "%s", out_text);
     /* A file name that is not UTF-8 (byte 0xFF) comes out of JSON as U+FFFD, valid UTF-8
      * (the raw byte made strict parsers fail); a well-formed "é" stays. */
     char odd[1100];

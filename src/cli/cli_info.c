@@ -8,7 +8,7 @@
 #include "leap/input.h"
 
 static const char *info_help =
-    "usage: leap info VOLUME [--json] [--objects] [--histogram N] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
+    "usage: leap info VOLUME [--json] [--objects] [--labels] [--histogram N] [--tf T [--tf T2 ...]] [--range LO,HI]\n"
     "                 [--memory-budget SIZE]\n"
     "\n"
     "Lists every grid: value type, class, transform, active bounding box, voxel, leaf and\n"
@@ -18,6 +18,8 @@ static const char *info_help =
     "  --json         machine-readable output on stdout\n"
     "  --objects      segmentations (int32/int64 grids): every object's ID, active voxel\n"
     "                 count and index bounding box, background included\n"
+    "  --labels       read a grid of integer values as a segmentation, as leap render\n"
+    "                 does with it, so that --objects lists its objects\n"
     "  --tf T         for each transfer function (preset or JSON file), in order: cell\n"
     "                 classes, occupancy tree nodes, emitted boxes, and the time to\n"
     "                 re-classify and rebuild the boxes when switching to it\n"
@@ -241,7 +243,7 @@ static int info_objects(const leap_grid *grid, int list, cJSON *json_grid)
 int cli_info(int argc, char **argv)
 {
     const char *input = NULL;
-    int json = 0, ntf = 0, has_range = 0, objects = 0, bins = 0, c;
+    int json = 0, ntf = 0, has_range = 0, objects = 0, labels = 0, bins = 0, c;
     uint64_t budget = 0;
     leap_input_options io = {0};
     const char *tfs[16];
@@ -274,6 +276,8 @@ int cli_info(int argc, char **argv)
             json = 1;
         } else if (!strcmp(argv[i], "--objects")) {
             objects = 1;
+        } else if (!strcmp(argv[i], "--labels")) {
+            labels = 1;
         } else if (argv[i][0] == '-' && argv[i][1]) {
             return cli_unknown_option("info", argv[i], &info_help, 1);
         } else if (!input) {
@@ -358,7 +362,14 @@ int cli_info(int argc, char **argv)
                        (double)budget / (1 << 20), (unsigned long long)leap_grid_leaves_read(grid), note);
             }
         }
-        if (grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
+        const leap_result made = labels && grid && gi.scalar && !leap_grid_has_labels(grid)
+                                     ? leap_grid_make_labels(grid, &err) : LEAP_OK;
+        if (made) rc = made == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg)
+                                              : cli_runtime_error("%s", err.msg);
+        if (!rc && grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
+        else if (!rc && objects && !json)
+            printf("  objects        none: not a segmentation (%s values; --labels reads integer values as one)\n",
+                   gi.value_type);
         if (!rc && grid && bins) rc = info_histogram(grid, bins, has_range ? range : NULL, jg);
         if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, budget, tfs, ntf, has_range ? range : NULL, jg);
         leap_grid_destroy(grid);
