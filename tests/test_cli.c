@@ -600,6 +600,8 @@ int main(void)
     }
     snprintf(args, sizeof args, "info %s/missing.vdb", tmp);
     CHECK(run(args) == 1 && strstr(out_text, "missing.vdb"));
+    const char *named = strstr(out_text, "missing.vdb");
+    CHECK_MSG(named && !strstr(named + 1, "missing.vdb"), "the file named once: %s", out_text);
     /* --objects on floats with integer values: with --labels (as render takes it) they are a
      * segmentation of objects 3 and 7; without, the report says why it lists none; with a
      * fraction among them --labels is refused (exit 2). 4^3 float32 raw volumes. */

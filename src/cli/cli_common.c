@@ -55,12 +55,15 @@ int cli_runtime_error(const char *fmt, ...)
     return EXIT_RUNTIME;
 }
 
-/* "PATH: ..." or "'PATH': ..." */
-static int starts_with_path(const char *msg, const char *path)
+/* "PATH: ..." or "... 'PATH' ...": the message names the file already (else it gets a prefix,
+ * and "cannot open 'x.vdb'" read "x.vdb: cannot open 'x.vdb'"). */
+static int names_path(const char *msg, const char *path)
 {
     size_t n = path ? strlen(path) : 0;
-    if (*msg == '\'') return n && !strncmp(msg + 1, path, n) && msg[n + 1] == '\'';
-    return n && !strncmp(msg, path, n) && msg[n] == ':';
+    if (n && !strncmp(msg, path, n) && msg[n] == ':') return 1;
+    for (const char *q = n ? strchr(msg, '\'') : NULL; q; q = strchr(q + 1, '\''))
+        if (!strncmp(q + 1, path, n) && q[n + 1] == '\'') return 1;
+    return 0;
 }
 
 void cli_warn_scene(const leap_scene *scene, int legend)
@@ -87,7 +90,7 @@ void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked)
 
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)
 {
-    if (r == LEAP_ERR_USAGE || starts_with_path(msg, volume) || starts_with_path(msg, tf))
+    if (r == LEAP_ERR_USAGE || names_path(msg, volume) || names_path(msg, tf))
         cli_runtime_error("%s", msg);
     else
         cli_runtime_error("%s: %s", volume, msg);
