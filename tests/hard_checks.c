@@ -44,12 +44,37 @@ void gpu_unbind(gpu *g)
     leap_renderer_set_occupancy(g->r, NULL, NULL); /* the scene is destroyed next */
 }
 
+/* Whether a sample in voxel cube `voxel` (corners voxel .. voxel + 1) of NONEMPTY cell `cell`
+ * can have opacity, from the atlas's texels (leap_occupancy_texels_show). */
+static int cube_shows(const leap_scene *s, const int64_t cell[3], const int64_t voxel[3])
+{
+    const leap_atlas *a = s->atlas;
+    const uint32_t c[3] = {(uint32_t)cell[0], (uint32_t)cell[1], (uint32_t)cell[2]};
+    const uint32_t entry = leap_atlas_cell_entry(a, c);
+    if (entry & LEAP_PAGE_CONST) return leap_occupancy_texels_show(s->occupancy, entry & 0xffffu, entry & 0xffffu);
+    const uint16_t *t = a->slot_texels + (size_t)leap_atlas_entry_slot(a->slot_dims, entry) * LEAP_SLOT_TEXELS;
+    uint16_t lo = 0xffff, hi = 0;
+    for (int k = 0; k < 8; ++k) {
+        int64_t u[3];
+        for (int ax = 0; ax < 3; ++ax) u[ax] = voxel[ax] - cell[ax] * LEAP_CELL + (k >> ax & 1);
+        const uint16_t x = t[u[0] + LEAP_SLOT * (u[1] + LEAP_SLOT * u[2])];
+        lo = x < lo ? x : lo;
+        hi = x > hi ? x : hi;
+    }
+    return leap_occupancy_texels_show(s->occupancy, lo, hi);
+}
+
 /* Sparseleap coverage: every lattice sample strictly inside a NONEMPTY (or UNKNOWN) cell lies
- * in one of its pixel's segments. Returns the number of uncovered samples (first printed). */
+ * in one of its pixel's segments; where the cut's boxes were shrunk to their voxels, every
+ * such sample whose trilinear cube can show (strictly inside the cube). Returns the number
+ * of uncovered samples (first printed). */
 long coverage(const gpu *g, const leap_scene *s, const leap_rays *v, double step, const char *label,
               long *tested)
 {
     long missed = 0;
+    leap_boxes_stats bs;
+    leap_boxes_get_stats(s->boxes, &bs);
+    const int tight = (bs.tightened || bs.dropped) && s->atlas->slot_texels;
     leap_segment seg[LEAP_MAX_SEGMENTS];
     for (int y = 0; y < v->height; ++y)
         for (int x = 0; x < v->width; ++x) {
@@ -76,15 +101,19 @@ long coverage(const gpu *g, const leap_scene *s, const leap_rays *v, double step
                 double t = k * step, p[3];
                 double margin = 1e-4 * (1 + omax + t);
                 int near_plane = 0;
-                int64_t cell[3];
+                int64_t cell[3], voxel[3];
                 for (int a = 0; a < 3; ++a) {
                     p[a] = o[a] + t * d[a];
                     double q = p[a] / LEAP_CELL;
                     if (fabs(q - floor(q + 0.5)) * LEAP_CELL < margin) near_plane = 1;
+                    if (tight && fabs(p[a] - floor(p[a] + 0.5)) < margin) near_plane = 1;
                     cell[a] = (int64_t)floor(q);
+                    voxel[a] = (int64_t)floor(p[a]);
                 }
                 if (near_plane) continue;
-                if (leap_occupancy_cell_class(s->occupancy, cell) == LEAP_CLASS_EMPTY) continue;
+                const uint32_t cls = leap_occupancy_cell_class(s->occupancy, cell);
+                if (cls == LEAP_CLASS_EMPTY) continue;
+                if (tight && cls == LEAP_CLASS_NONEMPTY && !cube_shows(s, cell, voxel)) continue;
                 ++*tested;
                 int in = 0;
                 for (uint32_t i = 0; i < ns && i < LEAP_MAX_SEGMENTS && !in; ++i)

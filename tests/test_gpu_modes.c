@@ -714,6 +714,92 @@ static void check_empty_slots(leap_renderer *renderer, float *naive, float *img)
     leap_renderer_destroy(cached);
 }
 
+/* Small balls (radius 3, value 1, background 0) scattered in a 96^3 box, as in the rain box. */
+static int make_rain(const char *path)
+{
+    int g;
+    leap_vdb_writer *w = fog_writer(0.0, &g);
+    uint32_t h = 777;
+    for (int b = 0; b < 24 && g >= 0; ++b) {
+        int c[3];
+        for (int a = 0; a < 3; ++a) {
+            h = h * 1664525u + 1013904223u;
+            c[a] = 3 + (int)((h >> 8) % 90);
+        }
+        for (int z = -3; z <= 3; ++z)
+            for (int y = -3; y <= 3; ++y)
+                for (int x = -3; x <= 3; ++x)
+                    if (x * x + y * y + z * z <= 9) leap_vdb_writer_set(w, g, c[0] + x, c[1] + y, c[2] + z, 1.0);
+    }
+    if (g >= 0) leap_vdb_writer_set(w, g, 0, 0, 0, 0.001), leap_vdb_writer_set(w, g, 95, 95, 95, 0.001);
+    return save_fog(w, g, path);
+}
+
+/* Tight boxes (leap_boxes_desc.atlas): the cut's boxes shrunk to the voxel cubes whose samples
+ * can show, and without the boxes none of whose samples can, give sparseleap naive's image bit
+ * for bit, as the same cut's boxes ending on cell faces do, with fewer samples and events (cell
+ * classes come from whole bricks' ranges, so most of the balls' NONEMPTY cells show nothing). */
+static void check_tight_boxes(leap_renderer *renderer, float *naive, float *img)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/rain.vdb", LEAP_TEST_TMP);
+    if (!make_rain(path)) return;
+    leap_error err = {{0}};
+    leap_scene_desc d = {.path = path, .step = 1.0};
+    leap_scene *s = NULL;
+    CHECK_OK(leap_scene_create(&d, &s, &err), &err);
+    if (!s) return;
+    leap_tf tf;
+    threshold_tf(&tf, 0.1);
+    CHECK_OK(leap_scene_set_tf(s, &tf, 0.0, 1.0, &err), &err);
+    /* Marching samples priced high, so that this small box's cut keeps lists at any step (at
+     * the measured prices it keeps one box at steps 0.5 and 1: its chord). */
+    const leap_boxes_costs lists = {.dense_sample_ns = 1000, .const_sample_ns = 1000};
+    static const double steps[2] = {1.0, 0.37};
+    for (int k = 0; k < 2; ++k) {
+        CHECK_OK(leap_scene_set_step(s, steps[k], &err), &err);
+        leap_boxes *tight_boxes = NULL, *cell_boxes = NULL;
+        leap_boxes_desc bd = {.occupancy = s->occupancy, .merge_siblings = s->merge, .step = steps[k], .costs = lists};
+        CHECK_OK(leap_boxes_create(&bd, &cell_boxes, &err), &err);
+        bd.atlas = s->atlas;
+        CHECK_OK(leap_boxes_create(&bd, &tight_boxes, &err), &err);
+        leap_boxes_stats bs;
+        leap_boxes_get_stats(tight_boxes, &bs);
+        CHECK_MSG(bs.tightened > 0 && bs.dropped > 0, "rain, step %g: %u boxes tightened, %u dropped", steps[k],
+                  bs.tightened, bs.dropped);
+        CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+        for (int c = 0; c < 3; ++c) {
+            leap_rays view;
+            CHECK(view_for(s, c, &view));
+            leap_frame_stats ns, tight, cell;
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, &ns, &err), &err);
+            leap_renderer_set_occupancy(renderer, s->occupancy, tight_boxes);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &tight, &err),
+                     &err);
+            const image_diff dt = compare_rgba(img, naive, W * H);
+            leap_renderer_set_occupancy(renderer, s->occupancy, cell_boxes);
+            CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &cell, &err),
+                     &err);
+            const image_diff dc = compare_rgba(img, naive, W * H);
+            printf("rain step %g %s: %u tight boxes (%u dropped) against %u: max %.2e / %.2e, samples %llu / %llu, "
+                   "events/px %.3f / %.3f\n", steps[k], camera_names[c], bs.boxes, bs.dropped, leap_boxes_count(cell_boxes),
+                   dt.max_abs, dc.max_abs, (unsigned long long)tight.total_samples,
+                   (unsigned long long)cell.total_samples, tight.events_mean, cell.events_mean);
+            CHECK_MSG(dt.nonfinite == 0 && dt.max_abs == 0 && dc.nonfinite == 0 && dc.max_abs == 0,
+                      "rain step %g %s: tight boxes %g, cell boxes %g from naive", steps[k], camera_names[c], dt.max_abs,
+                      dc.max_abs);
+            CHECK_MSG(tight.total_samples < cell.total_samples && tight.events_mean < cell.events_mean,
+                      "rain step %g %s: tight boxes take %llu samples and %.3f events a pixel, cell boxes %llu and %.3f",
+                      steps[k], camera_names[c], (unsigned long long)tight.total_samples, tight.events_mean,
+                      (unsigned long long)cell.total_samples, cell.events_mean);
+        }
+        leap_renderer_set_occupancy(renderer, NULL, NULL);
+        leap_boxes_destroy(tight_boxes);
+        leap_boxes_destroy(cell_boxes);
+    }
+    leap_scene_destroy(s);
+}
+
 /* The raster draws a box as a point when its screen rectangle fits the device's largest point
  * (255 pixels on lavapipe) and as two triangles otherwise (events.vert): in an image wider than
  * that, close cameras give boxes of both kinds, some cut by the screen's edges, and sparseleap
@@ -945,6 +1031,7 @@ int main(void)
     check_box_pixels(renderer);
     check_large_rectangles(renderer);
     check_empty_slots(renderer, naive, img);
+    check_tight_boxes(renderer, naive, img);
     leap_renderer_destroy(renderer);
     printf("%d sparseleap frames marched a single box's chord\n", single_box_frames);
     CHECK_MSG(single_box_frames > 0, "no case exercised the single-box path");

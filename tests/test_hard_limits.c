@@ -38,12 +38,14 @@ static uint64_t overflow_comb(gpu *g)
     return ovf;
 }
 
-/* Small capacities: the blocks' shared views and the shipped blobs overflow. */
+/* Small capacities: the blocks' shared views (exact boxes: the cut's end at the blocks'
+ * voxels, and fewer rays cross more than one) and the shipped blobs overflow. */
 static uint64_t overflow_blocks(gpu *g)
 {
     static const double zero[3] = {0, 0, 0};
     uint64_t ovf = 0;
-    leap_scene *s = hc_blocks(g);
+    leap_scene *s = load_tmp_exact("blocks", &RAMP, 0.0, 1.0);
+    if (!hc_bind(g, s)) s = NULL;
     if (s) {
         for (int k = 0; k < N_SHARED_VIEWS; ++k) {
             leap_rays v;

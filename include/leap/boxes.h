@@ -23,7 +23,14 @@ extern "C" {
  * the image is unchanged. The cut drops an EMPTY root and clips boxes to the grid's cells.
  * With merge_siblings, sibling boxes of one class that together form a box are emitted as one
  * (the DFS order stays valid because merged boxes are whole octants of their parent in one
- * slab). Built after leap_occupancy_classify; rebuild after each. */
+ * slab). With an atlas, each NONEMPTY box that holds no other box is shrunk to the voxel cubes
+ * of its cells whose samples can show (tight boxes): a sample lies in the trilinear cube of its
+ * eight voxels, whose texels' range, classified as classify classifies a cell's range, says
+ * whether any sample there has opacity. A shrunk box lies inside its node, so the order stays
+ * valid, and the samples it leaves out have none, so the image is unchanged; a box none of
+ * whose samples can show is dropped (the cell ranges come from whole bricks, so NONEMPTY cells
+ * whose own texels show nothing are common). Built after
+ * leap_occupancy_classify; rebuild after each. */
 typedef struct leap_boxes leap_boxes;
 
 /* The cut's cost model, in nanoseconds; zero fields take the measured defaults. */
@@ -40,6 +47,9 @@ typedef struct leap_boxes_desc {
     double step;                     /* the step the boxes serve (voxels); 0 = exact class-change boxes */
     double pixels;                   /* rays per frame the cut expects (0 = 512 x 512) */
     leap_boxes_costs costs;
+    const leap_atlas *atlas;         /* optional: the scalar volume's atlas, whose host texels
+                                        shrink the boxes (NULL, a label atlas or one without host
+                                        texels, a lazy or streamed one: boxes end on cell faces) */
 } leap_boxes_desc;
 
 typedef struct leap_boxes_stats {
@@ -48,6 +58,9 @@ typedef struct leap_boxes_stats {
     uint32_t max_depth;
     double build_ms;
     double cost_ns;          /* the cut's cost estimate per unit ray density (0: exact boxes) */
+    uint32_t tightened;      /* boxes shrunk to their voxels (leap_boxes_desc.atlas) */
+    uint32_t dropped;        /* NONEMPTY boxes dropped: none of their samples can show */
+    double tighten_ms;       /* of build_ms */
 } leap_boxes_stats;
 
 /* Errors: LEAP_ERR_USAGE (no occupancy, negative step), LEAP_ERR_OOM. A cut may emit no box

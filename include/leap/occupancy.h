@@ -106,6 +106,13 @@ int leap_occupancy_learn_cell(leap_occupancy *occ, const int64_t cell[3], float 
  * cell boxes). Returns 0 (and leaves lo/hi alone) when there are none. */
 int leap_occupancy_nonempty_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);
 
+/* Whether samples whose values lie between 16-bit atlas texels vmin <= vmax (the eight voxels
+ * of a sample's trilinear cube, leap_atlas.value_min/max's quantisation) can have opacity
+ * under the last leap_occupancy_classify, judged as classify judges a cell's range: the cut's
+ * boxes end where no sample can (leap_boxes_desc.atlas). 1 for a label tree or before the
+ * first classify. */
+int leap_occupancy_texels_show(const leap_occupancy *occ, uint16_t vmin, uint16_t vmax);
+
 /* The tree for per-ray traversal on the GPU (the octree mode): node i is words[8i .. 8i+7],
  * one word per octant k = x | y << 1 | z << 2: LEAP_TREE_LEAF | class for a single-class
  * subtree, else the index of the child node. The tree's root is a cube of 2^depth cells

@@ -252,6 +252,9 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(oc, "cells_unknown", (double)os.cells[LEAP_CLASS_UNKNOWN]);
     cJSON_AddNumberToObject(oc, "boxes", bs.boxes);
     cJSON_AddNumberToObject(oc, "boxes_without_merging", bs.boxes_unmerged);
+    cJSON_AddNumberToObject(oc, "boxes_tightened", bs.tightened);
+    cJSON_AddNumberToObject(oc, "boxes_dropped", bs.dropped);
+    cJSON_AddNumberToObject(oc, "tighten_ms", bs.tighten_ms);
     if (mode == LEAP_RENDER_SPARSELEAP) {
         cJSON *l = cJSON_AddObjectToObject(root, "lists");
         cJSON_AddNumberToObject(l, "events_per_pixel_mean", fs->events_mean);

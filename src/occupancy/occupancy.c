@@ -45,6 +45,13 @@
 /* Extra widening of a u interval, on top of the 16-bit quantisation and one table entry. */
 #define U_EPSILON 1e-6
 
+/* Per-classify constants: u = (v - lo) * scale, widened by `widen` on both sides. */
+typedef struct classifier {
+    double lo, scale, widen;
+    int flat;               /* hi == lo: every value maps to u = 0 */
+    uint32_t prefix[N_TABLE + 1]; /* prefix[i] = number of entries < i with opacity > 0 */
+} classifier;
+
 typedef struct occ_node {
     uint32_t origin[3];              /* minimum cell */
     uint32_t level;                  /* edge = 2^level cells (>= 1 for internal nodes) */
@@ -77,6 +84,7 @@ struct leap_occupancy {
     uint32_t label_singletons;   /* sets below this hold one object (constant cells) */
     uint32_t *set_leaf_start;    /* label trees: the stored leaves of set s are */
     uint32_t *set_leaves;        /* set_leaves[set_leaf_start[s] .. set_leaf_start[s + 1]) */
+    classifier *scalar_classes;  /* the last classify's, for cube classes (leap_occ_internal_cube_classes) */
     int bounds_found;            /* cached by classify: bounds of NONEMPTY/UNKNOWN cells */
     double bounds_lo[3], bounds_hi[3];
 };
@@ -436,6 +444,7 @@ void leap_occupancy_destroy(leap_occupancy *occ)
     free(occ->range_cls);
     free(occ->set_leaf_start);
     free(occ->set_leaves);
+    free(occ->scalar_classes);
     free(occ);
 }
 
@@ -588,12 +597,6 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     return LEAP_OK;
 }
 
-/* Per-classify constants: u = (v - lo) * scale, widened by `widen` on both sides. */
-typedef struct classifier {
-    double lo, scale, widen;
-    int flat;               /* hi == lo: every value maps to u = 0 */
-    uint32_t prefix[N_TABLE + 1]; /* prefix[i] = number of entries < i with opacity > 0 */
-} classifier;
 
 static uint32_t classify_range(const classifier *c, float vmin, float vmax)
 {
@@ -640,8 +643,9 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
         return leap_fail(err, LEAP_ERR_USAGE, "occupancy: TF range [%g, %g] is not finite",
                          range_lo, range_hi);
     const double t0 = leap__now_ms();
-    classifier local;
-    classifier *cl = &local;
+    if (!occ->scalar_classes && !(occ->scalar_classes = malloc(sizeof *occ->scalar_classes)))
+        return leap_fail(err, LEAP_ERR_OOM, "occupancy: out of memory");
+    classifier *cl = occ->scalar_classes;
     cl->lo = range_lo;
     cl->flat = range_hi == range_lo;
     cl->scale = cl->flat ? 0.0 : 1.0 / (range_hi - range_lo);
@@ -659,6 +663,69 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
     occ->classify_ms = leap__now_ms() - t0;
     classes_changed(occ);
     return LEAP_OK;
+}
+
+/* The table indices classify_range gives a range whose lower (upper) value is 16-bit atlas
+ * texel t: each depends on that end alone, so a range of texels is classified by the lower
+ * index of one end and the upper index of the other (the ends swapped for a TF range from
+ * high to low). */
+static void texel_indices(const leap_occupancy *occ, uint16_t t, uint16_t *lower, uint16_t *upper)
+{
+    const classifier *cl = occ->scalar_classes;
+    const double v = occ->value_min + (occ->value_max - occ->value_min) * (t / 65535.0);
+    const double u = cl->flat ? 0.0 : (v - cl->lo) * cl->scale;
+    double u0 = u - cl->widen, u1 = u + cl->widen;
+    u0 = u0 < 0.0 ? 0.0 : (u0 > 1.0 ? 1.0 : u0);
+    u1 = u1 < 0.0 ? 0.0 : (u1 > 1.0 ? 1.0 : u1);
+    long i0 = (long)floor(u0 * (N_TABLE - 1)) - 1, i1 = (long)ceil(u1 * (N_TABLE - 1)) + 1;
+    if (i0 < 0) i0 = 0;
+    if (i1 > N_TABLE - 1) i1 = N_TABLE - 1;
+    if (u1 <= 0.0) i1 = 0;
+    if (u0 >= 1.0) i0 = N_TABLE - 1;
+    *lower = (uint16_t)i0;
+    *upper = (uint16_t)i1;
+}
+
+int leap_occ_internal_cube_classes(const leap_occupancy *occ, occ_cube_classes *out)
+{
+    memset(out, 0, sizeof *out);
+    const classifier *cl = occ->scalar_classes;
+    if (!cl || occ->label_sets) return 0;
+    out->lo_index = malloc(65536 * sizeof *out->lo_index);
+    out->hi_index = malloc(65536 * sizeof *out->hi_index);
+    out->next = malloc((N_TABLE + 1) * sizeof *out->next);
+    if (!out->lo_index || !out->hi_index || !out->next) {
+        leap_occ_internal_cube_classes_free(out);
+        return 0;
+    }
+    out->reversed = !cl->flat && cl->scale < 0;
+    for (uint32_t t = 0; t < 65536; ++t) texel_indices(occ, (uint16_t)t, &out->lo_index[t], &out->hi_index[t]);
+    out->next[N_TABLE] = N_TABLE;
+    for (int i = N_TABLE - 1; i >= 0; --i)
+        out->next[i] = cl->prefix[i + 1] > cl->prefix[i] ? (uint16_t)i : out->next[i + 1];
+    return 1;
+}
+
+int leap_occupancy_texels_show(const leap_occupancy *occ, uint16_t vmin, uint16_t vmax)
+{
+    const classifier *cl = occ ? occ->scalar_classes : NULL;
+    if (!cl || occ->label_sets) return 1;
+    if (!cl->flat && cl->scale < 0) {
+        const uint16_t t = vmin;
+        vmin = vmax, vmax = t;
+    }
+    uint16_t i0, i1, unused;
+    texel_indices(occ, vmin, &i0, &unused);
+    texel_indices(occ, vmax, &unused, &i1);
+    return cl->prefix[i1 + 1] - cl->prefix[i0] > 0;
+}
+
+void leap_occ_internal_cube_classes_free(occ_cube_classes *c)
+{
+    free(c->lo_index);
+    free(c->hi_index);
+    free(c->next);
+    memset(c, 0, sizeof *c);
 }
 
 /* The inverted index set -> stored leaves (a counting sort), built on first use. */

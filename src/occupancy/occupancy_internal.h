@@ -26,4 +26,17 @@ int leap_occ_internal_ref_constant(const leap_occupancy *occ, uint32_t ref);
  * the tree (walk.c); returns 0 when there are none. */
 int leap_occ_internal_bounds(const leap_occupancy *occ, double lo[3], double hi[3]);
 
+/* Classes of 16-bit atlas texel ranges under the last scalar classify, as classify gives a
+ * cell's range: the range [a, b] (a <= b) is not EMPTY iff next[lo_index[a]] <= hi_index[b]
+ * (reversed, a TF range from high to low: next[lo_index[b]] <= hi_index[a]). For the voxel
+ * cubes of tight boxes (boxes.c). Returns 0 (nothing allocated) for a label tree, before the
+ * first classify, or out of memory. */
+typedef struct occ_cube_classes {
+    uint16_t *lo_index, *hi_index; /* per texel value */
+    uint16_t *next;                /* per table index: the first entry from it on with opacity */
+    int reversed;
+} occ_cube_classes;
+int leap_occ_internal_cube_classes(const leap_occupancy *occ, occ_cube_classes *out);
+void leap_occ_internal_cube_classes_free(occ_cube_classes *c);
+
 #endif

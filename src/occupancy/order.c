@@ -32,6 +32,7 @@ static void visit(order_ctx *c, uint32_t ni)
             double h = (double)v->lo[a] + (double)((uint64_t)1 << v->ext[a]);
             if (c->boxes->clip && h > c->boxes->cells[a]) h = c->boxes->cells[a];
             hi[a] = (float)(h * LEAP_CELL);
+            if (v->flags & F_TIGHT) lo[a] = (float)v->tlo[a], hi[a] = (float)v->thi[a];
         }
         g->lo.x = lo[0], g->lo.y = lo[1], g->lo.z = lo[2], g->lo.w = 0.0f;
         g->hi.x = hi[0], g->hi.y = hi[1], g->hi.z = hi[2], g->hi.w = 0.0f;

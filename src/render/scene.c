@@ -300,6 +300,7 @@ static leap_result build_boxes(leap_scene *s, leap_error *err)
         .occupancy = s->occupancy,
         .merge_siblings = s->merge,
         .step = s->exact_boxes ? 0.0 : s->march.step,
+        .atlas = s->atlas,
     };
     leap_result r = leap_boxes_create(&bd, &s->boxes, err);
     if (!r) {
