@@ -434,7 +434,7 @@ static double marched_empty_cost(const vbuilder *b, uint32_t ref, uint32_t heigh
 /* Tight boxes: the most cells one box may span, and all boxes together (about 0.4-1 us a
  * cell: rain, 36,804 cells in 16 ms; ch2, 14,812 in 15 ms). */
 #define TIGHT_BOX_CELLS ((int64_t)1 << 16)
-#define TIGHT_CELLS ((int64_t)1 << 21)
+#define TIGHT_CELLS ((int64_t)1 << 19)
 
 /* Whether samples between texel values vmin <= vmax can have opacity. */
 static int cube_shows(const occ_cube_classes *cc, uint16_t vmin, uint16_t vmax)
