@@ -520,7 +520,7 @@ static void tighten(leap_boxes *bx, const leap_occupancy *occ, const leap_atlas 
         for (int a = 0; a < 3; ++a) {
             clo[a] = v->lo[a];
             chi[a] = (int64_t)v->lo[a] + ((int64_t)1 << v->ext[a]);
-            if (bx->clip && chi[a] > bx->cells[a]) chi[a] = bx->cells[a];
+            if (chi[a] > bx->cells[a]) chi[a] = bx->cells[a]; /* the cut clips boxes to its cells */
             if (chi[a] > grid[a]) beyond = 1, chi[a] = grid[a];
             lo[a] = INT64_MAX, hi[a] = INT64_MIN;
         }
