@@ -736,9 +736,9 @@ static int make_rain(const char *path)
 }
 
 /* Tight boxes (leap_boxes_desc.atlas): the cut's boxes shrunk to the voxel cubes whose samples
- * can show, and without the boxes none of whose samples can, give sparseleap naive's image bit
- * for bit, as the same cut's boxes ending on cell faces do, with fewer samples and events (cell
- * classes come from whole bricks' ranges, so most of the balls' NONEMPTY cells show nothing). */
+ * can show give sparseleap naive's image bit for bit, as the same cut's boxes ending on cell
+ * faces do, with fewer samples and events (a ball of radius 3 fills little of the cells it
+ * meets). */
 static void check_tight_boxes(leap_renderer *renderer, float *naive, float *img)
 {
     char path[1024];
@@ -765,8 +765,8 @@ static void check_tight_boxes(leap_renderer *renderer, float *naive, float *img)
         CHECK_OK(leap_boxes_create(&bd, &tight_boxes, &err), &err);
         leap_boxes_stats bs;
         leap_boxes_get_stats(tight_boxes, &bs);
-        CHECK_MSG(bs.tightened > 0 && bs.dropped > 0, "rain, step %g: %u boxes tightened, %u dropped", steps[k],
-                  bs.tightened, bs.dropped);
+        CHECK_MSG(bs.tightened > 0, "rain, step %g: %u boxes tightened, %u dropped", steps[k], bs.tightened,
+                  bs.dropped);
         CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
         for (int c = 0; c < 3; ++c) {
             leap_rays view;

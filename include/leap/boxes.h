@@ -28,8 +28,8 @@ extern "C" {
  * eight voxels, whose texels' range, classified as classify classifies a cell's range, says
  * whether any sample there has opacity. A shrunk box lies inside its node, so the order stays
  * valid, and the samples it leaves out have none, so the image is unchanged; a box none of
- * whose samples can show is dropped (the cell ranges come from whole bricks, so NONEMPTY cells
- * whose own texels show nothing are common). Built after
+ * whose samples can show is dropped (with cell ranges from whole bricks, NONEMPTY cells whose
+ * own texels show nothing are common). Built after
  * leap_occupancy_classify; rebuild after each. */
 typedef struct leap_boxes leap_boxes;
 

@@ -3,7 +3,10 @@
  * Space is cut into cells of 8^3 voxels, the same cells as the atlas (cell c covers the
  * closed box [8c, 8c+8]^3 in index space relative to `origin`). A cell's value range covers
  * every value trilinear interpolation can produce in that closed box: the voxels
- * [8c, 8c+8]^3. It is built only from stored brick min/max (which include a one-voxel apron):
+ * [8c, 8c+8]^3. Given an atlas with host texels (leap_occupancy_desc.cell_atlas) it is that
+ * footprint's own range, as the atlas stored it (a slot's texel range, a constant's value).
+ * Otherwise (lazy and streamed scenes) it is built from stored brick min/max (which include a
+ * one-voxel apron):
  *   - a brick (leaf or tile) contributes its range to every cell it overlaps and to the cells
  *     one step towards - on each axis (their footprint reaches one voxel into the brick);
  *   - cells strictly inside a tile (footprint inside the tile) hold the tile value alone;
@@ -51,6 +54,10 @@ typedef struct leap_occupancy_desc {
                                       themselves), each leaf holding a label set: the object of
                                       a constant cell (set = object index) or a mixed cell's
                                       record (set = object count + record number) */
+    const leap_atlas *cell_atlas;  /* a scalar atlas with host texels (not lazy): each cell's
+                                      range is its own footprint's texels (its slot's range or
+                                      its constant value), not the union of the bricks it
+                                      meets, so fewer cells are NONEMPTY; the bricks are unused */
 } leap_occupancy_desc;
 
 typedef struct leap_occupancy leap_occupancy;

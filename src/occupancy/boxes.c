@@ -539,8 +539,8 @@ static void tighten(leap_boxes *bx, const leap_occupancy *occ, const leap_atlas 
                     if (cls == LEAP_CLASS_EMPTY) continue;
                     const uint32_t c32[3] = {(uint32_t)x, (uint32_t)y, (uint32_t)z};
                     const uint32_t entry = leap_atlas_cell_entry(atlas, c32);
-                    /* The cell's class comes from the ranges of whole bricks around it, which
-                     * its own texels may not reach: a constant cell shows by its value. */
+                    /* A class from the ranges of whole bricks around the cell may not hold
+                     * for its own texels: a constant cell shows by its value. */
                     const uint16_t value = (uint16_t)(entry & 0xffffu);
                     if (cls == LEAP_CLASS_NONEMPTY && (entry & LEAP_PAGE_CONST) && !cube_shows(&cc, value, value)) continue;
                     if (cls != LEAP_CLASS_NONEMPTY || (entry & LEAP_PAGE_CONST)) {

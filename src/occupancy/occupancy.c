@@ -1,6 +1,8 @@
 /* Occupancy histogram tree over 8^3-voxel cells (see include/leap/occupancy.h).
  *
- * Build (from brick min/max only, never from voxels). A cell's range is the union of the
+ * Build from an atlas's own cells (leap_occupancy_desc.cell_atlas: one exact item per cell,
+ * its footprint's texel range, or one big item per constant region not of the background), or
+ * from brick min/max, never reading voxels. From bricks, a cell's range is the union of the
  * ranges of the bricks whose voxels meet its closed footprint [8c, 8c+8]^3, except that the
  * cells whose footprint lies inside a tile (the tile interior) hold the tile value alone.
  * Items, clipped to the cell grid [0, cells):
@@ -150,6 +152,8 @@ typedef struct builder {
     int oom;
     int exact;                 /* items cover their own cell only (label trees) */
     const leap_atlas *label_atlas; /* label trees: the atlas whose page table is read */
+    const leap_atlas *cell_atlas;  /* scalar trees from an atlas's own cells (leap_occupancy_desc) */
+    uint16_t background_texel;     /* cell_atlas: the background as its texels hold it */
 } builder;
 
 /* Footprint of a brick in cells, clipped to the grid: the cells c whose closed footprint
@@ -507,6 +511,53 @@ static leap_result add_label_cells(builder *b, const leap_atlas *a, leap_error *
     return LEAP_OK;
 }
 
+/* A 16-bit texel of the atlas the tree is built from, as a value. */
+static float texel_value(const leap_atlas *a, uint32_t t)
+{
+    return (float)(a->value_min + (a->value_max - a->value_min) * (t / 65535.0));
+}
+
+/* One page-table region of a scalar atlas with host texels (leap_atlas_visit): a constant
+ * region not of the background's value becomes one big item covering its cells, a block one
+ * exact item per cell, ranged by the cell's own texels (its slot's range, or its value). */
+static int add_scalar_region(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
+{
+    builder *b = ctx;
+    const leap_atlas *a = b->cell_atlas;
+    if (!cells) {
+        const uint32_t t = entry & 0xffffu;
+        if (t == b->background_texel) return 0;
+        if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) return b->oom = 1;
+        big_item *it = &b->big[b->big_count++];
+        for (int k = 0; k < 3; ++k) {
+            it->flo[k] = it->ilo[k] = lo[k];
+            it->fhi[k] = it->ihi[k] = ((uint64_t)lo[k] + edge < a->cells[k] ? lo[k] + edge : a->cells[k]) - 1;
+        }
+        it->interior = 1;
+        it->lo = it->hi = it->v = texel_value(a, t);
+        return 0;
+    }
+    const uint32_t shift = a->block_shift;
+    for (uint32_t i = 0; i < edge * edge * edge; ++i) {
+        const uint32_t c[3] = {lo[0] + (i & (edge - 1)), lo[1] + (i >> shift & (edge - 1)), lo[2] + (i >> (2 * shift))};
+        if (c[0] >= a->cells[0] || c[1] >= a->cells[1] || c[2] >= a->cells[2]) continue;
+        const uint32_t e = cells[i];
+        uint32_t tlo = e & 0xffffu, thi = tlo;
+        if (!(e & LEAP_PAGE_CONST)) {
+            const uint32_t range = a->slot_ranges[leap_atlas_entry_slot(a->slot_dims, e)];
+            tlo = range & 0xffffu, thi = range >> 16;
+        } else if (tlo == b->background_texel) {
+            continue;
+        }
+        if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) return b->oom = 1;
+        small_item *it = &b->arena[b->arena_count++];
+        for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
+        it->lo = texel_value(a, tlo);
+        it->hi = texel_value(a, thi);
+    }
+    return 0;
+}
+
 /* A serial unique across occupancies, so that a renderer never mistakes one for another. */
 static void classes_changed(leap_occupancy *occ)
 {
@@ -531,13 +582,13 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
     }
     while (((uint64_t)1 << occ->depth) < maxc) ++occ->depth;
     occ->background = desc->background;
-    if (desc->label_atlas) {
-        const leap_atlas *la = desc->label_atlas;
-        occ->background = (float)la->background_object;
+    const leap_atlas *la = desc->label_atlas ? desc->label_atlas : desc->cell_atlas;
+    if (la) {
+        if (desc->label_atlas) occ->background = (float)la->background_object;
         for (int a = 0; a < 3; ++a)
             if (desc->cells[a] != la->cells[a] || desc->origin[a] != la->origin[a]) {
                 free(occ);
-                return leap_fail(err, LEAP_ERR_USAGE, "occupancy: the cell grid differs from the label atlas's");
+                return leap_fail(err, LEAP_ERR_USAGE, "occupancy: the cell grid differs from the atlas's");
             }
     }
     occ->value_min = desc->value_min;
@@ -563,7 +614,17 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
             return lr;
         }
     }
-    for (size_t i = 0; !empty && !desc->label_atlas && i < desc->brick_count && !b.oom; ++i)
+    if (!empty && desc->cell_atlas && !desc->label_atlas) {
+        /* The background as the atlas quantises it (its constant cells hold it so). */
+        const leap_atlas *a = desc->cell_atlas;
+        double q = (occ->background - a->value_min) / (a->value_max - a->value_min);
+        q = q < 0 ? 0 : q > 1 ? 1 : q;
+        b.background_texel = (uint16_t)lrint(q * 65535.0);
+        b.exact = 1;
+        b.cell_atlas = a;
+        leap_atlas_visit(a, add_scalar_region, &b);
+    }
+    for (size_t i = 0; !empty && !desc->label_atlas && !desc->cell_atlas && i < desc->brick_count && !b.oom; ++i)
         add_brick(&b, &desc->bricks[i], desc->origin);
     /* a first guess of the tree size */
     if (!b.oom && b.arena_count &&
