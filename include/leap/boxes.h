@@ -48,8 +48,9 @@ typedef struct leap_boxes_desc {
     double pixels;                   /* rays per frame the cut expects (0 = 512 x 512) */
     leap_boxes_costs costs;
     const leap_atlas *atlas;         /* optional: the scalar volume's atlas, whose host texels
-                                        shrink the boxes (NULL, a label atlas or one without host
-                                        texels, a lazy or streamed one: boxes end on cell faces) */
+                                        shrink the cut's boxes (unused for exact boxes; NULL, a
+                                        label atlas or one without host texels, a lazy or
+                                        streamed one: boxes end on cell faces) */
 } leap_boxes_desc;
 
 typedef struct leap_boxes_stats {

@@ -161,6 +161,7 @@ static int info_tfs(const char *path, const leap_input_options *io, const char *
             cJSON_AddNumberToObject(o, "boxes", bs.boxes);
             cJSON_AddNumberToObject(o, "boxes_without_merging", bs.boxes_unmerged);
             cJSON_AddNumberToObject(o, "boxes_tightened", bs.tightened);
+            cJSON_AddNumberToObject(o, "boxes_dropped", bs.dropped);
             cJSON_AddNumberToObject(o, i ? "switch_ms" : "build_ms", ms);
             cJSON_AddNumberToObject(o, "classify_ms", s->classify_ms);
             cJSON_AddNumberToObject(o, "boxes_ms", s->boxes_ms);
@@ -168,10 +169,11 @@ static int info_tfs(const char *path, const leap_input_options *io, const char *
         } else {
             char tf_name[sizeof s->tf.name];
             printf("  tf %-12s cells: %llu empty, %llu non-empty, %llu unknown; tree %u nodes, depth %u; "
-                   "boxes %u (%u unmerged, %u tightened); %s %.2f ms (classify %.2f, boxes %.2f)\n",
+                   "boxes %u (%u unmerged, %u tightened, %u dropped); %s %.2f ms (classify %.2f, boxes %.2f)\n",
                    cli_printable(s->tf.name, tf_name, sizeof tf_name), (unsigned long long)os.cells[LEAP_CLASS_EMPTY],
                    (unsigned long long)os.cells[LEAP_CLASS_NONEMPTY], (unsigned long long)os.cells[LEAP_CLASS_UNKNOWN],
-                   os.nodes, os.depth, bs.boxes, bs.boxes_unmerged, bs.tightened, i ? "switch" : "build", ms, s->classify_ms,
+                   os.nodes, os.depth, bs.boxes, bs.boxes_unmerged, bs.tightened, bs.dropped, i ? "switch" : "build", ms,
+                   s->classify_ms,
                    s->boxes_ms);
         }
     }

@@ -252,7 +252,7 @@ static leap_result build_occupancy(leap_scene *s, const leap_brick *bricks, size
         .value_min = s->atlas->value_min,
         .value_max = s->atlas->value_max,
         .label_atlas = s->labels ? s->atlas : NULL,
-        .cell_atlas = !s->labels && s->atlas->slot_texels && !s->index.lazy ? s->atlas : NULL,
+        .cell_atlas = !s->labels && s->atlas->slot_texels ? s->atlas : NULL, /* not streamed, not lazy */
     };
     for (int i = 0; i < 3; ++i) {
         od.origin[i] = s->atlas->origin[i];
