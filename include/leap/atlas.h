@@ -145,6 +145,13 @@ typedef int (*leap_atlas_visit_fn)(void *ctx, const uint32_t lo[3], uint32_t edg
                                    const uint32_t *cells);
 int leap_atlas_visit(const leap_atlas *atlas, leap_atlas_visit_fn visit, void *ctx);
 
+/* The cell of entry k (cells[k]) of the page block leap_atlas_visit passes at lo; 0 when it lies
+ * beyond atlas->cells (a block may reach past them). */
+int leap_atlas_block_cell(const leap_atlas *atlas, const uint32_t lo[3], uint32_t k, uint32_t cell[3]);
+
+/* A value as the atlas stores it: the 16-bit texel of value_min .. value_max (clamped). */
+uint16_t leap_atlas_quantize(const leap_atlas *atlas, float v);
+
 /* The texels as the GPU image lays them out (texel_dims, x fastest): texels first .. first +
  * count - 1 into out, 0 in unused slots. */
 void leap_atlas_texels(const leap_atlas *atlas, size_t first, size_t count, uint16_t *out);

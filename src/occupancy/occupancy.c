@@ -460,36 +460,48 @@ static uint32_t label_set(const leap_atlas *a, uint32_t entry)
     return a->object_count + a->label_words[entry + 1];
 }
 
+/* A constant region of an atlas (leap_atlas_visit: the cube of `edge` cells from lo) as one big
+ * item of value v covering its cells. */
+static int add_region_item(builder *b, const leap_atlas *a, const uint32_t lo[3], uint32_t edge, float v)
+{
+    if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) return b->oom = 1;
+    big_item *it = &b->big[b->big_count++];
+    for (int k = 0; k < 3; ++k) {
+        it->flo[k] = it->ilo[k] = lo[k];
+        it->fhi[k] = it->ihi[k] = ((uint64_t)lo[k] + edge < a->cells[k] ? lo[k] + edge : a->cells[k]) - 1;
+    }
+    it->interior = 1;
+    it->lo = it->hi = it->v = v;
+    return 0;
+}
+
+/* One exact item: cell c of range [lo, hi]. */
+static int add_cell_item(builder *b, const uint32_t c[3], float lo, float hi)
+{
+    if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) return b->oom = 1;
+    small_item *it = &b->arena[b->arena_count++];
+    for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
+    it->lo = lo;
+    it->hi = hi;
+    return 0;
+}
+
 /* One page-table region of a label atlas (leap_atlas_visit): a constant region not of the
  * background's set becomes one big item covering its cells, a block one item per cell. */
 static int add_label_region(void *ctx, const uint32_t lo[3], uint32_t edge, uint32_t entry, const uint32_t *cells)
 {
     builder *b = ctx;
     const leap_atlas *a = b->label_atlas;
-    leap_occupancy *occ = b->occ;
+    const float background = b->occ->background;
     if (!cells) {
         const float set = (float)label_set(a, entry);
-        if (set == occ->background) return 0;
-        if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) return b->oom = 1;
-        big_item *it = &b->big[b->big_count++];
-        for (int k = 0; k < 3; ++k) {
-            it->flo[k] = it->ilo[k] = lo[k];
-            it->fhi[k] = it->ihi[k] = ((uint64_t)lo[k] + edge < a->cells[k] ? lo[k] + edge : a->cells[k]) - 1;
-        }
-        it->interior = 1;
-        it->lo = it->hi = it->v = set;
-        return 0;
+        return set == background ? 0 : add_region_item(b, a, lo, edge, set);
     }
-    const uint32_t shift = a->block_shift;
     for (uint32_t i = 0; i < edge * edge * edge; ++i) {
-        const uint32_t c[3] = {lo[0] + (i & (edge - 1)), lo[1] + (i >> shift & (edge - 1)), lo[2] + (i >> (2 * shift))};
-        if (c[0] >= a->cells[0] || c[1] >= a->cells[1] || c[2] >= a->cells[2]) continue;
+        uint32_t c[3];
+        if (!leap_atlas_block_cell(a, lo, i, c)) continue;
         const float set = (float)label_set(a, cells[i]);
-        if (set == occ->background) continue;
-        if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) return b->oom = 1;
-        small_item *it = &b->arena[b->arena_count++];
-        for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
-        it->lo = it->hi = set;
+        if (set != background && add_cell_item(b, c, set, set)) return 1;
     }
     return 0;
 }
@@ -511,10 +523,10 @@ static leap_result add_label_cells(builder *b, const leap_atlas *a, leap_error *
     return LEAP_OK;
 }
 
-/* A 16-bit texel of the atlas the tree is built from, as a value. */
-static float texel_value(const leap_atlas *a, uint32_t t)
+/* 16-bit texel t of a value range [vmin, vmax] (texel 0 and 65535 stand for its ends), as a value. */
+static double texel_value(double vmin, double vmax, uint32_t t)
 {
-    return (float)(a->value_min + (a->value_max - a->value_min) * (t / 65535.0));
+    return vmin + (vmax - vmin) * (t / 65535.0);
 }
 
 /* One page-table region of a scalar atlas with host texels (leap_atlas_visit): a constant
@@ -526,21 +538,11 @@ static int add_scalar_region(void *ctx, const uint32_t lo[3], uint32_t edge, uin
     const leap_atlas *a = b->cell_atlas;
     if (!cells) {
         const uint32_t t = entry & 0xffffu;
-        if (t == b->background_texel) return 0;
-        if (!leap__grow((void **)&b->big, &b->big_cap, b->big_count + 1, sizeof *b->big)) return b->oom = 1;
-        big_item *it = &b->big[b->big_count++];
-        for (int k = 0; k < 3; ++k) {
-            it->flo[k] = it->ilo[k] = lo[k];
-            it->fhi[k] = it->ihi[k] = ((uint64_t)lo[k] + edge < a->cells[k] ? lo[k] + edge : a->cells[k]) - 1;
-        }
-        it->interior = 1;
-        it->lo = it->hi = it->v = texel_value(a, t);
-        return 0;
+        return t == b->background_texel ? 0 : add_region_item(b, a, lo, edge, (float)texel_value(a->value_min, a->value_max, t));
     }
-    const uint32_t shift = a->block_shift;
     for (uint32_t i = 0; i < edge * edge * edge; ++i) {
-        const uint32_t c[3] = {lo[0] + (i & (edge - 1)), lo[1] + (i >> shift & (edge - 1)), lo[2] + (i >> (2 * shift))};
-        if (c[0] >= a->cells[0] || c[1] >= a->cells[1] || c[2] >= a->cells[2]) continue;
+        uint32_t c[3];
+        if (!leap_atlas_block_cell(a, lo, i, c)) continue;
         const uint32_t e = cells[i];
         uint32_t tlo = e & 0xffffu, thi = tlo;
         if (!(e & LEAP_PAGE_CONST)) {
@@ -549,11 +551,9 @@ static int add_scalar_region(void *ctx, const uint32_t lo[3], uint32_t edge, uin
         } else if (tlo == b->background_texel) {
             continue;
         }
-        if (!leap__grow((void **)&b->arena, &b->arena_cap, b->arena_count + 1, sizeof *b->arena)) return b->oom = 1;
-        small_item *it = &b->arena[b->arena_count++];
-        for (int k = 0; k < 3; ++k) it->b[k] = (int32_t)c[k];
-        it->lo = texel_value(a, tlo);
-        it->hi = texel_value(a, thi);
+        if (add_cell_item(b, c, (float)texel_value(a->value_min, a->value_max, tlo),
+                          (float)texel_value(a->value_min, a->value_max, thi)))
+            return 1;
     }
     return 0;
 }
@@ -615,14 +615,10 @@ leap_result leap_occupancy_create(const leap_occupancy_desc *desc, leap_occupanc
         }
     }
     if (!empty && desc->cell_atlas && !desc->label_atlas) {
-        /* The background as the atlas quantises it (its constant cells hold it so). */
-        const leap_atlas *a = desc->cell_atlas;
-        double q = (occ->background - a->value_min) / (a->value_max - a->value_min);
-        q = q < 0 ? 0 : q > 1 ? 1 : q;
-        b.background_texel = (uint16_t)lrint(q * 65535.0);
+        b.background_texel = leap_atlas_quantize(desc->cell_atlas, occ->background); /* as its constant cells hold it */
         b.exact = 1;
-        b.cell_atlas = a;
-        leap_atlas_visit(a, add_scalar_region, &b);
+        b.cell_atlas = desc->cell_atlas;
+        leap_atlas_visit(desc->cell_atlas, add_scalar_region, &b);
     }
     for (size_t i = 0; !empty && !desc->label_atlas && !desc->cell_atlas && i < desc->brick_count && !b.oom; ++i)
         add_brick(&b, &desc->bricks[i], desc->origin);
@@ -733,7 +729,7 @@ leap_result leap_occupancy_classify(leap_occupancy *occ, const leap_tf *tf, doub
 static void texel_indices(const leap_occupancy *occ, uint16_t t, uint16_t *lower, uint16_t *upper)
 {
     const classifier *cl = occ->scalar_classes;
-    const double v = occ->value_min + (occ->value_max - occ->value_min) * (t / 65535.0);
+    const double v = texel_value(occ->value_min, occ->value_max, t);
     const double u = cl->flat ? 0.0 : (v - cl->lo) * cl->scale;
     double u0 = u - cl->widen, u1 = u + cl->widen;
     u0 = u0 < 0.0 ? 0.0 : (u0 > 1.0 ? 1.0 : u0);

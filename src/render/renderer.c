@@ -193,12 +193,10 @@ static int note_slot_cell_words(void *ctx, const uint32_t lo[3], uint32_t edge, 
     slot_cell_list *l = ctx;
     if (!cells) return 0;
     const leap_atlas *a = l->atlas;
-    const uint32_t shift = a->block_shift;
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
         if (cells[k] & LEAP_PAGE_CONST) continue;
         if (l->n == l->r->slot_cell_count) return 1; /* more slot entries than slots: not this atlas */
-        uint32_t *cell = l->r->slot_cells[l->n];
-        cell[0] = lo[0] | (k & (edge - 1)), cell[1] = lo[1] | (k >> shift & (edge - 1)), cell[2] = lo[2] | (k >> (2 * shift));
+        leap_atlas_block_cell(a, lo, k, l->r->slot_cells[l->n]); /* a slot cell lies inside the grid */
         l->r->slot_words[l->n++] = (uint32_t)(cells + k - a->pages);
     }
     return 0;

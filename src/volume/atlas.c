@@ -78,7 +78,7 @@ static uint32_t block_cells(const leap_atlas *a) { return 1u << (3 * a->block_sh
 
 static int32_t floor_div8(int32_t v) { return (int32_t)floor(v / 8.0); }
 
-static uint16_t quantize(const leap_atlas *a, float v)
+uint16_t leap_atlas_quantize(const leap_atlas *a, float v)
 {
     double s = (v - a->value_min) / (a->value_max - a->value_min);
     s = s < 0 ? 0 : s > 1 ? 1 : s;
@@ -226,7 +226,7 @@ static leap_result fill_tile_interior(builder *b, const leap_brick *br, leap_err
         if (hi[i] >= a->cells[i]) hi[i] = a->cells[i] - 1;
         if (lo[i] > hi[i]) return LEAP_OK;
     }
-    uint32_t entry = const_entry(quantize(a, br->tile_value));
+    uint32_t entry = const_entry(leap_atlas_quantize(a, br->tile_value));
     if (a->labels) {
         int64_t label;
         const int32_t one[3] = {1, 1, 1};
@@ -345,7 +345,7 @@ static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32
     cell_corner(a, c, a->wide, min);
     leap_grid_reader_box(reader, min, dim, vals);
     int uniform = 1;
-    const uint16_t first = quantize(a, vals[0]);
+    const uint16_t first = leap_atlas_quantize(a, vals[0]);
     uint16_t lo = 0xffff, hi = 0;
     const float *v = vals;
     for (int z = 0; z < edge; ++z)
@@ -353,7 +353,7 @@ static int read_cell(const leap_atlas *a, leap_grid_reader *reader, const uint32
             const int sy = y - a->wide, sz = z - a->wide;
             const int row = sy >= 0 && sy < LEAP_SLOT && sz >= 0 && sz < LEAP_SLOT ? LEAP_SLOT * (sy + LEAP_SLOT * sz) : -1;
             for (int x = 0; x < edge; ++x) {
-                const uint16_t t = quantize(a, *v++);
+                const uint16_t t = leap_atlas_quantize(a, *v++);
                 uniform &= t == first;
                 const int sx = x - a->wide;
                 if (row >= 0 && sx >= 0 && sx < LEAP_SLOT) {
@@ -381,7 +381,7 @@ static int scanned_cell(const builder *b, const leap_grid *grid, const uint32_t 
     cell_corner(a, c, 0, min);
     float lo, hi;
     if (!b->stream_texels || a->wide || !leap_grid_cell_range(grid, min, &lo, &hi)) return 0;
-    const uint16_t ql = quantize(a, lo), qh = quantize(a, hi);
+    const uint16_t ql = leap_atlas_quantize(a, lo), qh = leap_atlas_quantize(a, hi);
     *entry = const_entry(ql);
     *range = (uint32_t)ql | (uint32_t)qh << 16;
     *constant = ql == qh && !dense;
@@ -881,7 +881,7 @@ static leap_result build(builder *b, const leap_atlas_desc *desc, leap_error *er
         a->domain_min[i] = a->empty ? 1.0 : bmin[i] - 0.5 - (double)a->origin[i];
         a->domain_max[i] = a->empty ? 0.0 : bmax[i] + 0.5 - (double)a->origin[i];
     }
-    uint32_t background = const_entry(quantize(a, (float)info->background));
+    uint32_t background = const_entry(leap_atlas_quantize(a, (float)info->background));
     if (a->labels) {
         background = label_entry(b->labels, leap_grid_background_label(desc->grid));
         a->background_object = background & LEAP_LABEL_INDEX_MASK;
@@ -1288,6 +1288,13 @@ static int visit_entry(const leap_atlas *a, uint32_t entry, uint32_t level, cons
         if (stop) return stop;
     }
     return 0;
+}
+
+int leap_atlas_block_cell(const leap_atlas *a, const uint32_t lo[3], uint32_t k, uint32_t cell[3])
+{
+    const uint32_t shift = a->block_shift, mask = (1u << shift) - 1;
+    cell[0] = lo[0] | (k & mask), cell[1] = lo[1] | (k >> shift & mask), cell[2] = lo[2] | (k >> (2 * shift));
+    return cell[0] < a->cells[0] && cell[1] < a->cells[1] && cell[2] < a->cells[2];
 }
 
 int leap_atlas_visit(const leap_atlas *a, leap_atlas_visit_fn visit, void *ctx)

@@ -45,14 +45,13 @@ static int note_slot_cells(void *ctx, const uint32_t lo[3], uint32_t edge, uint3
     leap_value_gradients *vg = ctx;
     if (!cells) return 0;
     const leap_atlas *a = vg->atlas;
-    const uint32_t shift = a->block_shift, mask = edge - 1;
     for (uint32_t k = 0; k < edge * edge * edge; ++k) {
         const uint32_t e = cells[k];
         if (e & LEAP_PAGE_CONST) continue;
         const size_t slot = leap_atlas_entry_slot(a->slot_dims, e);
-        vg->slot_cell[slot][0] = (int32_t)(lo[0] | (k & mask));
-        vg->slot_cell[slot][1] = (int32_t)(lo[1] | ((k >> shift) & mask));
-        vg->slot_cell[slot][2] = (int32_t)(lo[2] | (k >> (2 * shift)));
+        uint32_t c[3];
+        leap_atlas_block_cell(a, lo, k, c); /* a slot cell lies inside the grid */
+        for (int i = 0; i < 3; ++i) vg->slot_cell[slot][i] = (int32_t)c[i];
     }
     return 0;
 }
