@@ -508,23 +508,17 @@ static void tighten(leap_boxes *bx, const leap_occupancy *occ, const leap_atlas 
                 ++c;
             }
     }
-    uint32_t grid[3];
-    leap_occupancy_get_cells(occ, grid);
-    const int64_t outside_cls = (int64_t)leap_occupancy_cell_class(occ, (const int64_t[3]){-1, -1, -1});
     int64_t visited = 0;
     for (uint32_t i = 0; i < bx->count; ++i) {
         bnode *v = &bx->n[i];
         if (!(v->flags & F_EMITTED) || v->cls != LEAP_CLASS_NONEMPTY || holds[i]) continue;
         int64_t clo[3], chi[3], lo[3], hi[3];
-        int beyond = 0;
         for (int a = 0; a < 3; ++a) {
             clo[a] = v->lo[a];
             chi[a] = (int64_t)v->lo[a] + ((int64_t)1 << v->ext[a]);
-            if (chi[a] > bx->cells[a]) chi[a] = bx->cells[a]; /* the cut clips boxes to its cells */
-            if (chi[a] > grid[a]) beyond = 1, chi[a] = grid[a];
+            if (chi[a] > bx->cells[a]) chi[a] = bx->cells[a]; /* the cut clips boxes to the grid's cells */
             lo[a] = INT64_MAX, hi[a] = INT64_MIN;
         }
-        if (beyond && outside_cls != LEAP_CLASS_EMPTY) continue; /* cells beyond the grid may show */
         /* Bounded work: a box of many cells gains little for its cost (its faces are far
          * apart), and the viewer builds boxes at every transfer function change. */
         const int64_t cells = (chi[0] - clo[0]) * (chi[1] - clo[1]) * (chi[2] - clo[2]);
