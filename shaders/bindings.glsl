@@ -19,6 +19,7 @@ layout(std430, set = 0, binding = LEAP_BINDING_TREE) readonly buffer Tree { uint
 layout(std430, set = 0, binding = LEAP_BINDING_OBJECTS) readonly buffer Objects { vec4 objects[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_SLOT_RANGES) readonly buffer SlotRanges { uint slot_ranges[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_RAYS) buffer Rays { uint ray_lists[]; };
+layout(std430, set = 0, binding = LEAP_BINDING_BOX_RECTS) buffer BoxRects { uint box_rects[]; };
 layout(std430, set = 0, binding = LEAP_BINDING_MISSES) buffer Misses { uint misses[]; };
 
 #endif

@@ -56,6 +56,21 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
                                      word 1 + s / 32, bit s % 32) that a ray needed but was not
                                      resident (LEAP_PAGE_MISSING) */
 
+#define LEAP_BINDING_BOX_RECTS 18  /* storage uint[]: the boxes' screen footprints (LEAP_BOX_RECTS_*) */
+
+/* The boxes' screen footprints, written each frame by the rects pass (rects.comp) for the
+ * raster's two draws (events.vert), in words of binding LEAP_BINDING_BOX_RECTS, n boxes
+ * (frame.lists.z):
+ *   [POINTS, +4)  draw-indirect command of the boxes drawn as points (vertex count = boxes)
+ *   [RECTS, +4)   that of the boxes drawn as rectangles (six vertices a box)
+ *   [HEADER + 4 b, +4)  box b's shape, floats: a point's centre (NDC) and size (pixels), or a
+ *                       rectangle's corners (NDC) xmin, ymin, xmax, ymax
+ *   [HEADER + 4 n, +n)  the boxes drawn as points, in any order; [HEADER + 5 n, +n) as rectangles */
+#define LEAP_BOX_RECTS_POINTS 0u
+#define LEAP_BOX_RECTS_RECTS 4u
+#define LEAP_BOX_RECTS_HEADER 8u
+#define LEAP_BOX_RECTS_WORDS(boxes) (LEAP_BOX_RECTS_HEADER + 6u * (boxes))
+
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */
 
 /* Bricks and pages. The volume is cut into cells of LEAP_CELL^3 voxels aligned with the

@@ -81,16 +81,23 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
     return LEAP_OK;
 }
 
+/* The boxes and their screen footprints (LEAP_BOX_RECTS_* in shared.h). */
 static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *err)
 {
-    VkDeviceSize need = (VkDeviceSize)(count ? count : 1) * sizeof(leap_box_gpu);
-    if (need > r->gpu->storage_buffer_range)
+    const VkDeviceSize n = count ? count : 1, need = n * sizeof(leap_box_gpu), rects = LEAP_BOX_RECTS_WORDS(n) * 4;
+    if (need > r->gpu->storage_buffer_range || rects > r->gpu->storage_buffer_range)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%u occupancy boxes exceed the device's %llu MiB buffer limit", count,
                          (unsigned long long)(r->gpu->storage_buffer_range >> 20));
-    if (r->boxes.size >= need) return LEAP_OK;
+    if (r->boxes.size >= need && r->box_rects.size >= rects) return LEAP_OK;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     leap_gpu_buffer_destroy(r->gpu, &r->boxes);
-    return leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+    leap_gpu_buffer_destroy(r->gpu, &r->box_rects);
+    leap_result lr = leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
+    if (!lr)
+        lr = leap_gpu_buffer_create(r->gpu, rects, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
+                                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+                                    &r->box_rects, err);
+    return lr;
 }
 
 /* Uploads the occupancy tree as it is classified now (octree mode, and sparseleap pixels whose
@@ -125,6 +132,7 @@ static void write_descriptors(leap_renderer *r)
         [LEAP_BINDING_TREE] = &r->tree, [LEAP_BINDING_OBJECTS] = &r->objects,
         [LEAP_BINDING_SLOT_RANGES] = r->slot_ranges.buffer ? &r->slot_ranges : &r->pages, /* labels: never read */
         [LEAP_BINDING_MISSES] = &r->misses,
+        [LEAP_BINDING_BOX_RECTS] = r->box_rects.buffer ? &r->box_rects : &r->boxes, /* no lists yet: never read */
     };
     const int shading = r->value_gradients_serial == r->atlas_serial && r->value_gradients.view;
     VkDescriptorImageInfo img[3] = {
@@ -228,13 +236,25 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
                          int timed)
 {
     VkCommandBuffer cmd = r->gpu->cmd;
+    /* Each box's footprint, listed for the draw that takes it; no box listed yet: draws of
+     * (0, 1, 0, 0) vertices (written as the boxes are, before the frame is submitted). */
+    const uint32_t no_boxes[LEAP_BOX_RECTS_HEADER] = {0, 1, 0, 0, 0, 1, 0, 0};
+    memcpy(r->box_rects.mapped, no_boxes, sizeof no_boxes);
+    if (box_count) {
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->rects);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+        vkCmdDispatch(cmd, (box_count + 63) / 64, 1, 1);
+    }
     vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, event_count_bytes(view), 0);
     /* Every ray list empty: dispatches of (0, 1, 1) work groups. */
     uint32_t no_rays[LEAP_RAYS_HEADER] = {0};
     for (uint32_t list = 0; list < LEAP_RAYS_LISTS; ++list) no_rays[4 * list + 1] = no_rays[4 * list + 2] = 1;
     vkCmdUpdateBuffer(cmd, r->ray_lists.buffer, 0, sizeof no_rays, no_rays);
-    shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
-                   VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+    shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT |
+                       VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                   VK_ACCESS_TRANSFER_WRITE_BIT | VK_ACCESS_SHADER_WRITE_BIT,
+                   VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT | VK_ACCESS_INDIRECT_COMMAND_READ_BIT);
     VkRenderPassBeginInfo rpbi = {
         .sType = VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO,
         .renderPass = r->render_pass,
@@ -247,11 +267,11 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
     vkCmdSetViewport(cmd, 0, 1, &vp);
     vkCmdSetScissor(cmd, 0, 1, &sc);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    if (box_count) { /* each box is drawn by one of the two (events.vert) */
+    if (box_count) { /* each box is drawn by one of the two, as rects.comp listed it */
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events[1]);
-        vkCmdDraw(cmd, box_count, 1, 0, 0);
+        vkCmdDrawIndirect(cmd, r->box_rects.buffer, 4 * LEAP_BOX_RECTS_POINTS, 1, 16);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events[0]);
-        vkCmdDraw(cmd, 6 * box_count, 1, 0, 0);
+        vkCmdDrawIndirect(cmd, r->box_rects.buffer, 4 * LEAP_BOX_RECTS_RECTS, 1, 16);
     }
     vkCmdEndRenderPass(cmd);
     if (timed) vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, r->gpu->timestamps, TS_RASTER);

@@ -13,6 +13,9 @@ static const uint32_t composite_spv[] = {
 static const uint32_t resolve_spv[] = {
 #include "resolve_comp.inc"
 };
+static const uint32_t rects_spv[] = {
+#include "rects_comp.inc"
+};
 static const uint32_t events_vert_spv[] = {
 #include "events_vert.inc"
 };
@@ -33,8 +36,9 @@ static VkResult make_module(VkDevice dev, const uint32_t *code, size_t bytes, Vk
     return vr;
 }
 
-/* The ray-event pass's two pipelines (events.vert: screen rectangles as triangles, and
- * points), no attachments: fragments only append to storage buffers. */
+/* The ray-event pass's two pipelines (events.vert: the footprints rects.comp lists, as
+ * rectangles of two triangles and as points), no attachments: fragments only append to
+ * storage buffers. */
 static leap_result create_events_pipeline(leap_renderer *r, leap_error *err)
 {
     VkDevice dev = r->gpu->device;
@@ -155,6 +159,18 @@ static leap_result create_compute(leap_renderer *r, VkShaderModule module, spec_
     return LEAP_OK;
 }
 
+/* The raster's first pass (rects.comp), which has no specialisation constants. */
+static leap_result create_rects_pipeline(leap_renderer *r, leap_error *err)
+{
+    VkShaderModule module = VK_NULL_HANDLE;
+    VkResult vr = make_module(r->gpu->device, rects_spv, sizeof rects_spv, &module);
+    if (vr != VK_SUCCESS)
+        return leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(vr));
+    leap_result lr = create_compute(r, module, (spec_values){0}, &r->rects, err);
+    vkDestroyShaderModule(r->gpu->device, module, NULL);
+    return lr;
+}
+
 int renderer_composite_kind(const leap_renderer *r, const leap_march *m)
 {
     if (r->labels) return COMPOSITE_LABELS;
@@ -249,6 +265,7 @@ leap_result renderer_create_pipelines(leap_renderer *r, leap_error *err)
     if (mr != VK_SUCCESS)
         lr = leap_fail(err, LEAP_ERR_VULKAN, "Vulkan: cannot create a shader module: %s", leap_vk_result_name(mr));
     if (!lr) lr = create_events_pipeline(r, err);
+    if (!lr) lr = create_rects_pipeline(r, err);
     if (lr) return lr;
     VkSamplerCreateInfo sci = {
         .sType = VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO,

@@ -73,6 +73,7 @@ void leap_renderer_destroy(leap_renderer *r)
         leap_gpu_buffer_destroy(gpu, &r->tree);
         leap_gpu_buffer_destroy(gpu, &r->objects);
         leap_gpu_buffer_destroy(gpu, &r->boxes);
+        leap_gpu_buffer_destroy(gpu, &r->box_rects);
         leap_gpu_image_destroy(gpu, &r->tf);
         leap_gpu_buffer_destroy(gpu, &r->pages);
         leap_gpu_buffer_destroy(gpu, &r->slot_ranges);
@@ -87,6 +88,7 @@ void leap_renderer_destroy(leap_renderer *r)
         if (r->atlas_sampler) vkDestroySampler(dev, r->atlas_sampler, NULL);
         for (int i = 0; i < 2; ++i)
             if (r->events[i]) vkDestroyPipeline(dev, r->events[i], NULL);
+        if (r->rects) vkDestroyPipeline(dev, r->rects, NULL);
         for (int s = 0; s < 2; ++s)
             for (int c = 0; c < 2; ++c)
                 if (r->resolve[s][c]) vkDestroyPipeline(dev, r->resolve[s][c], NULL);

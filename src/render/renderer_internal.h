@@ -10,7 +10,7 @@
 
 _Static_assert(sizeof(leap_frame_gpu) == 624, "leap_frame_gpu must match its std140 layout in shared.h");
 _Static_assert(sizeof(leap_box_gpu) == 48, "leap_box_gpu must match its std430 layout in shared.h");
-#define BINDING_COUNT 18
+#define BINDING_COUNT 19
 
 /* Kinds of composite pipeline: scalar with opacity corrected per sample or in the TF table,
  * labels, MIP, and the two scalar ones shaded. */
@@ -79,6 +79,7 @@ struct leap_renderer {
     leap_partial_fn partial;   /* leap_renderer_set_partial */
     void *partial_user;
     double partial_interval_ms;
+    VkPipeline rects;     /* the boxes' screen footprints (rects.comp), for the raster */
     VkPipeline events[2]; /* the ray-event raster (events.vert): rectangles, points */
     /* The resolve pass's two stages (resolve.comp), with and without the naive count; created
      * on first use from resolve_module. */
@@ -122,7 +123,7 @@ struct leap_renderer {
     uint32_t objects_hidden; /* 1 when an object (not the background) is hidden: octree asks every cell */
     leap_buffer objects;
     double objects_step;     /* 0: the device table is stale */
-    leap_buffer boxes, event_counts, event_t, event_key, segments, pixel_lists, ray_lists, tree;
+    leap_buffer boxes, box_rects, event_counts, event_t, event_key, segments, pixel_lists, ray_lists, tree;
     uint32_t tree_top[4];    /* frame.tree_top: the walk's node 0 (leap_occupancy_flatten) */
     int keep_lists;          /* build the lists even when the boxes reduce to one (dumps) */
     uint32_t *lists_mask;    /* the event mask of the last listed frame read: the pixels whose list facts
