@@ -425,6 +425,23 @@ int main(void)
         CHECK_MSG(have_args && run(cmd) == 0, "%s: %s", cmd, out_text);
         if (have_args && exists(shot) && exists(ref)) matches(shot, ref, look_keys[k][0]);
     }
+    {
+        /* Key l where the volume cannot be shaded (through a GPU brick cache): refused with the
+         * reason, and the session goes on unshaded, in a script too. */
+        char text[2048];
+        expand(text, sizeof text, "orbit 30 20\nkey l\nscreenshot @/unshaded.png\nkey q\n", tmp);
+        snprintf(script, sizeof script, "%s/unshaded.txt", tmp);
+        write_text(script, text);
+        snprintf(shot, sizeof shot, "%s/unshaded.png", tmp);
+        remove(shot);
+        snprintf(cmd, sizeof cmd, "%s %s view %s --size 200x150 --gpu-cache 64K --script %s", xvfb, LEAP_EXE, vol, script);
+        rc = run(cmd);
+        CHECK_MSG(rc == 0 && strstr(out_text, "l: gradient shading does not run with a GPU brick cache") &&
+                      strstr(out_text, "the view stays unshaded"),
+                  "%s -> exit %d: %s", cmd, rc, out_text);
+        int have_args = render_args_for(shot, args, sizeof args);
+        CHECK_MSG(have_args && !strstr(args, "--shade"), "a refused key l: the screenshot's line is shaded: %s", args);
+    }
 
     /* The panel: an opacity curve set by script commands and saved as JSON renders the same
      * image through `leap render --tf FILE.json`; a screenshot with the panel differs from the

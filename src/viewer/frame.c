@@ -52,9 +52,19 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
 }
 
 /* Switches transfer function and value window (re-classify and rebuild boxes, no reload), the
- * step (the boxes' cost-model cut depends on it) and MIP (its own classification). */
-static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_error *err)
+ * step (the boxes' cost-model cut depends on it), MIP (its own classification) and shading. A
+ * shading refused for this volume (LEAP_ERR_UNSUPPORTED) leaves the view unshaded (st too),
+ * with the reason shown, in scripts as well: the key asked for something the volume cannot
+ * give, the session goes on. */
+static leap_result apply_tf(leap_viewer_session *s, leap_viewer *st, leap_error *err)
 {
+    if (!st->shade.on) s->shade_refusal_shown = 0;
+    if (st->shade.on && s->shade_refusal[0]) {
+        if (!s->shade_refusal_shown)
+            session_note(s, LEAP_VIEWER_NOTE_STATUS, "l: %s; the view stays unshaded", s->shade_refusal);
+        s->shade_refusal_shown = 1;
+        st->shade.on = 0;
+    }
     const int same_tf = !strcmp(st->tf, s->applied_tf) && st->range[0] == s->applied_range[0] &&
                         st->range[1] == s->applied_range[1] && st->tf_edits == s->applied_tf_edits;
     if (same_tf && st->step == s->scene->march.step && st->mip == s->scene->march.mip &&
@@ -76,6 +86,10 @@ static leap_result apply_tf(leap_viewer_session *s, const leap_viewer *st, leap_
     }
     if (!r) r = leap_scene_set_step(s->scene, st->step, err);
     if (!r) r = leap_renderer_bind_scene(s->renderer, s->scene, err);
+    if (r == LEAP_ERR_UNSUPPORTED && st->shade.on) {
+        snprintf(s->shade_refusal, sizeof s->shade_refusal, "%s", err->msg);
+        return apply_tf(s, st, err);
+    }
     ++s->tf_gen;
     s->tf_apply_ms = leap__now_ms() - t;
     char why[256];

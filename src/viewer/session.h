@@ -65,6 +65,10 @@ struct leap_viewer_session {
     char applied_tf[512];
     double applied_range[2];
     unsigned applied_tf_edits;
+    /* Shading the scene or the renderer refused (a grid read on demand, a GPU brick cache):
+     * frames stay unshaded; the reason is shown once each time key l asks for shading. */
+    char shade_refusal[512];
+    int shade_refusal_shown;
     double tf_apply_ms;
     uint64_t applied_fb_seq;
     /* segmentations: the last pick and the object requests carried out */
