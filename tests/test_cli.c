@@ -156,6 +156,7 @@ int main(void)
         {"--ambient 20", "--ambient"},
         {"--shininess 0.5", "--shininess"},
         {"--light 1,0", "--light"},
+        {"--light 0,0,0", "no direction"},
         {"--gpu-cache 12Q", "--gpu-cache"},
         {"--gpu-cache 0", "--gpu-cache"},
         {"--memory-budget lots", "--memory-budget"},
@@ -530,6 +531,22 @@ int main(void)
     }
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --shade", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "segmentation", out);
+    /* A segmentation goes through no GPU brick cache: --gpu-cache is not dropped silently. */
+    snprintf(args, sizeof args, "render %s/tubes.vdb -o %s --size 32x32 --gpu-cache 64K", LEAP_VOLUMES, out);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "does not go through a GPU brick cache"), "%s", out_text);
+    {
+        /* An object list none of whose IDs is an object of the volume: a usage error, as for
+         * --show, not a blank image. */
+        snprintf(path, sizeof path, "%s/other_objects.txt", tmp);
+        FILE *f = fopen(path, "w");
+        CHECK(f != NULL);
+        if (f) {
+            fputs("999\n1000 #ff0000 0.5\n", f);
+            fclose(f);
+        }
+        snprintf(args, sizeof args, "render %s/tubes.vdb -o %s --size 32x32 --objects %s", LEAP_VOLUMES, out, path);
+        EXPECT_FAIL(2, args, "lists 2 IDs, none of them one of the volume's", out);
+    }
     /* Options of one kind of volume are refused on the other (they were ignored, exit 0). */
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --tf hot", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "--tf does not apply to a segmentation", out);

@@ -378,7 +378,7 @@ static void test_lists(void)
     FILE *f = fopen(file, "w");
     fputs("# chosen objects\n1\n4 #ff8000 0.25\n7 0.1,0.2,0.3\n", f);
     fclose(f);
-    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, &err), &err);
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, NULL, &err), &err);
     CHECK(n == 3 && leap_labels_visible_count(s->labels) == 3);
     double rgba[4];
     leap_labels_rgba(s->labels, (size_t)leap_labels_find(s->labels, 4), rgba);
@@ -389,19 +389,19 @@ static void test_lists(void)
     f = fopen(file, "w");
     fputs("{\"objects\": [1, \"4\", {\"id\": 7, \"color\": \"#0000ff\", \"opacity\": 0.75}]}", f);
     fclose(f);
-    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, &err), &err);
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, NULL, &err), &err);
     CHECK(n == 3 && leap_labels_visible_count(s->labels) == 3);
     leap_labels_rgba(s->labels, (size_t)leap_labels_find(s->labels, 7), rgba);
     CHECK(rgba[2] == 1.0 && rgba[0] == 0.0 && fabs(rgba[3] - 0.75) < 1e-6);
     f = fopen(file, "w");
     fputs("{\"segments\": [\"2\", \"3\"]}", f);
     fclose(f);
-    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, &err), &err);
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, NULL, &err), &err);
     CHECK(n == 2 && leap_labels_visible_count(s->labels) == 2 && leap_labels_visible(s->labels, 2));
     f = fopen(file, "w");
     fputs("[1, 2.5]", f);
     fclose(f);
-    CHECK_MSG(leap_labels_load_objects(s->labels, file, &n, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "entry 2"),
+    CHECK_MSG(leap_labels_load_objects(s->labels, file, &n, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "entry 2"),
               "bad JSON entry: %s", err.msg);
     const char *bad[] = {"1\n2\nabc\n", "1 #ff80\n", "1 #ff8000 2\n", "1 2 3 4 5\n"};
     const int line[] = {3, 1, 1, 1};
@@ -411,7 +411,7 @@ static void test_lists(void)
         fclose(f);
         char want[32];
         snprintf(want, sizeof want, "line %d", line[i]);
-        CHECK_MSG(leap_labels_load_objects(s->labels, file, &n, &err) == LEAP_ERR_FORMAT && strstr(err.msg, want),
+        CHECK_MSG(leap_labels_load_objects(s->labels, file, &n, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, want),
                   "bad object file %d: %s", i, err.msg);
     }
     leap_scene_destroy(s);

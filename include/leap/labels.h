@@ -64,9 +64,11 @@ leap_result leap_labels_select(leap_labels *labels, const char *list, int visibl
  * #rrggbb or R,G,B in [0, 1], OPACITY in [0, 1] per voxel; '#' at the start of a line makes a
  * comment. JSON (the file starts with [ or {): an array of IDs, {"objects": [ID or {"id",
  * "color", "opacity"}, ...]}, or a neuroglancer layer's {"segments": ["ID", ...]}; IDs as
- * numbers below 2^53 or as decimal strings. IDs the volume lacks are skipped (*listed counts
- * every entry). Errors: LEAP_ERR_IO, LEAP_ERR_FORMAT naming the file and line or entry. */
-leap_result leap_labels_load_objects(leap_labels *labels, const char *path, size_t *listed, leap_error *err);
+ * numbers below 2^53 or as decimal strings. IDs the volume lacks are skipped: *listed counts
+ * every entry, *found those of the volume's objects (either may be NULL). Errors: LEAP_ERR_IO,
+ * LEAP_ERR_FORMAT naming the file and line or entry. */
+leap_result leap_labels_load_objects(leap_labels *labels, const char *path, size_t *listed, size_t *found,
+                                     leap_error *err);
 
 /* Number of visible objects (drawn with a non-zero opacity). */
 size_t leap_labels_visible_count(const leap_labels *labels);

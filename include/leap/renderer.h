@@ -89,6 +89,9 @@ typedef struct leap_frame_stats {
     uint32_t cache_slots, cache_passes;
     uint64_t cache_image_bytes;
     uint64_t cache_misses, cache_loaded, cache_evicted;
+    /* A segmentation's volume bytes on the device when a cache was asked for and they need more:
+     * label records are uploaded whole, never through the cache (0 otherwise). */
+    uint64_t uncached_label_bytes;
     /* Rays still waiting for bricks: 0 in a finished frame; > 0 in the pictures given to a
      * leap_renderer_set_partial callback and in a frame it ended (an incomplete frame). */
     uint64_t waiting_pixels;
@@ -208,9 +211,10 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *rays, const 
                                  leap_mode mode, float *rgba, float *depth, float *samples,
                                  leap_frame_stats *stats, leap_error *err);
 
-/* Whether a frame's GPU brick cache took more than the `asked` bytes (--gpu-cache; 0: none
- * asked) that its renderer was given: it holds at least one whole layer of the volume's slots.
- * 1 with the sentence that says so in `out`, else 0. */
+/* Whether a frame's volume took more than the `asked` bytes (--gpu-cache; 0: none asked) that
+ * its renderer was given: a GPU brick cache holds at least one whole layer of the volume's
+ * slots, and a segmentation goes through none. 1 with the sentence that says so in `out`,
+ * else 0. */
 int leap_frame_cache_over(const leap_frame_stats *stats, uint64_t asked, char *out, size_t out_size);
 
 #ifdef __cplusplus

@@ -170,6 +170,10 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *shade, lea
  * hidden), so any image is blank. Writes a one-line reason for the user into msg. */
 int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size);
 
+/* What colours the scene, for reports: its transfer function's name, or "object colours" for a
+ * segmentation (which has none). */
+const char *leap_scene_colouring(const leap_scene *s);
+
 /* A clipping plane in world units (keep a x + b y + c z + d >= 0) as the plane of relative
  * index space that leap_march.clip holds. */
 void leap_scene_clip_to_index(const leap_scene *s, const double world[4], double index[4]);

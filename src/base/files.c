@@ -264,7 +264,8 @@ leap_result leap_make_dirs(const char *path, leap_made_dirs *made, leap_error *e
         struct stat st;
         if (stat(buf, &st) == 0) {
             if (!S_ISDIR(st.st_mode))
-                return leap_fail(err, LEAP_ERR_IO, "%s: '%s' exists and is not a directory", path, buf);
+                return strcmp(buf, path) ? leap_fail(err, LEAP_ERR_IO, "%s: '%s' exists and is not a directory", path, buf)
+                                         : leap_fail(err, LEAP_ERR_IO, "'%s' exists and is not a directory", path);
         } else if (mkdir(buf, 0777) == 0) {
             if (made && made->count < (int)(sizeof made->path / sizeof made->path[0]))
                 memcpy(made->path[made->count++], buf, strlen(buf) + 1);

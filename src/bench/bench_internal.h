@@ -20,6 +20,7 @@ typedef struct run_result {
     double trace_ms; /* vdb_render rows: its own ray-tracing time (median); NaN otherwise */
     uint32_t cache_slots, cache_passes; /* the GPU brick cache (0: none): slots, most passes a frame took */
     uint64_t cache_image_bytes;
+    uint64_t uncached_label_bytes; /* leap_frame_stats' */
 } run_result;
 
 /* Fixed per-pixel cost, per volume x size x mode: the composite pass of a frame in which no

@@ -87,6 +87,7 @@ static leap_result time_run(leap_renderer *renderer, leap_scene *s, const leap_r
     r.overflow = st.overflow_pixels;
     r.cache_slots = st.cache_slots;
     r.cache_image_bytes = st.cache_image_bytes;
+    r.uncached_label_bytes = st.uncached_label_bytes;
     if (ref) errors(img, ref, pixels, &r);
     else r.rmse = r.psnr = r.max_abs = NAN;
     *out = r;
@@ -264,7 +265,8 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
             run_result r;
             if (time_run(b->renderer, s, &view, o->modes[mi], o, img, refp, 0, &r, err)) return LEAP_ERR_IO;
             if (o->modes[mi] == LEAP_RENDER_NAIVE) naive_ms = r.frame_ms[0];
-            const leap_frame_stats cache = {.cache_slots = r.cache_slots, .cache_image_bytes = r.cache_image_bytes};
+            const leap_frame_stats cache = {.cache_slots = r.cache_slots, .cache_image_bytes = r.cache_image_bytes,
+                                           .uncached_label_bytes = r.uncached_label_bytes};
             char over[256], note[4400];
             if (!b->cache_noted && leap_frame_cache_over(&cache, o->gpu_cache_bytes, over, sizeof over)) {
                 b->cache_noted = 1;

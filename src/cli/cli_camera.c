@@ -66,7 +66,8 @@ const char *cli_camera_options_help =
     "  --gpu-cache SIZE    room for the volume's bricks on the device, e.g. 64M or 2G; a\n"
     "                      volume that needs more is rendered through a cache of that size,\n"
     "                      loading bricks as rays miss them over several passes a frame\n"
-    "                      (the same image, slower; not with --shade; default: room for all);\n"
+    "                      (the same image, slower; not with --shade nor for segmentations;\n"
+    "                      default: room for all);\n"
     "                      the cache holds at least one layer of the bricks' image, and\n"
     "                      leap render warns when that takes more than SIZE\n"
     "  --memory-budget SIZE  memory the volume may take (env LEAP_MEMORY_BUDGET; default:\n"
@@ -260,6 +261,8 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
                                                                           isfinite(o->scene.shade.light[1]) &&
                                                                           isfinite(o->scene.shade.light[2])))
             FAIL("--light '%s' must be X,Y,Z (a world direction towards the light)", v);
+        if (o->scene.shade.light[0] == 0 && o->scene.shade.light[1] == 0 && o->scene.shade.light[2] == 0)
+            FAIL("--light 0,0,0 has no direction (without --light the light comes from the eye)");
         o->scene.shade.on = 1;
         break;
     case AMBIENT:

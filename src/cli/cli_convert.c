@@ -86,8 +86,8 @@ int cli_convert(int argc, char **argv)
     const double t_read = leap__now_ms();
     int index = -1;
     if (!r && (index = leap_vdb_find_grid(file, grid_name)) < 0)
-        r = leap_fail(&err, LEAP_ERR_FORMAT, "%s: %s", input,
-                      grid_name ? "no grid of that name (leap info lists them)" : "no scalar grid to convert");
+        r = grid_name ? leap_fail(&err, LEAP_ERR_FORMAT, "%s: no grid named '%s' (leap info lists them)", input, grid_name)
+                      : leap_fail(&err, LEAP_ERR_FORMAT, "%s: no scalar grid to convert", input);
     if (!r) stage(quiet, 1, "building the grid");
     if (!r) r = leap_vdb_load_grid(file, index, &grid, &err);
     if (!r && labels && !leap_grid_has_labels(grid)) r = leap_grid_make_labels(grid, &err);

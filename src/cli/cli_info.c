@@ -353,6 +353,17 @@ int cli_info(int argc, char **argv)
         cJSON *jg = json ? info_json(&gi, loaded) : NULL;
         if (jg) cJSON_AddItemToArray(grids, jg);
         else print_info_text(&gi, loaded);
+        const leap_result made = labels && grid && gi.scalar && !leap_grid_has_labels(grid)
+                                     ? leap_grid_make_labels(grid, &err) : LEAP_OK;
+        if (made) rc = made == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg)
+                                              : cli_runtime_error("%s", err.msg);
+        if (!rc && grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
+        else if (!rc && objects && !json)
+            printf("  objects        none: not a segmentation (%s values; --labels reads integer values as one)\n",
+                   gi.value_type);
+        if (!rc && grid && bins) rc = info_histogram(grid, bins, has_range ? range : NULL, jg);
+        if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, budget, tfs, ntf, has_range ? range : NULL, jg);
+        /* Last: the leaves read include those the histogram and the objects read. */
         if (grid && leap_grid_on_demand(grid)) {
             const char *note = index.note[0] ? index.note : "none";
             if (jg) {
@@ -365,16 +376,6 @@ int cli_info(int argc, char **argv)
                        (double)budget / (1 << 20), (unsigned long long)leap_grid_leaves_read(grid), note);
             }
         }
-        const leap_result made = labels && grid && gi.scalar && !leap_grid_has_labels(grid)
-                                     ? leap_grid_make_labels(grid, &err) : LEAP_OK;
-        if (made) rc = made == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg)
-                                              : cli_runtime_error("%s", err.msg);
-        if (!rc && grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
-        else if (!rc && objects && !json)
-            printf("  objects        none: not a segmentation (%s values; --labels reads integer values as one)\n",
-                   gi.value_type);
-        if (!rc && grid && bins) rc = info_histogram(grid, bins, has_range ? range : NULL, jg);
-        if (!rc && grid && ntf) rc = info_tfs(input, &io, gi.name, budget, tfs, ntf, has_range ? range : NULL, jg);
         leap_grid_destroy(grid);
     }
     leap_vdb_close(file);

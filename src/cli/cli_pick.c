@@ -68,6 +68,9 @@ int cli_pick(int argc, char **argv)
                                o.height);
     leap_error err = {{0}};
     leap_scene *scene = NULL;
+    /* Shading changes colour only: the first sample above an opacity is the same without it,
+     * and without its gradients the volume may be read on demand. */
+    o.scene.shade.on = 0;
     leap_result r = cli_scene_create(&o.scene, 1, &scene, &err);
     if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
     rc = 0;

@@ -181,7 +181,7 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddStringToObject(root, "input", leap__utf8_text(o->input, utf8, sizeof utf8));
     cJSON_AddStringToObject(root, "grid", leap__utf8_text(s->info->name, utf8, sizeof utf8));
     cJSON_AddStringToObject(root, "mode", o->mode_name);
-    cJSON_AddStringToObject(root, "transfer_function", s->tf.name);
+    cJSON_AddStringToObject(root, "transfer_function", leap_scene_colouring(s));
     cJSON_AddNumberToObject(root, "width", o->width);
     cJSON_AddNumberToObject(root, "height", o->height);
     cJSON_AddNumberToObject(root, "step", s->march.step);

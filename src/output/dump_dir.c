@@ -251,7 +251,7 @@ leap_result leap_dump_dir_write(leap_dump_dir *dir, const leap_dump_image_desc *
     char utf8[4096]; /* names as valid UTF-8: a file name may hold any bytes */
     cJSON_AddStringToObject(sum, "volume", leap__utf8_text(c->source.volume, utf8, sizeof utf8));
     cJSON_AddStringToObject(sum, "grid", leap__utf8_text(c->source.scene->info->name, utf8, sizeof utf8));
-    cJSON_AddStringToObject(sum, "transfer_function", c->source.scene->tf.name);
+    cJSON_AddStringToObject(sum, "transfer_function", leap_scene_colouring(c->source.scene));
     double range[2] = {c->source.scene->march.range_lo, c->source.scene->march.range_hi};
     cJSON_AddItemToObject(sum, "range", cJSON_CreateDoubleArray(range, 2));
     cJSON_AddStringToObject(sum, "mode", "sparseleap");

@@ -75,7 +75,7 @@ static char *pixel_json(const leap_dump_source *src, const leap_dump_frame *f, c
     char utf8[4096]; /* names as valid UTF-8: a file name may hold any bytes */
     cJSON_AddStringToObject(root, "volume", leap__utf8_text(src->volume, utf8, sizeof utf8));
     cJSON_AddStringToObject(root, "grid", leap__utf8_text(s->info->name, utf8, sizeof utf8));
-    cJSON_AddStringToObject(root, "transfer_function", s->tf.name);
+    cJSON_AddStringToObject(root, "transfer_function", leap_scene_colouring(s));
     cJSON_AddStringToObject(root, "mode", "sparseleap");
     cJSON_AddNumberToObject(root, "width", src->width);
     cJSON_AddNumberToObject(root, "height", src->height);
@@ -147,8 +147,8 @@ static void pixel_text(FILE *out, const leap_dump_source *src, const leap_dump_f
 {
     const leap_scene *s = src->scene;
     const leap_dump_box *boxes = leap_dump_frame_boxes(f);
-    fprintf(out, "pixel %d,%d of %dx%d: %s, grid '%s', tf %s, step %g voxels, %u boxes\n", p->x, p->y, src->width,
-           src->height, src->volume, s->info->name, s->tf.name, s->march.step, leap_dump_frame_box_count(f));
+    fprintf(out, "pixel %d,%d of %dx%d: %s, grid '%s', %s%s, step %g voxels, %u boxes\n", p->x, p->y, src->width,
+           src->height, src->volume, s->info->name, s->labels ? "" : "tf ", leap_scene_colouring(s), s->march.step, leap_dump_frame_box_count(f));
     fprintf(out, "ray (index space relative to %g,%g,%g): origin %.9g %.9g %.9g, dir %.9g %.9g %.9g\n",
            s->march.index_origin[0], s->march.index_origin[1], s->march.index_origin[2], p->origin[0], p->origin[1],
            p->origin[2], p->dir[0], p->dir[1], p->dir[2]);

@@ -509,6 +509,12 @@ uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments)
 
 int leap_frame_cache_over(const leap_frame_stats *stats, uint64_t asked, char *out, size_t out_size)
 {
+    if (asked && stats->uncached_label_bytes > asked) {
+        snprintf(out, out_size, "a segmentation does not go through a GPU brick cache: its labels take %.1f KiB on "
+                 "the device, more than the %.1f KiB --gpu-cache gives", (double)stats->uncached_label_bytes / 1024,
+                 (double)asked / 1024);
+        return 1;
+    }
     if (!asked || stats->cache_image_bytes <= asked) return 0;
     snprintf(out, out_size, "the GPU brick cache takes %.1f KiB, more than the %.1f KiB --gpu-cache gives: its "
              "smallest image holds %u of the volume's bricks", (double)stats->cache_image_bytes / 1024,

@@ -508,10 +508,15 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
     return LEAP_OK;
 }
 
+const char *leap_scene_colouring(const leap_scene *s)
+{
+    return s->labels ? "object colours" : s->tf.name;
+}
+
 int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size)
 {
     double lo[3], hi[3];
-    if (leap_occupancy_nonempty_bounds(s->occupancy, lo, hi)) return 0;
+    if (!s->atlas->empty && leap_occupancy_nonempty_bounds(s->occupancy, lo, hi)) return 0;
     if (s->atlas->empty) snprintf(msg, size, "the grid has no active voxels");
     else if (s->labels) snprintf(msg, size, "every object is hidden");
     else
@@ -542,19 +547,23 @@ static leap_result choose_objects(leap_scene *s, const leap_scene_desc *d, leap_
                          opt);
     }
     leap_result r = LEAP_OK;
-    size_t n = 0;
-    if (d->objects) r = leap_labels_load_objects(s->labels, d->objects, &n, err);
+    size_t n = 0, found = 0;
+    const size_t count = leap_labels_count(s->labels);
+    const leap_label_object *o = leap_labels_objects(s->labels);
+    if (d->objects) r = leap_labels_load_objects(s->labels, d->objects, &n, &found, err);
+    if (!r && d->objects && n > 0 && found == 0)
+        r = leap_fail(err, LEAP_ERR_USAGE,
+                      "--objects %s lists %zu ID%s, none of them one of the volume's %zu objects (IDs %lld .. %lld; "
+                      "'leap info --objects' lists them)",
+                      d->objects, n, n == 1 ? "" : "s", count, (long long)o[0].id, (long long)o[count - 1].id);
     if (!r && d->show) {
         if (!d->objects) leap_labels_select(s->labels, "all", 0, NULL, err);
         r = leap_labels_select(s->labels, d->show, 1, &n, err);
-        if (!r && n == 0) {
-            const size_t count = leap_labels_count(s->labels);
-            const leap_label_object *o = leap_labels_objects(s->labels);
+        if (!r && n == 0)
             r = leap_fail(err, LEAP_ERR_USAGE,
                           "--show %.60s names none of the volume's %zu objects (IDs %lld .. %lld; 'leap info --objects' "
                           "lists them)",
                           d->show, count, (long long)o[0].id, (long long)o[count - 1].id);
-        }
     }
     if (!r && d->hide) r = leap_labels_select(s->labels, d->hide, 0, &n, err);
     return r;

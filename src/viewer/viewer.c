@@ -559,10 +559,13 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     if (v->mip) strncat(clip, v->mip > 0 ? " --mip" : " --minip", sizeof clip - strlen(clip) - 1);
     if (v->shade.on) {
         const leap_shading *s = &v->shade;
-        const size_t used = strlen(clip);
-        snprintf(clip + used, sizeof clip - used,
-                 " --shade --light %.17g,%.17g,%.17g --ambient %.17g --diffuse %.17g --specular %.17g --shininess %.17g",
-                 s->light[0], s->light[1], s->light[2], s->ambient, s->diffuse, s->specular, s->shininess);
+        size_t used = strlen(clip);
+        if (s->light[0] != 0 || s->light[1] != 0 || s->light[2] != 0) /* none: from the eye */
+            snprintf(clip + used, sizeof clip - used, " --light %.17g,%.17g,%.17g", s->light[0], s->light[1],
+                     s->light[2]);
+        used = strlen(clip);
+        snprintf(clip + used, sizeof clip - used, " --shade --ambient %.17g --diffuse %.17g --specular %.17g --shininess %.17g",
+                 s->ambient, s->diffuse, s->specular, s->shininess);
     }
     char look[640] = ""; /* a segmentation's objects have their own colours: no TF, no range */
     if (!v->labels) snprintf(look, sizeof look, " --tf %s --range %.17g,%.17g", v->tf, v->range[0], v->range[1]);

@@ -203,8 +203,8 @@ leap_result leap_labels_select(leap_labels *l, const char *list, int visible, si
             if (!ok || (*p != ',' && *p != '\0')) {
                 size_t len = strcspn(start, ",");
                 return leap_fail(err, LEAP_ERR_USAGE,
-                                 "'%.*s' in the object list '%s' is not an ID or a range LO-HI (non-negative integers, "
-                                 "LO <= HI)",
+                                 "'%.*s' in the object list '%s' is not an ID or a range LO-HI (integers from 0 to "
+                                 "2^63 - 1, LO <= HI)",
                                  (int)(len > 40 ? 40 : len), start, list);
             }
             for (size_t i = lower_bound(l, lo); i < l->count && l->objects[i].id <= hi; ++i) {
@@ -256,7 +256,7 @@ static int json_id(const cJSON *v, int64_t *id)
 /* The JSON forms: [ID, ...], {"objects": [ID | {"id", "color", "opacity"}, ...]}, or a
  * neuroglancer segmentation layer's {"segments": ["ID", ...]}. */
 static leap_result load_objects_json(leap_labels *l, const char *path, const char *text, size_t *listed,
-                                     leap_error *err)
+                                     size_t *found, leap_error *err)
 {
     cJSON *root = cJSON_Parse(text);
     const cJSON *list = cJSON_IsArray(root) ? root : NULL;
@@ -278,8 +278,8 @@ static leap_result load_objects_json(leap_labels *l, const char *path, const cha
         int64_t id = 0;
         float rgb[3];
         if (!json_id(idv, &id))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: the ID must be a non-negative integer (a string for IDs "
-                          "beyond 2^53)", path, n + 1);
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: the ID must be an integer from 0 to 2^63 - 1 (a decimal "
+                          "string beyond 2^53)", path, n + 1);
         else if (col && (!cJSON_IsString(col) || !parse_colour(col->valuestring, rgb)))
             r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"color\" must be \"#rrggbb\" or \"R,G,B\"", path, n + 1);
         else if (op && (!cJSON_IsNumber(op) || !(op->valuedouble >= 0 && op->valuedouble <= 1)))
@@ -287,6 +287,7 @@ static leap_result load_objects_json(leap_labels *l, const char *path, const cha
         if (r) break;
         const int64_t index = leap_labels_find(l, id);
         if (index < 0) continue;
+        ++*found;
         l->looks[index].visible = 1;
         leap_labels_set_look(l, (size_t)index, col ? rgb : NULL, op ? op->valuedouble : -1);
     }
@@ -295,8 +296,12 @@ static leap_result load_objects_json(leap_labels *l, const char *path, const cha
     return r;
 }
 
-leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *listed, leap_error *err)
+leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *listed, size_t *found,
+                                     leap_error *err)
 {
+    size_t found_here = 0;
+    if (!found) found = &found_here;
+    *found = 0;
     char *data = NULL;
     size_t size = 0;
     leap_result r = leap_file_read(path, "object list", 64u << 20, &data, &size, err);
@@ -304,7 +309,7 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *l
     for (size_t i = 0; i < l->count; ++i) l->looks[i].visible = 0;
     const char *first = data + strspn(data, " \t\r\n");
     if (*first == '[' || *first == '{') {
-        r = load_objects_json(l, path, data, listed, err);
+        r = load_objects_json(l, path, data, listed, found, err);
         free(data);
         return r;
     }
@@ -327,7 +332,8 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *l
         double opacity = -1;
         char *end;
         if (count > 3 || !parse_id(&q, &id) || *q)
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: expected 'ID [COLOUR] [OPACITY]' (COLOUR #rrggbb or R,G,B)",
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: expected 'ID [COLOUR] [OPACITY]' (ID from 0 to 2^63 - 1, COLOUR "
+                          "#rrggbb or R,G,B)",
                           path, line);
         else if (count >= 2 && !parse_colour(tok[1], rgb))
             r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: colour '%.40s' is not #rrggbb or R,G,B in [0, 1]", path,
@@ -339,6 +345,7 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *l
         const int64_t index = leap_labels_find(l, id);
         ++n;
         if (index < 0) continue; /* an object of another volume of the same dataset */
+        ++*found;
         l->looks[index].visible = 1;
         leap_labels_set_look(l, (size_t)index, count >= 2 ? rgb : NULL, opacity);
     }
