@@ -94,8 +94,7 @@ static leap_result ensure_boxes(leap_renderer *r, uint32_t count, leap_error *er
     leap_gpu_buffer_destroy(r->gpu, &r->box_rects);
     leap_result lr = leap_gpu_buffer_create(r->gpu, need, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &r->boxes, err);
     if (!lr)
-        lr = leap_gpu_buffer_create(r->gpu, rects, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT |
-                                                       VK_BUFFER_USAGE_TRANSFER_DST_BIT,
+        lr = leap_gpu_buffer_create(r->gpu, rects, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_INDIRECT_BUFFER_BIT,
                                     &r->box_rects, err);
     return lr;
 }
