@@ -646,8 +646,47 @@ static void test_slices(void)
     leap_vdb_close(file);
 }
 
+/* Non-finite floats as the README says: NaN reads as the background (the smallest finite
+ * value), +-Inf as the largest / smallest finite value, kept active (the NIfTI library's own
+ * reader turns each into 0, which made a NaN an active 0 above a negative background). */
+static void test_nonfinite(void)
+{
+    int64_t dims[8] = {3, NX, NY, NZ, 1, 1, 1, 1};
+    nifti_image *nim = nifti_make_new_nim(dims, NIFTI_TYPE_FLOAT32, 1);
+    CHECK(nim != NULL);
+    if (!nim) return;
+    float *v = nim->data;
+    for (size_t n = 0; n < (size_t)NX * NY * NZ; ++n) v[n] = (float)(n % 13) - 4.0f; /* -4 .. 8 */
+    const size_t at_nan = 1 + NX * (2 + NY * 2), at_pinf = 3 + NX * (1 + NY * 1), at_ninf = 7 + NX * (5 + NY * 3);
+    v[at_nan] = NAN;
+    v[at_pinf] = INFINITY;
+    v[at_ninf] = -INFINITY;
+    const char *path = tmp_file("nonfinite.nii");
+    CHECK(nifti_set_filenames(nim, path, 0, 1) == 0);
+    nifti_image_write(nim);
+    nifti_image_free(nim);
+    leap_error err = {{0}};
+    leap_input_info info;
+    leap_grid *g = load(path, NULL, &info, &err);
+    CHECK_MSG(g != NULL, "nonfinite.nii: %s", err.msg);
+    if (!g) return;
+    const leap_grid_info *gi = leap_grid_get_info(g);
+    CHECK_MSG(gi->background == -4.0f && gi->nonfinite_values == 2, "background %g (want -4), %llu non-finite (want 2)",
+              gi->background, (unsigned long long)gi->nonfinite_values);
+    leap_grid_reader *rd = NULL;
+    CHECK_OK(leap_grid_reader_create(g, &rd, &err), &err);
+    if (rd) {
+        CHECK(leap_grid_reader_value(rd, 1, 2, 2) == -4.0f); /* NaN: the background */
+        CHECK(leap_grid_reader_value(rd, 3, 1, 1) == 8.0f);  /* +Inf: the largest finite value */
+        CHECK(leap_grid_reader_value(rd, 7, 5, 3) == -4.0f); /* -Inf: the smallest */
+        leap_grid_reader_destroy(rd);
+    }
+    leap_grid_destroy(g);
+}
+
 int main(void)
 {
+    test_nonfinite();
     test_slices();
     test_raw();
     test_types();

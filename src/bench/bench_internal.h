@@ -55,6 +55,8 @@ typedef struct vdb_runner {
 } vdb_runner;
 
 int bench_cmp_double(const void *a, const void *b);
+/* PSNR in dB of an RMSE of values in [0, 1]; 200 for an exact image (RMSE 0). */
+double bench_psnr(double rmse);
 /* Passes text to d's message callback, if any. */
 void bench_message(const leap_bench_desc *d, leap_bench_message_kind kind, const char *text);
 

@@ -103,7 +103,9 @@ static int run_gnuplot(const leap_bench_desc *o, const char *dir, const char *na
 }
 
 
-/* Median over views of one (volume, size, mode, step) group; means for the other columns. */
+/* One (volume, size, mode, step) group over its views: the times are medians (each column's
+ * own, so one slow view moves none of them far), samples, events and segments means, RMSE the
+ * mean and PSNR that RMSE's, max abs the largest. */
 typedef struct summary {
     double frame_ms, raster_ms, resolve_ms, composite_ms, order_ms, spp, naive_spp, rmse, psnr, max_abs;
     double events, segments;
@@ -111,29 +113,41 @@ typedef struct summary {
     int n;
 } summary;
 
+/* The median of n values (sorted in place): the middle one, or the mean of the middle two. */
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof v[0], bench_cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
 static summary summarize(const bench_row *rows, size_t nrows, int vol, int size, int mode, int step)
 {
     summary s = {0};
-    double frames[360], traces[360];
-    for (size_t i = 0; i < nrows; ++i) {
+    enum { FRAME, TRACE, RASTER, RESOLVE, COMPOSITE, ORDER, TIMES };
+    double times[TIMES][360];
+    for (size_t i = 0; i < nrows && s.n < 360; ++i) {
         const bench_row *r = &rows[i];
         if (r->volume != vol || r->size != size || r->mode != mode || r->step != step) continue;
-        traces[s.n] = r->r.trace_ms;
-        frames[s.n++] = r->r.frame_ms[0];
-        s.raster_ms += r->r.raster_ms, s.resolve_ms += r->r.resolve_ms, s.composite_ms += r->r.composite_ms;
-        s.order_ms += r->r.order_ms, s.spp += r->r.spp, s.naive_spp += r->r.naive_spp;
+        times[FRAME][s.n] = r->r.frame_ms[0];
+        times[TRACE][s.n] = r->r.trace_ms;
+        times[RASTER][s.n] = r->r.raster_ms;
+        times[RESOLVE][s.n] = r->r.resolve_ms;
+        times[COMPOSITE][s.n] = r->r.composite_ms;
+        times[ORDER][s.n++] = r->r.order_ms;
+        s.spp += r->r.spp, s.naive_spp += r->r.naive_spp;
         s.events += r->r.events, s.segments += r->r.segments;
-        s.rmse += r->r.rmse, s.psnr += r->r.psnr, s.max_abs = fmax(s.max_abs, r->r.max_abs);
+        s.rmse += r->r.rmse, s.max_abs = fmax(s.max_abs, r->r.max_abs);
     }
     if (!s.n) return s;
-    qsort(frames, (size_t)s.n, sizeof frames[0], bench_cmp_double);
-    qsort(traces, (size_t)s.n, sizeof traces[0], bench_cmp_double);
-    s.frame_ms = frames[s.n / 2];
-    s.trace_ms = traces[s.n / 2];
+    s.frame_ms = median(times[FRAME], s.n);
+    s.trace_ms = median(times[TRACE], s.n);
+    s.raster_ms = median(times[RASTER], s.n);
+    s.resolve_ms = median(times[RESOLVE], s.n);
+    s.composite_ms = median(times[COMPOSITE], s.n);
+    s.order_ms = median(times[ORDER], s.n);
     double k = 1.0 / s.n;
-    s.raster_ms *= k, s.resolve_ms *= k, s.composite_ms *= k, s.order_ms *= k, s.spp *= k, s.naive_spp *= k;
-    s.events *= k, s.segments *= k;
-    s.rmse *= k, s.psnr *= k;
+    s.spp *= k, s.naive_spp *= k, s.events *= k, s.segments *= k, s.rmse *= k;
+    s.psnr = bench_psnr(s.rmse);
     return s;
 }
 
@@ -187,7 +201,8 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     else
         snprintf(views, sizeof views, "%d views on an orbit at elevation %g deg", o->views, o->elevation);
     fprintf(md, "# leap bench\n\nDevice: %s. %s, %d timed frames after %d "
-                "warm-up frames; frame time = CPU box order + upload + GPU passes, median over views. Timed frames "
+                "warm-up frames; frame time = CPU box order + upload + GPU passes; times are medians over views (each "
+                "column's own). Timed frames "
                 "are rendered as a user gets them, without the statistics' naive count; one more frame per "
                 "configuration, untimed, gives the samples, events and segments. ",
             device, views, o->repeats, o->warmup);
@@ -256,16 +271,17 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
                 for (int m = 0; m < o->nmodes; ++m) {
                     summary s = summarize(rows, nrows, v, si, m, st);
                     if (!s.n) continue;
-                    char speed[32] = "n/a";
+                    char speed[32] = "n/a", ideal[32] = "n/a"; /* MIP: every mode passes cells, naive too */
                     if (naive.n && s.frame_ms > 0) snprintf(speed, sizeof speed, "%.2f", naive.frame_ms / s.frame_ms);
+                    if (!o->mip) snprintf(ideal, sizeof ideal, "%.1f", s.spp > 0 ? s.naive_spp / s.spp : 0);
                     if (!have_errors) s.max_abs = NAN;
                     /* floor: this mode's samples at naive's ns per sample, plus 40 ns per pixel */
                     double naive_ns = naive.n && naive.spp > 0 ? naive.composite_ms * 1e6 / (naive.spp * pixels) : NAN;
                     double floor_ms = (s.spp * pixels * naive_ns + 40.0 * pixels) * 1e-6;
-                    fprintf(md, "| %s | %g | %.1f | %s | %.2f | %.1f | %.1f | %.1f | %.1f | %.2f | %.0f | %.2f | %.2f | %.2f "
+                    fprintf(md, "| %s | %g | %.1f | %s | %.2f | %s | %.1f | %.1f | %.1f | %.2f | %.0f | %.2f | %.2f | %.2f "
                                 "| %.2f | %.2e | %.1f | %.2e |\n",
                             leap_mode_name((leap_mode)o->modes[m]), o->steps[st], s.frame_ms,
-                            speed, s.spp, s.spp > 0 ? s.naive_spp / s.spp : 0, s.raster_ms,
+                            speed, s.spp, ideal, s.raster_ms,
                             s.resolve_ms, s.composite_ms, s.order_ms,
                             s.frame_ms > 0 ? 100.0 * (s.order_ms + s.raster_ms + s.resolve_ms) / s.frame_ms : 0.0,
                             s.spp > 0 ? s.composite_ms * 1e6 / (s.spp * pixels) : NAN, s.events, s.segments,

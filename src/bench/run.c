@@ -24,6 +24,11 @@ int bench_cmp_double(const void *a, const void *b)
     return x < y ? -1 : x > y;
 }
 
+double bench_psnr(double rmse)
+{
+    return rmse > 0 ? 20 * log10(1.0 / rmse) : rmse == 0 ? 200.0 : NAN;
+}
+
 void bench_message(const leap_bench_desc *d, leap_bench_message_kind kind, const char *text)
 {
     if (d->message) d->message(kind, text, d->user);
@@ -45,7 +50,7 @@ static void errors(const float *img, const float *ref, size_t pixels, run_result
     }
     r->rmse = sqrt(sum / (4.0 * pixels));
     r->max_abs = mx;
-    r->psnr = r->rmse > 0 ? 20 * log10(1.0 / r->rmse) : 200.0;
+    r->psnr = bench_psnr(r->rmse);
 }
 
 /* Times one mode/step/view/size: warm-up frames, then repeats, as a user gets them (no count

@@ -218,8 +218,12 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
     cJSON_AddNumberToObject(root, "total_samples", (double)fs->total_samples);
     if (renderer) {
         cJSON_AddNumberToObject(root, "naive_samples", (double)fs->naive_samples);
-        cJSON_AddNumberToObject(root, "ideal_speedup",
-                                fs->total_samples ? (double)fs->naive_samples / (double)fs->total_samples : 0);
+        /* Not under MIP: every mode, naive too, passes the cells that cannot change the extreme,
+         * so the lattice's count is not naive's. */
+        if (s->march.mip) cJSON_AddNullToObject(root, "ideal_speedup");
+        else
+            cJSON_AddNumberToObject(root, "ideal_speedup",
+                                    fs->total_samples ? (double)fs->naive_samples / (double)fs->total_samples : 0);
         cJSON_AddNumberToObject(root, "ns_per_sample",
                                 fs->total_samples ? fs->gpu_composite_ms * 1e6 / (double)fs->total_samples : 0);
         /* Composite ns per pixel: in a frame where no ray takes a sample, the fixed per-pixel cost. */

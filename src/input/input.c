@@ -62,7 +62,7 @@ leap_result leap__input_finish_planes(const char *path, const int32_t dim[3], co
 {
     plane_source p = {.read = read, .ctx = ctx, .plane_voxels = (size_t)dim[0] * (size_t)dim[1], .labels = labels,
                       .has_threshold = o && o->has_threshold, .threshold = o ? o->threshold : 0.0};
-    if (!labels) { /* the background: the smallest value, read in layers like the grid */
+    if (!labels) { /* the background: the smallest finite value, read in layers like the grid */
         float *layer = malloc(p.plane_voxels * LEAP_DENSE_PLANES * sizeof *layer), lo = INFINITY;
         if (!layer)
             return leap_fail(err, LEAP_ERR_OOM, "'%s': out of memory for %d x %d x %d voxels", path, dim[0], dim[1],
@@ -71,7 +71,7 @@ leap_result leap__input_finish_planes(const char *path, const int32_t dim[3], co
             const int32_t nz = dim[2] - z0 < LEAP_DENSE_PLANES ? dim[2] - z0 : LEAP_DENSE_PLANES;
             read(ctx, z0, nz, layer, NULL);
             for (size_t i = 0; i < p.plane_voxels * (size_t)nz; ++i)
-                if (layer[i] < lo) lo = layer[i]; /* NaN never compares below */
+                if (layer[i] < lo && isfinite(layer[i])) lo = layer[i];
         }
         free(layer);
         p.background = isfinite(lo) ? lo : 0.0f; /* no finite voxel at all: 0 */

@@ -172,6 +172,29 @@ static leap_result check_header(const char *path, const nifti_image *nim, int *i
     return LEAP_OK;
 }
 
+/* The voxel data as the file stores it. nifti_image_load replaces every non-finite float with 0,
+ * where leap reads NaN as the background and +-Inf as the largest / smallest finite value (a
+ * NaN outside a mask of a map with negative values would become an active 0). 0 on a read
+ * error. */
+static int load_voxels(nifti_image *nim)
+{
+    const size_t bytes = (size_t)nim->nvox * (size_t)nim->nbyper;
+    znzFile fp = znzopen(nim->iname, "rb", nifti_is_gzfile(nim->iname));
+    if (znz_isnull(fp)) return 0;
+    void *data = malloc(bytes ? bytes : 1);
+    const int ok = data && znzseek(fp, (znz_off_t)nim->iname_offset, SEEK_SET) >= 0 && znzread(data, 1, bytes, fp) == bytes;
+    znzclose(fp);
+    if (!ok) {
+        free(data);
+        return 0;
+    }
+    if (nim->swapsize > 1 && nim->byteorder != nifti_short_order())
+        nifti_swap_Nbytes((int64_t)(bytes / (size_t)nim->swapsize), nim->swapsize, data);
+    free(nim->data);
+    nim->data = data; /* nifti_image_free frees it */
+    return 1;
+}
+
 leap_result leap__input_open_nifti(const char *path, const leap_input_options *o, leap_vdb_file **out,
                                    leap_input_info *info, leap_error *err)
 {
@@ -206,7 +229,7 @@ leap_result leap__input_open_nifti(const char *path, const leap_input_options *o
         nifti_image_free(nim);
         return r;
     }
-    if (nifti_image_load(nim) != 0 || !nim->data) {
+    if (!load_voxels(nim)) {
         nifti_image_free(nim);
         return leap_fail(err, LEAP_ERR_FORMAT, "'%s': the voxel data ends early or cannot be read (truncated or "
                          "corrupt file)", path);
