@@ -190,6 +190,13 @@ static void check_one_camera(void)
     snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --eye 0,0,150 -o %s/cam 2>/dev/null", LEAP_EXE, LEAP_VOLUMES,
              LEAP_TEST_TMP);
     CHECK_MSG(run_status(cmd) == 2, "--eye without --target must be a usage error");
+    /* A step, mode or size given twice would make identical rows: a usage error. */
+    snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --steps 1,1 -o %s/twice 2>/dev/null", LEAP_EXE, LEAP_VOLUMES,
+             LEAP_TEST_TMP);
+    CHECK_MSG(run_status(cmd) == 2, "--steps 1,1 must be a usage error");
+    snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --modes bbox,bbox -o %s/twice 2>/dev/null", LEAP_EXE,
+             LEAP_VOLUMES, LEAP_TEST_TMP);
+    CHECK_MSG(run_status(cmd) == 2, "--modes bbox,bbox must be a usage error");
 }
 
 /* A GPU cache smaller than one layer of the sphere's bricks: the cache's slots and passes in

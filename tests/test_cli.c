@@ -460,6 +460,10 @@ int main(void)
     /* Planes that keep none of the volume: a warning with the blank image (there was none). */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --clip 'x<3' --clip 'x>5'", sphere, out);
     CHECK_MSG(run(args) == 0 && strstr(out_text, "clipping planes (--clip, --clip-plane) keep none"), "%s", out_text);
+    /* ... and none where the planes keep data too small for the image's pixels (blobs.vdb at
+     * 64 x 64): the clip is not what left the image blank. */
+    snprintf(args, sizeof args, "render %s/blobs.vdb -o %s --size 64x64 --clip 'x<500'", LEAP_VOLUMES, out);
+    CHECK_MSG(run(args) == 0 && !strstr(out_text, "keep none"), "%s", out_text);
 
     /* Clipping: fewer samples, the planes in the stats as given. */
     snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q --clip 'x<0' --clip-plane 0,1,0,2", sphere, out);

@@ -605,6 +605,26 @@ int main(void)
         renders_back(tmp, "cached", "--gpu-cache 65536", "through a brick cache");
     }
 
+    /* A zoomed orthographic view: the line carries its height, and leap render gives it back
+     * (it framed the bounding sphere, 36 % of the pixels off). */
+    rc = view_script(xvfb, tmp, "orthozoom", "orbit 30 20\nzoom 3\nscreenshot @/orthozoom.png\nquit\n", vol,
+                     "--size 200x160 --ortho");
+    CHECK_MSG(rc == 0, "ortho zoom session: exit %d: %s", rc, out_text);
+    renders_back(tmp, "orthozoom", "--ortho-height", "a zoomed orthographic view");
+
+    /* Hiding every object says that nothing can show, on standard error as leap render does;
+     * a segmentation has no transfer function to save. */
+    {
+        char tubes[1024];
+        snprintf(tubes, sizeof tubes, "%s/tubes.vdb", LEAP_VOLUMES);
+        rc = view_script(xvfb, tmp, "hideall", "hide all\nframes 1\nquit\n", tubes, "--size 64x48");
+        CHECK_MSG(rc == 0 && strstr(out_text, "nothing to show: every object is hidden"), "hide all: exit %d: %s", rc,
+                  out_text);
+        rc = view_script(xvfb, tmp, "labeltf", "tfsave @/label_tf.json\nquit\n", tubes, "--size 64x48");
+        CHECK_MSG(rc == 1 && strstr(out_text, "not a transfer function"), "tfsave on a segmentation: exit %d: %s", rc,
+                  out_text);
+    }
+
     /* A transfer function that does not load as the script's last command fails the run: the
      * script ends once its last state is drawn (it exited 0 before that frame). */
     rc = view_script(xvfb, tmp, "lasttf", "tf @/missing.json\n", vol, "--size 64x48");

@@ -170,6 +170,10 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *shade, lea
  * hidden), so any image is blank. Writes a one-line reason for the user into msg. */
 int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size);
 
+/* 1 when the clipping planes keep no point of the box of non-empty cells (so no ray can show
+ * anything however the camera looks), else 0 (no planes, or a point kept). */
+int leap_scene_clip_keeps_nothing(const leap_scene *s);
+
 /* What colours the scene, for reports: its transfer function's name, or "object colours" for a
  * segmentation (which has none). */
 const char *leap_scene_colouring(const leap_scene *s);

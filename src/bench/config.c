@@ -39,6 +39,8 @@ static int parse_list_modes(const char *v, leap_bench_desc *o)
     for (char *tok = strtok(buf, ","); tok; tok = strtok(NULL, ",")) {
         int m = leap_mode_from_name(tok);
         if (m < 0 || o->nmodes == MAX_ITEMS) return 0;
+        for (int i = 0; i < o->nmodes; ++i)
+            if (o->modes[i] == m) return 0; /* twice: two identical rows */
         o->modes[o->nmodes++] = m;
     }
     return o->nmodes > 0;
@@ -55,6 +57,8 @@ static int parse_list_sizes(const char *v, leap_bench_desc *o)
         if (o->nsizes == MAX_ITEMS || sscanf(tok, "%d%c%d", &w, &x, &h) != 3 || (x != 'x' && x != 'X') || w < 1 ||
             h < 1 || w > 16384 || h > 16384)
             return 0;
+        for (int i = 0; i < o->nsizes; ++i)
+            if (o->sizes[i][0] == w && o->sizes[i][1] == h) return 0;
         o->sizes[o->nsizes][0] = w;
         o->sizes[o->nsizes][1] = h;
         o->nsizes++;
@@ -75,14 +79,17 @@ static int parse_count(const char *v, int lo, int hi, int *out)
 leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const char *v, leap_error *err)
 {
     if (!strcmp(name, "modes")) {
-        if (!parse_list_modes(v, o)) USAGE("--modes '%s': use naive, bbox, octree, sparseleap", v);
+        if (!parse_list_modes(v, o)) USAGE("--modes '%s': use naive, bbox, octree, sparseleap, each once", v);
     } else if (!strcmp(name, "steps")) {
         o->nsteps = leap__parse_numbers(v, o->steps, 1, MAX_ITEMS);
-        for (int i = 0; i < o->nsteps; ++i)
+        for (int i = 0; i < o->nsteps; ++i) {
             if (!(o->steps[i] >= 1e-3 && o->steps[i] <= 1e6)) o->nsteps = -1;
-        if (o->nsteps < 1) USAGE("--steps '%s' must be numbers in [0.001, 1e6]", v);
+            for (int j = 0; j < i && o->nsteps > 0; ++j)
+                if (o->steps[j] == o->steps[i]) o->nsteps = -1;
+        }
+        if (o->nsteps < 1) USAGE("--steps '%s' must be numbers in [0.001, 1e6], each once", v);
     } else if (!strcmp(name, "sizes")) {
-        if (!parse_list_sizes(v, o)) USAGE("--sizes '%s' must be WxH[,WxH...]", v);
+        if (!parse_list_sizes(v, o)) USAGE("--sizes '%s' must be WxH[,WxH...], each once", v);
     } else if (!strcmp(name, "views")) {
         if (!parse_count(v, 1, 360, &o->views)) USAGE("--views '%s' must be in 1..360", v);
     } else if (!strcmp(name, "repeats")) {
@@ -134,7 +141,13 @@ static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *roo
     cJSON_ArrayForEach(item, root)
     {
         char value[1024] = "";
-        if (!strcmp(item->string, "volumes")) {
+        if (!strcmp(item->string, "volumes")) { /* one path, or an array of them */
+            if (cJSON_IsString(item) && o->nvolumes < MAX_ITEMS) {
+                o->volumes[o->nvolumes++] = item->valuestring;
+                continue;
+            }
+            if (!cJSON_IsArray(item))
+                return leap_fail(err, LEAP_ERR_FORMAT, "%s: \"volumes\" must be a path or an array of paths", path);
             cJSON *v;
             cJSON_ArrayForEach(v, item)
             {

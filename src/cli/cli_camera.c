@@ -93,7 +93,9 @@ const char *cli_camera_options_help =
     "  --up X,Y,Z          the world's up direction (default 0,1,0 for .vdb, 0,0,1 for NIfTI):\n"
     "                      the orbit turns about it and the picture keeps it upright\n"
     "  --fov DEG           vertical field of view (default 40)\n"
-    "  --ortho             orthographic projection (framing the bounding sphere)\n";
+    "  --ortho             orthographic projection (framing the bounding sphere)\n"
+    "  --ortho-height H    the orthographic view's height in world units (implies --ortho;\n"
+    "                      default: the bounding sphere's diameter)\n";
 
 void cli_camera_options_init(cli_camera_options *o)
 {
@@ -181,13 +183,13 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         return 1;
     }
     enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, MEMORY_BUDGET, ORBIT, EYE, TARGET, UP, SHOW,
-           HIDE, OBJECTS, OPACITY, FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
+           HIDE, OBJECTS, OPACITY, ORTHO_HEIGHT, FOV, CLIP, CLIP_PLANE, LIGHT, AMBIENT, DIFFUSE, SPECULAR, SHININESS, COUNT };
     static const char *const names[COUNT] = {
         [GRID] = "--grid", [TF] = "--tf",         [RANGE] = "--range",   [STEP] = "--step",     [SIZE] = "--size",
         [MODE] = "--mode", [SEGMENTS] = "--segments", [DEVICE] = "--device", [GPU_CACHE] = "--gpu-cache",
         [MEMORY_BUDGET] = "--memory-budget", [ORBIT] = "--orbit", [EYE] = "--eye",
         [TARGET] = "--target", [UP] = "--up", [SHOW] = "--show", [HIDE] = "--hide", [OBJECTS] = "--objects",
-        [OPACITY] = "--label-opacity", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane",
+        [OPACITY] = "--label-opacity", [ORTHO_HEIGHT] = "--ortho-height", [FOV] = "--fov", [CLIP] = "--clip", [CLIP_PLANE] = "--clip-plane",
         [LIGHT] = "--light", [AMBIENT] = "--ambient", [DIFFUSE] = "--diffuse", [SPECULAR] = "--specular",
         [SHININESS] = "--shininess", };
     int which = -1;
@@ -308,6 +310,11 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.clip_count++;
         break;
     }
+    case ORTHO_HEIGHT:
+        if (leap__parse_numbers(v, &o->ortho_height, 1, 1) != 1 || !(o->ortho_height > 0) || !isfinite(o->ortho_height))
+            FAIL("--ortho-height '%s' must be a positive number (world units)", v);
+        o->ortho = 1;
+        break;
     case FOV:
     default:
         if (leap__parse_numbers(v, &o->fov, 1, 1) != 1 || !(o->fov > 0 && o->fov < 180))
@@ -371,9 +378,12 @@ leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_ca
         memcpy(cam->eye, o->eye, sizeof cam->eye);
         memcpy(cam->target, o->target, sizeof cam->target);
         memcpy(cam->up, up, sizeof cam->up);
-        return LEAP_OK;
+    } else {
+        double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
+        double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
+        leap_result r = leap_camera_orbit_about(s->center, s->radius, up, az, el, dist, o->fov, o->ortho, cam, err);
+        if (r) return r;
     }
-    double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
-    double dist = o->orbit_n == 3 ? o->orbit[2] : 0;
-    return leap_camera_orbit_about(s->center, s->radius, up, az, el, dist, o->fov, o->ortho, cam, err);
+    if (o->ortho_height > 0) cam->ortho_height = o->ortho_height;
+    return LEAP_OK;
 }

@@ -60,6 +60,7 @@ typedef struct cli_camera_options {
     const char *input, *device, *mode_name;
     int width, height, ortho, max_segments;
     double fov;
+    double ortho_height;       /* --ortho-height: the orthographic view's height (0: framing) */
     int has_orbit, has_eye, has_target, has_up, orbit_n;
     double orbit[3], eye[3], target[3], up[3];
     /* The written image (render): --background R,G,B[,A] under the volume, --alpha. */

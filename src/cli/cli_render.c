@@ -515,9 +515,9 @@ int cli_render(int argc, char **argv)
     }
 
     char why[256];
-    if (scene->march.clip_count > 0 && fs.total_samples == 0 && !leap_scene_shows_nothing(scene, why, sizeof why))
+    if (fs.total_samples == 0 && leap_scene_clip_keeps_nothing(scene) && !leap_scene_shows_nothing(scene, why, sizeof why))
         fprintf(stderr, "leap: warning: no ray takes a sample: the clipping planes (--clip, --clip-plane) keep none of "
-                        "the volume in view; the image is blank\n");
+                        "the volume's non-empty part; the image is blank\n");
     if (renderer && scene->labels) {
         ids = malloc(n * sizeof *ids);
         if (ids && !leap_renderer_pixel_objects(renderer, ids)) {

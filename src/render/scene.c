@@ -508,6 +508,50 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
     return LEAP_OK;
 }
 
+/* A point of the box kept by every plane exists iff one of the vertices of their arrangement
+ * is: each is where three of the box's faces and the planes meet. */
+int leap_scene_clip_keeps_nothing(const leap_scene *s)
+{
+    double lo[3], hi[3];
+    const int k = s->march.clip_count;
+    if (k <= 0 || !leap_occupancy_nonempty_bounds(s->occupancy, lo, hi)) return 0;
+    double q[6 + LEAP_MAX_CLIPS][4]; /* q . (x, y, z, 1) >= 0 */
+    int n = 0;
+    for (int a = 0; a < 3; ++a) {
+        double *l = q[n++], *h = q[n++];
+        memset(l, 0, 4 * sizeof *l);
+        memset(h, 0, 4 * sizeof *h);
+        l[a] = 1, l[3] = -lo[a];
+        h[a] = -1, h[3] = hi[a];
+    }
+    for (int c = 0; c < k && c < LEAP_MAX_CLIPS; ++c) memcpy(q[n++], s->march.clip[c], 4 * sizeof(double));
+    double scale = 1;
+    for (int a = 0; a < 3; ++a) scale = fmax(scale, fmax(fabs(lo[a]), fabs(hi[a])));
+    for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j)
+            for (int m = j + 1; m < n; ++m) {
+                const double *A = q[i], *B = q[j], *C = q[m];
+                const double det = A[0] * (B[1] * C[2] - B[2] * C[1]) - A[1] * (B[0] * C[2] - B[2] * C[0]) +
+                                   A[2] * (B[0] * C[1] - B[1] * C[0]);
+                if (fabs(det) < 1e-12) continue;
+                /* Cramer's rule for A.x = -A[3], B.x = -B[3], C.x = -C[3] */
+                const double r0 = -A[3], r1 = -B[3], r2 = -C[3];
+                const double x = (r0 * (B[1] * C[2] - B[2] * C[1]) - A[1] * (r1 * C[2] - B[2] * r2) +
+                                  A[2] * (r1 * C[1] - B[1] * r2)) / det;
+                const double y = (A[0] * (r1 * C[2] - B[2] * r2) - r0 * (B[0] * C[2] - B[2] * C[0]) +
+                                  A[2] * (B[0] * r2 - r1 * C[0])) / det;
+                const double z = (A[0] * (B[1] * r2 - r1 * C[1]) - A[1] * (B[0] * r2 - r1 * C[0]) +
+                                  r0 * (B[0] * C[1] - B[1] * C[0])) / det;
+                int kept = 1;
+                for (int t = 0; t < n && kept; ++t) {
+                    const double norm = fabs(q[t][0]) + fabs(q[t][1]) + fabs(q[t][2]);
+                    kept = q[t][0] * x + q[t][1] * y + q[t][2] * z + q[t][3] >= -1e-9 * norm * scale;
+                }
+                if (kept) return 0;
+            }
+    return 1;
+}
+
 const char *leap_scene_colouring(const leap_scene *s)
 {
     return s->labels ? "object colours" : s->tf.name;

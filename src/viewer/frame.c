@@ -51,6 +51,17 @@ static void figures_add(frame_figures *acc, const frame_figures *f)
     memcpy(acc->heat, f->heat, sizeof acc->heat);
 }
 
+/* After the look or the objects shown changed: says so when nothing can show. */
+static void note_if_blank(leap_viewer_session *s)
+{
+    char why[256];
+    if (leap_scene_shows_nothing(s->scene, why, sizeof why))
+        session_note(s, LEAP_VIEWER_NOTE_STATUS, "nothing to show: %s%s", why,
+                     s->scene->atlas->empty ? ""
+                     : s->scene->labels     ? " (a shows every object)"
+                                            : " ([ ] { } move the value window, t picks the next preset)");
+}
+
 /* Switches transfer function and value window (re-classify and rebuild boxes, no reload), the
  * step (the boxes' cost-model cut depends on it), MIP (its own classification) and shading. A
  * shading refused for this volume (LEAP_ERR_UNSUPPORTED) leaves the view unshaded (st too),
@@ -92,12 +103,7 @@ static leap_result apply_tf(leap_viewer_session *s, leap_viewer *st, leap_error 
     }
     ++s->tf_gen;
     s->tf_apply_ms = leap__now_ms() - t;
-    char why[256];
-    if (!r && leap_scene_shows_nothing(s->scene, why, sizeof why))
-        session_note(s, LEAP_VIEWER_NOTE_STATUS, "nothing to show: %s%s", why,
-                     s->scene->atlas->empty ? ""
-                     : s->scene->labels     ? " (a shows every object)"
-                                            : " ([ ] { } move the value window, t picks the next preset)");
+    if (!r) note_if_blank(s);
     return r;
 }
 
@@ -239,6 +245,7 @@ static leap_result apply_objects(leap_viewer_session *s, const leap_viewer *st, 
     if (!changed) return LEAP_OK;
     leap_result r = leap_scene_update_objects(scene, err);
     if (!r) r = leap_renderer_bind_scene(s->renderer, scene, err);
+    if (!r) note_if_blank(s);
     s->tf_apply_ms = leap__now_ms() - t;
     snprintf(s->pick_text, sizeof s->pick_text, " | %zu objects shown", leap_labels_visible_count(scene->labels));
     publish_shown(s);

@@ -552,7 +552,8 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     leap_camera cam;
     leap_error ignore;
     if (leap_viewer_camera(v, &cam, &ignore)) return snprintf(buf, size, "(no camera)");
-    char clip[400] = "";
+    char ortho[64] = "", clip[400] = "";
+    if (cam.ortho) snprintf(ortho, sizeof ortho, " --ortho --ortho-height %.17g", cam.ortho_height);
     if (v->clip_on)
         snprintf(clip, sizeof clip, " --clip-plane %.17g,%.17g,%.17g,%.17g", v->clip[0], v->clip[1], v->clip[2],
                  v->clip[3]);
@@ -574,5 +575,5 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
                     "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s%s",
                     leap_mode_name(v->mode), look, v->step, cam.eye[0], cam.eye[1],
                     cam.eye[2], cam.target[0], cam.target[1], cam.target[2], cam.up[0], cam.up[1], cam.up[2],
-                    cam.fov_deg, cam.ortho ? " --ortho" : "", clip, v->show_legend && !v->labels ? " --legend" : "");
+                    cam.fov_deg, ortho, clip, v->show_legend && !v->labels ? " --legend" : "");
 }
