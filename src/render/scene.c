@@ -524,7 +524,12 @@ int leap_scene_clip_keeps_nothing(const leap_scene *s)
         l[a] = 1, l[3] = -lo[a];
         h[a] = -1, h[3] = hi[a];
     }
-    for (int c = 0; c < k && c < LEAP_MAX_CLIPS; ++c) memcpy(q[n++], s->march.clip[c], 4 * sizeof(double));
+    for (int c = 0; c < k && c < LEAP_MAX_CLIPS; ++c) { /* unit normals: the determinants compare */
+        const double *p = s->march.clip[c], len = sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+        if (!(len > 0)) continue;
+        for (int e = 0; e < 4; ++e) q[n][e] = p[e] / len;
+        ++n;
+    }
     double scale = 1;
     for (int a = 0; a < 3; ++a) scale = fmax(scale, fmax(fabs(lo[a]), fabs(hi[a])));
     for (int i = 0; i < n; ++i)
@@ -543,10 +548,8 @@ int leap_scene_clip_keeps_nothing(const leap_scene *s)
                 const double z = (A[0] * (B[1] * r2 - r1 * C[1]) - A[1] * (B[0] * r2 - r1 * C[0]) +
                                   r0 * (B[0] * C[1] - B[1] * C[0])) / det;
                 int kept = 1;
-                for (int t = 0; t < n && kept; ++t) {
-                    const double norm = fabs(q[t][0]) + fabs(q[t][1]) + fabs(q[t][2]);
-                    kept = q[t][0] * x + q[t][1] * y + q[t][2] * z + q[t][3] >= -1e-9 * norm * scale;
-                }
+                for (int t = 0; t < n && kept; ++t)
+                    kept = q[t][0] * x + q[t][1] * y + q[t][2] * z + q[t][3] >= -1e-9 * scale;
                 if (kept) return 0;
             }
     return 1;
