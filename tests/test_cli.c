@@ -551,6 +551,9 @@ int main(void)
         snprintf(args, sizeof args, "render %s/tubes.vdb -o %s --size 32x32 --objects %s", LEAP_VOLUMES, out, path);
         EXPECT_FAIL(2, args, "lists 2 IDs, none of them one of the volume's", out);
     }
+    /* --show given twice: the lists add up (the second alone names no object of the volume). */
+    snprintf(args, sizeof args, "render %s/tubes.vdb -o %s --size 32x32 -q --show 235039259 --show 999", LEAP_VOLUMES, out);
+    CHECK_MSG(run(args) == 0, "--show twice: %s", out_text);
     /* Options of one kind of volume are refused on the other (they were ignored, exit 0). */
     snprintf(args, sizeof args, "render %s/labels.vdb -o %s --tf hot", LEAP_VOLUMES, out);
     EXPECT_FAIL(2, args, "--tf does not apply to a segmentation", out);

@@ -283,7 +283,10 @@ static void test_look_keys(void)
     CHECK(leap_viewer_char(&v, '?') == LEAP_VIEWER_HELP);
     CHECK(strstr(leap_viewer_help_text(), "orbit") && strstr(leap_viewer_help_text(), "sparseleap"));
     CHECK(leap_viewer_char(&v, 'z') == 0);
-    /* segmentations: object operations are counted for the render thread */
+    /* a scalar volume has no objects: the keys say so; a segmentation's object operations are
+     * counted for the render thread */
+    CHECK(leap_viewer_char(&v, 'x') == LEAP_VIEWER_REFUSED && v.refused && strstr(v.refused, "segmentations"));
+    v.labels = 1;
     unsigned ops = v.object_ops;
 #define LAST_OP(v, k) ((v).object_queue[((v).object_ops - (k)) % LEAP_VIEWER_OBJECT_QUEUE].op)
     CHECK(leap_viewer_char(&v, 'x') == LEAP_VIEWER_OBJECTS && LAST_OP(v, 1) == LEAP_VIEWER_OBJECTS_TOGGLE);
@@ -294,6 +297,7 @@ static void test_look_keys(void)
     CHECK(LAST_OP(v, 2) == LEAP_VIEWER_OBJECTS_ALL); /* queued, not replaced */
     CHECK(leap_viewer_objects(&v, 99, 0) == 0);
     CHECK(v.object_ops == ops + 4);
+    v.labels = 0;
     /* a click (press and release in place) picks; a drag does not */
     unsigned picks = v.picks;
     CHECK(leap_viewer_button(&v, LEAP_VIEWER_BUTTON_LEFT, 1, 0, 50, 40) == 0);
@@ -335,7 +339,8 @@ static void test_render_args(void)
      * change nothing, and its command has no --tf or --range (leap render refuses them there). */
     d.labels = 1;
     init(&v, &d);
-    CHECK(leap_viewer_char(&v, 't') == 0 && leap_viewer_char(&v, ']') == 0 && leap_viewer_char(&v, '{') == 0);
+    CHECK(leap_viewer_char(&v, 't') == LEAP_VIEWER_REFUSED && leap_viewer_char(&v, ']') == LEAP_VIEWER_REFUSED &&
+          leap_viewer_char(&v, '{') == LEAP_VIEWER_REFUSED && v.refused && strstr(v.refused, "segmentation"));
     n = leap_viewer_render_args(&v, buf, sizeof buf);
     CHECK_MSG(n > 0 && !strstr(buf, "--tf") && !strstr(buf, "--range"), "%s", buf);
 }

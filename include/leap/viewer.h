@@ -101,7 +101,8 @@ enum {
     LEAP_VIEWER_PICK = 1u << 8,       /* a click asks which object a pixel shows */
     LEAP_VIEWER_OBJECTS = 1u << 9,    /* segmentations: objects shown or hidden: re-classify */
     LEAP_VIEWER_CLIP = 1u << 10,      /* the clipping plane moved or was switched */
-    LEAP_VIEWER_PANEL = 1u << 11      /* the panel or the figures shown or hidden */
+    LEAP_VIEWER_PANEL = 1u << 11,     /* the panel or the figures shown or hidden */
+    LEAP_VIEWER_REFUSED = 1u << 12    /* the event does not apply to this volume (leap_viewer.refused) */
 };
 
 /* Object operations of a segmentation: keys x, i (on the last picked object) and a; the
@@ -189,6 +190,7 @@ typedef struct leap_viewer {
     int mip;                     /* key m: LEAP_MIP_MAX, LEAP_MIP_MIN or 0 (leap_march.mip) */
     leap_shading shade;          /* key l: shade.on toggles gradient shading (not with MIP) */
     int labels;                  /* a segmentation (no MIP) */
+    const char *refused;         /* why the last LEAP_VIEWER_REFUSED event did not apply */
     int clip_on;                 /* key c: one more clipping plane, world units, */
     double clip[4];              /* keeping clip . (x, y, z, 1) >= 0 */
     int quit;

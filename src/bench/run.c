@@ -419,7 +419,8 @@ static leap_result run_all(bench_state *b, char *device, size_t device_n, leap_e
                 for (int m = 0; m < MAX_ITEMS; ++m) b->fixed->ns[a][c][m] = b->fixed->every_pixel[a][c][m] = NAN;
     if (!lr && b->vdb) lr = vdb_runner_open(b->vdb, o->vdb_shadow_step, err);
     for (int vi = 0; vi < o->nvolumes && !lr; ++vi) lr = run_volume(b, vi, err);
-    if (b->rows && b->fixed) progress(o, b->done, b->total, lr ? "failed" : "done");
+    /* A failure before the first step (a refused option) is its message alone. */
+    if (b->rows && b->fixed && (!lr || b->done > 0)) progress(o, b->done, b->total, lr ? "failed" : "done");
     if (b->vdb) vdb_runner_close(b->vdb, o);
     /* A volume that failed keeps the rows before it: the CSV holds them and the report the
      * volumes done, and the failure is still the bench's outcome. */

@@ -78,8 +78,9 @@ const char *cli_camera_options_help =
     "                      rays reach (env LEAP_INDEX_DIR, default ~/.cache/leap; empty: off)\n"
     "segmentations (int32/int64 grids; each object in its own colour, nearest voxel):\n"
     "  --labels            render a grid of integer values as a segmentation\n"
-    "  --show IDS          show only these objects, e.g. 12,57,300-400 (default: all)\n"
-    "  --hide IDS          hide these objects\n"
+    "  --show IDS          show only these objects, e.g. 12,57,300-400 (default: all;\n"
+    "                      given again, the lists add up)\n"
+    "  --hide IDS          hide these objects (after --show and --objects)\n"
     "  --show-all          show every object (the default)\n"
     "  --objects FILE      show the objects a file lists: one 'ID [#rrggbb|R,G,B] [OPACITY]'\n"
     "                      per line, or JSON: [ID, ...], {\"objects\": [ID | {\"id\", \"color\",\n"
@@ -180,6 +181,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
     }
     if (!strcmp(a, "--show-all")) {
         o->scene.show = o->scene.hide = o->scene.objects = NULL;
+        o->show_ids[0] = o->hide_ids[0] = '\0';
         return 1;
     }
     enum { GRID, TF, RANGE, STEP, SIZE, MODE, SEGMENTS, DEVICE, GPU_CACHE, MEMORY_BUDGET, ORBIT, EYE, TARGET, UP, SHOW,
@@ -280,8 +282,15 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
         o->scene.shade.on = 1;
         break;
     }
-    case SHOW: o->scene.show = v; break;
-    case HIDE: o->scene.hide = v; break;
+    case SHOW:
+    case HIDE: { /* given again: the lists add up */
+        char *ids = which == SHOW ? o->show_ids : o->hide_ids;
+        const size_t used = strlen(ids);
+        if (used + 1 + strlen(v) >= sizeof o->show_ids) FAIL("%s: the object lists given are too long", names[which]);
+        snprintf(ids + used, sizeof o->show_ids - used, "%s%s", used ? "," : "", v);
+        *(which == SHOW ? &o->scene.show : &o->scene.hide) = ids;
+        break;
+    }
     case OBJECTS: o->scene.objects = v; break;
     case OPACITY:
         if (leap__parse_numbers(v, &n, 1, 1) != 1 || !(n > 0 && n <= 1))

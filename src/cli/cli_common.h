@@ -61,6 +61,7 @@ typedef struct cli_camera_options {
     int width, height, ortho, max_segments;
     double fov;
     double ortho_height;       /* --ortho-height: the orthographic view's height (0: framing) */
+    char show_ids[8192], hide_ids[8192]; /* every --show / --hide given, joined (scene.show, .hide) */
     int has_orbit, has_eye, has_target, has_up, orbit_n;
     double orbit[3], eye[3], target[3], up[3];
     /* The written image (render): --background R,G,B[,A] under the volume, --alpha. */

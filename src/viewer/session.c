@@ -45,6 +45,7 @@ void session_post_state(leap_viewer_session *s)
     s->bits = 0;
     if (bits) s->ui_dirty = 1;
     if (bits & LEAP_VIEWER_HELP) session_note(s, LEAP_VIEWER_NOTE_HELP, "%s", leap_viewer_help_text());
+    if ((bits & LEAP_VIEWER_REFUSED) && s->v.refused) session_note(s, LEAP_VIEWER_NOTE_STATUS, "not for this volume: %s", s->v.refused);
     if (!(bits & (LEAP_VIEWER_CAMERA | LEAP_VIEWER_MODE | LEAP_VIEWER_STEP | LEAP_VIEWER_TF | LEAP_VIEWER_OVERLAY |
                   LEAP_VIEWER_PICK | LEAP_VIEWER_OBJECTS | LEAP_VIEWER_CLIP)))
         return;

@@ -319,8 +319,18 @@ unsigned leap_viewer_set_step(leap_viewer *v, double step)
     return LEAP_VIEWER_STEP;
 }
 
+/* An event that does not apply to this volume: the session says why. */
+static unsigned refuse(leap_viewer *v, const char *why)
+{
+    v->refused = why;
+    return LEAP_VIEWER_REFUSED;
+}
+
+static const char *const no_tf = "a segmentation's objects have their own colours, not a transfer function";
+
 unsigned leap_viewer_set_tf(leap_viewer *v, const char *tf)
 {
+    if (v->labels) return refuse(v, no_tf);
     if (!tf || !*tf || strlen(tf) >= sizeof v->tf) return 0;
     set_tf_name(v, tf);
     return LEAP_VIEWER_TF;
@@ -328,7 +338,7 @@ unsigned leap_viewer_set_tf(leap_viewer *v, const char *tf)
 
 unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi)
 {
-    if (v->labels) return 0; /* a segmentation's objects have no value range */
+    if (v->labels) return refuse(v, "a segmentation's objects have no value range");
     if (!isfinite(lo) || !isfinite(hi) || !(hi > lo)) return 0;
     /* Keep a window that doubles can still split into distinct values. */
     if (hi - lo < 1e-12 * (1.0 + fabs(lo) + fabs(hi))) return 0;
@@ -346,7 +356,8 @@ unsigned leap_viewer_set_segments(leap_viewer *v, int max_segments)
 
 unsigned leap_viewer_set_opacity(leap_viewer *v, const double (*points)[2], int count)
 {
-    if (count < 0 || count > LEAP_TF_MAX_POINTS || v->labels) return 0;
+    if (v->labels) return refuse(v, "a segmentation's objects have their own opacity (--label-opacity, --objects)");
+    if (count < 0 || count > LEAP_TF_MAX_POINTS) return 0;
     for (int i = 0; i < count; ++i)
         if (!(points[i][0] >= 0.0 && points[i][0] <= 1.0 && points[i][1] >= 0.0 && points[i][1] <= 1.0) ||
             (i > 0 && points[i][0] < points[i - 1][0]))
@@ -425,7 +436,8 @@ static unsigned move_clip(leap_viewer *v, double sign)
 
 unsigned leap_viewer_objects(leap_viewer *v, int op, int64_t id)
 {
-    if (op < LEAP_VIEWER_OBJECTS_TOGGLE || op > LEAP_VIEWER_OBJECTS_NONE) return 0; /* scalar volumes ignore them */
+    if (op < LEAP_VIEWER_OBJECTS_TOGGLE || op > LEAP_VIEWER_OBJECTS_NONE) return 0;
+    if (!v->labels) return refuse(v, "showing and hiding objects applies to segmentations");
     v->object_queue[v->object_ops % LEAP_VIEWER_OBJECT_QUEUE] = (leap_viewer_object_op){op, id};
     ++v->object_ops;
     return LEAP_VIEWER_OBJECTS;
@@ -440,7 +452,7 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case '4': return leap_viewer_set_mode(v, LEAP_RENDER_SPARSELEAP);
     case '+': case '=': return leap_viewer_set_step(v, v->step * LEAP_VIEWER_STEP_FACTOR);
     case '-': case '_': return leap_viewer_set_step(v, v->step / LEAP_VIEWER_STEP_FACTOR);
-    case 't': case 'T': return v->labels ? 0 : next_tf(v); /* objects have their own colours */
+    case 't': case 'T': return v->labels ? refuse(v, no_tf) : next_tf(v);
     case '[': return shift_range(v, -LEAP_VIEWER_RANGE_SHIFT);
     case ']': return shift_range(v, LEAP_VIEWER_RANGE_SHIFT);
     case '{': return scale_range(v, LEAP_VIEWER_RANGE_SCALE);
@@ -455,13 +467,13 @@ unsigned leap_viewer_char(leap_viewer *v, unsigned c)
     case 'u': case 'U': return leap_viewer_next_up(v);
     case 'c': case 'C': return toggle_clip(v);
     case 'm': case 'M':
-        if (v->labels) return 0; /* a segmentation has no values to take the maximum of */
+        if (v->labels) return refuse(v, "a segmentation has no values to take the maximum of");
         /* compositing -> MIP -> minIP -> compositing */
         v->mip = v->mip == 0 ? LEAP_MIP_MAX : v->mip > 0 ? LEAP_MIP_MIN : 0;
         v->shade.on = 0; /* a MIP pixel has no surface to light */
         return LEAP_VIEWER_TF;
     case 'l': case 'L':
-        if (v->labels) return 0; /* objects have no gradient */
+        if (v->labels) return refuse(v, "a segmentation's objects have no gradient to shade");
         v->shade.on = !v->shade.on;
         v->mip = 0;
         return LEAP_VIEWER_TF;
