@@ -72,9 +72,9 @@ void leap_bench_desc_release(leap_bench_desc *d);
 leap_result leap_bench_set_option(leap_bench_desc *d, const char *name, const char *value, leap_error *err);
 
 /* Reads a JSON config file (at most 16 MiB): an object whose keys are option names; values
- * are strings, numbers, booleans or arrays (joined with commas); "volumes" is an array of
- * paths, appended. A bad option is LEAP_ERR_USAGE; an unreadable or malformed file
- * LEAP_ERR_IO or LEAP_ERR_FORMAT. */
+ * are strings, numbers, booleans or arrays (joined with commas); "volumes" is a path or an
+ * array of paths, appended. A bad option or a malformed file (the user's options, not data)
+ * is LEAP_ERR_USAGE naming the file; an unreadable one LEAP_ERR_IO. */
 leap_result leap_bench_load_config(leap_bench_desc *d, const char *path, leap_error *err);
 
 /* Full path of vdb_render on PATH into out; 0 if it is not there. */

@@ -147,12 +147,12 @@ static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *roo
                 continue;
             }
             if (!cJSON_IsArray(item))
-                return leap_fail(err, LEAP_ERR_FORMAT, "%s: \"volumes\" must be a path or an array of paths", path);
+                return leap_fail(err, LEAP_ERR_USAGE, "%s: \"volumes\" must be a path or an array of paths", path);
             cJSON *v;
             cJSON_ArrayForEach(v, item)
             {
                 if (!cJSON_IsString(v) || o->nvolumes == MAX_ITEMS)
-                    return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad \"volumes\"", path);
+                    return leap_fail(err, LEAP_ERR_USAGE, "%s: bad \"volumes\"", path);
                 o->volumes[o->nvolumes++] = v->valuestring;
             }
             continue;
@@ -164,7 +164,7 @@ static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *roo
                 char one[64];
                 if (cJSON_IsNumber(v)) snprintf(one, sizeof one, "%.17g", v->valuedouble);
                 else if (cJSON_IsString(v)) snprintf(one, sizeof one, "%s", v->valuestring);
-                else return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad value in \"%s\"", path, item->string);
+                else return leap_fail(err, LEAP_ERR_USAGE, "%s: bad value in \"%s\"", path, item->string);
                 if (value[0]) strncat(value, ",", sizeof value - strlen(value) - 1);
                 strncat(value, one, sizeof value - strlen(value) - 1);
             }
@@ -175,7 +175,7 @@ static leap_result apply_config(leap_bench_desc *o, const char *path, cJSON *roo
         } else if (cJSON_IsString(item)) {
             snprintf(value, sizeof value, "%s", item->valuestring);
         } else {
-            return leap_fail(err, LEAP_ERR_FORMAT, "%s: bad value for \"%s\"", path, item->string);
+            return leap_fail(err, LEAP_ERR_USAGE, "%s: bad value for \"%s\"", path, item->string);
         }
         /* The desc keeps the tf string: the file's own, not this loop's buffer. */
         const int keeps = !strcmp(item->string, "tf") || !strcmp(item->string, "show") || !strcmp(item->string, "objects");
@@ -201,12 +201,12 @@ leap_result leap_bench_load_config(leap_bench_desc *o, const char *path, leap_er
         int line = 1, col = 1;
         for (const char *c = text; end && c < end; ++c) col = *c == '\n' ? (++line, 1) : col + 1;
         free(text);
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not valid JSON (line %d, column %d)", path, line, col);
+        return leap_fail(err, LEAP_ERR_USAGE, "%s: not valid JSON (line %d, column %d)", path, line, col);
     }
     free(text);
     if (!cJSON_IsObject(root)) {
         cJSON_Delete(root);
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: not a JSON object ({\"volumes\": [...], ...})", path);
+        return leap_fail(err, LEAP_ERR_USAGE, "%s: not a JSON object ({\"volumes\": [...], ...})", path);
     }
     /* Every file loaded stays alive (earlier files' volumes may still be in use). */
     if (!o->config && !(o->config = cJSON_CreateArray())) {
