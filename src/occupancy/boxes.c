@@ -436,6 +436,15 @@ static double marched_empty_cost(const vbuilder *b, uint32_t ref, uint32_t heigh
 #define TIGHT_BOX_CELLS ((int64_t)1 << 16)
 #define TIGHT_CELLS ((int64_t)1 << 19)
 
+/* Extends the bounds lo .. hi (voxels) to the cube of `size` voxels from `from`. */
+static void extend_bounds(int64_t lo[3], int64_t hi[3], const int64_t from[3], int64_t size)
+{
+    for (int a = 0; a < 3; ++a) {
+        if (from[a] < lo[a]) lo[a] = from[a];
+        if (from[a] + size > hi[a]) hi[a] = from[a] + size;
+    }
+}
+
 /* Whether samples between texel values vmin <= vmax can have opacity. */
 static int cube_shows(const occ_cube_classes *cc, uint16_t vmin, uint16_t vmax)
 {
@@ -475,11 +484,8 @@ static int slot_cubes(const uint16_t *t, const occ_cube_classes *cc, const int64
                 const uint16_t a = mn2[z][y][x], b = mn2[z + 1][y][x], c = mx2[z][y][x], d = mx2[z + 1][y][x];
                 const uint16_t vmin = a < b ? a : b, vmax = c < d ? d : c;
                 if (!cube_shows(cc, vmin, vmax)) continue;
-                const int u[3] = {x, y, z};
-                for (int k = 0; k < 3; ++k) {
-                    if (base[k] + u[k] < lo[k]) lo[k] = base[k] + u[k];
-                    if (base[k] + u[k] + 1 > hi[k]) hi[k] = base[k] + u[k] + 1;
-                }
+                const int64_t cube[3] = {base[0] + x, base[1] + y, base[2] + z};
+                extend_bounds(lo, hi, cube, 1);
                 found = 1;
             }
     return found;
@@ -538,10 +544,7 @@ static void tighten(leap_boxes *bx, const leap_occupancy *occ, const leap_atlas 
                     const uint16_t value = (uint16_t)(entry & 0xffffu);
                     if (cls == LEAP_CLASS_NONEMPTY && (entry & LEAP_PAGE_CONST) && !cube_shows(&cc, value, value)) continue;
                     if (cls != LEAP_CLASS_NONEMPTY || (entry & LEAP_PAGE_CONST)) {
-                        for (int a = 0; a < 3; ++a) {
-                            if (base[a] < lo[a]) lo[a] = base[a];
-                            if (base[a] + LEAP_CELL > hi[a]) hi[a] = base[a] + LEAP_CELL;
-                        }
+                        extend_bounds(lo, hi, base, LEAP_CELL);
                         found = 1;
                         continue;
                     }

@@ -518,8 +518,10 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     /* The brick cache: more passes while rays wait on missed slots, each after loading them. */
     st.cache_slots = r->cache.capacity;
     if (r->cache.capacity) st.cache_image_bytes = renderer_texels(r) * r->texel_bytes;
-    if (r->labels && r->cache_bytes && leap_renderer_volume_bytes(r) > r->cache_bytes)
-        st.uncached_label_bytes = leap_renderer_volume_bytes(r);
+    if (r->labels && r->cache_bytes) {
+        const uint64_t bytes = leap_renderer_volume_bytes(r);
+        if (bytes > r->cache_bytes) st.uncached_label_bytes = bytes;
+    }
     st.cache_passes = 1;
     double partial_at = 0; /* the first picture at once: a first sight of the volume */
     while (!lr && renderer_cache_missed(r)) {

@@ -508,6 +508,13 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
     return LEAP_OK;
 }
 
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
 /* A point of the box kept by every plane exists iff one of the vertices of their arrangement
  * is: each is where three of the box's faces and the planes meet. */
 int leap_scene_clip_keeps_nothing(const leap_scene *s)
@@ -535,21 +542,18 @@ int leap_scene_clip_keeps_nothing(const leap_scene *s)
     for (int i = 0; i < n; ++i)
         for (int j = i + 1; j < n; ++j)
             for (int m = j + 1; m < n; ++m) {
+                /* The point on planes A, B, C: x = -(A3 (B x C) + B3 (C x A) + C3 (A x B)) / A . (B x C) */
                 const double *A = q[i], *B = q[j], *C = q[m];
-                const double det = A[0] * (B[1] * C[2] - B[2] * C[1]) - A[1] * (B[0] * C[2] - B[2] * C[0]) +
-                                   A[2] * (B[0] * C[1] - B[1] * C[0]);
+                double bc[3], ca[3], ab[3], x[3];
+                cross3(B, C, bc);
+                cross3(C, A, ca);
+                cross3(A, B, ab);
+                const double det = A[0] * bc[0] + A[1] * bc[1] + A[2] * bc[2];
                 if (fabs(det) < 1e-12) continue;
-                /* Cramer's rule for A.x = -A[3], B.x = -B[3], C.x = -C[3] */
-                const double r0 = -A[3], r1 = -B[3], r2 = -C[3];
-                const double x = (r0 * (B[1] * C[2] - B[2] * C[1]) - A[1] * (r1 * C[2] - B[2] * r2) +
-                                  A[2] * (r1 * C[1] - B[1] * r2)) / det;
-                const double y = (A[0] * (r1 * C[2] - B[2] * r2) - r0 * (B[0] * C[2] - B[2] * C[0]) +
-                                  A[2] * (B[0] * r2 - r1 * C[0])) / det;
-                const double z = (A[0] * (B[1] * r2 - r1 * C[1]) - A[1] * (B[0] * r2 - r1 * C[0]) +
-                                  r0 * (B[0] * C[1] - B[1] * C[0])) / det;
+                for (int e = 0; e < 3; ++e) x[e] = -(A[3] * bc[e] + B[3] * ca[e] + C[3] * ab[e]) / det;
                 int kept = 1;
                 for (int t = 0; t < n && kept; ++t)
-                    kept = q[t][0] * x + q[t][1] * y + q[t][2] * z + q[t][3] >= -1e-9 * scale;
+                    kept = q[t][0] * x[0] + q[t][1] * x[1] + q[t][2] * x[2] + q[t][3] >= -1e-9 * scale;
                 if (kept) return 0;
             }
     return 1;
@@ -598,20 +602,17 @@ static leap_result choose_objects(leap_scene *s, const leap_scene_desc *d, leap_
     const size_t count = leap_labels_count(s->labels);
     const leap_label_object *o = leap_labels_objects(s->labels);
     if (d->objects) r = leap_labels_load_objects(s->labels, d->objects, &n, &found, err);
+    char none[1200] = ""; /* the option that names none of the volume's objects */
     if (!r && d->objects && n > 0 && found == 0)
-        r = leap_fail(err, LEAP_ERR_USAGE,
-                      "--objects %s lists %zu ID%s, none of them one of the volume's %zu objects (IDs %lld .. %lld; "
-                      "'leap info --objects' lists them)",
-                      d->objects, n, n == 1 ? "" : "s", count, (long long)o[0].id, (long long)o[count - 1].id);
-    if (!r && d->show) {
+        snprintf(none, sizeof none, "--objects %.1024s lists %zu ID%s, none of them one", d->objects, n, n == 1 ? "" : "s");
+    if (!r && !none[0] && d->show) {
         if (!d->objects) leap_labels_select(s->labels, "all", 0, NULL, err);
         r = leap_labels_select(s->labels, d->show, 1, &n, err);
-        if (!r && n == 0)
-            r = leap_fail(err, LEAP_ERR_USAGE,
-                          "--show %.60s names none of the volume's %zu objects (IDs %lld .. %lld; 'leap info --objects' "
-                          "lists them)",
-                          d->show, count, (long long)o[0].id, (long long)o[count - 1].id);
+        if (!r && n == 0) snprintf(none, sizeof none, "--show %.60s names none", d->show);
     }
+    if (!r && none[0])
+        return leap_fail(err, LEAP_ERR_USAGE, "%s of the volume's %zu objects (IDs %lld .. %lld; 'leap info --objects' "
+                         "lists them)", none, count, (long long)o[0].id, (long long)o[count - 1].id);
     if (!r && d->hide) r = leap_labels_select(s->labels, d->hide, 0, &n, err);
     return r;
 }
