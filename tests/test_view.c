@@ -477,20 +477,24 @@ int main(void)
         snprintf(shot, sizeof shot, "%s/edited.png", tmp);
         const int have_args = render_args_for(shot, args, sizeof args);
         CHECK_MSG(have_args, "no render line for %s: %s", shot, out_text);
-        char *tf = have_args ? strstr(args, "--tf viridis ") : NULL;
-        CHECK_MSG(!have_args || tf, "no --tf viridis in: %s", args);
+        /* saved with tfsave: the line names the file, with no remark about an unsaved curve */
+        char saved[1200];
+        snprintf(saved, sizeof saved, "--tf %s/edited.json ", tmp);
+        CHECK_MSG(!have_args || strstr(args, saved), "no %s in: %s", saved, args);
         {
-            if (tf) {
-                char edited[6000];
-                snprintf(edited, sizeof edited, "%.*s--tf %s/edited.json %s", (int)(tf - args), args, tmp,
-                         tf + strlen("--tf viridis "));
-                snprintf(ref, sizeof ref, "%s/edited-ref.png", tmp);
-                snprintf(cmd, sizeof cmd, "%s render -o %s -q %s", LEAP_EXE, ref, edited); /* the line names the volume */
-                CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
-                cmp_result same = compare(shot, ref);
-                CHECK_MSG(same.ok && same.differing == 0, "edited curve vs leap render --tf edited.json: %ld values differ",
-                          same.differing);
-            }
+            char key[1200];
+            snprintf(key, sizeof key, "wrote %s; same frame", shot);
+            const char *line = strstr(out_text, key), *eol = line ? strchr(line, '\n') : NULL;
+            const char *remark = line ? strstr(line, "edited opacity curve") : NULL;
+            CHECK_MSG(line && (!remark || (eol && remark > eol)), "a saved curve still called unsaved: %s", out_text);
+        }
+        if (have_args) {
+            snprintf(ref, sizeof ref, "%s/edited-ref.png", tmp);
+            snprintf(cmd, sizeof cmd, "%s render -o %s -q %s", LEAP_EXE, ref, args); /* the line names the volume */
+            CHECK_MSG(run(cmd) == 0, "%s: %s", cmd, out_text);
+            cmp_result same = compare(shot, ref);
+            CHECK_MSG(same.ok && same.differing == 0, "edited curve vs leap render --tf edited.json: %ld values differ",
+                      same.differing);
         }
         /* picks: what `leap pick` says for the same pixels of the same frame */
         char a[1024], b[1024];

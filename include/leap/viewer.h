@@ -187,6 +187,9 @@ typedef struct leap_viewer {
     int tf_point_count;
     double tf_points[LEAP_TF_MAX_POINTS][2]; /* (u over the value window, opacity) */
     unsigned tf_edits;             /* curve changes so far */
+    char tf_saved[512];            /* the file tfsave wrote the curve to, while tf and */
+    char tf_saved_from[512];       /* tf_edits are still tf_saved_from and tf_saved_edits */
+    unsigned tf_saved_edits;
     int mip;                     /* key m: LEAP_MIP_MAX, LEAP_MIP_MIN or 0 (leap_march.mip) */
     leap_shading shade;          /* key l: shade.on toggles gradient shading (not with MIP) */
     int labels;                  /* a segmentation (no MIP) */
@@ -246,6 +249,11 @@ unsigned leap_viewer_set_range(leap_viewer *v, double lo, double hi);
 unsigned leap_viewer_set_opacity(leap_viewer *v, const double (*points)[2], int count);
 /* The transfer function to render: v->tf with the edited curve. Errors: leap_tf_from_arg's. */
 leap_result leap_viewer_tf(const leap_viewer *v, leap_tf *out, leap_error *err);
+/* Records that the current transfer function was saved to path (tfsave): --tf names it. */
+void leap_viewer_tf_saved(leap_viewer *v, const char *path);
+/* What --tf reproduces the current transfer function with: the file it was saved to, or v->tf
+ * (NULL when an edited curve is not in any file). */
+const char *leap_viewer_tf_arg(const leap_viewer *v);
 
 /* Queues an object operation (LEAP_VIEWER_OBJECTS_*; id for SHOW and HIDE). Segmentations. */
 unsigned leap_viewer_objects(leap_viewer *v, int op, int64_t id);

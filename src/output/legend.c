@@ -69,18 +69,34 @@ int leap_legend_draw(float *rgba, int w, int h, const leap_tf *tf, double lo, do
         const float rgb[3] = {(float)c[0], (float)c[1], (float)c[2]};
         fill(rgba, w, h, x0 + x, y0, x0 + x + 1, y0 + bar_h, rgb, 1.0f);
     }
+    /* Labels at the ends and the middle of the bar, as precise as fits: with fewer digits, then
+     * without the middle one, then none, so that no two overlap on a small image. */
     const double values[3] = {lo, 0.5 * (lo + hi), hi};
-    for (int k = 0; k < 3; ++k) {
-        char label[32];
-        snprintf(label, sizeof label, "%.4g", values[k]);
-        const int tw = text(rgba, w, h, 0, 0, scale, label, 0);
-        const int tick = x0 + k * (bar_w - 1) / 2;
-        int tx = tick - tw / 2;
-        if (tx < x0) tx = x0;
-        if (tx + tw > x0 + bar_w) tx = x0 + bar_w - tw;
+    static const int tries[][2] = {{4, 1}, {3, 1}, {2, 1}, {4, 0}, {3, 0}, {2, 0}, {1, 0}};
+    for (size_t t = 0; t < sizeof tries / sizeof *tries; ++t) {
+        char label[3][32];
+        int tx[3], tw[3], fits = 1, right = x0 - margin;
+        for (int k = 0; k < 3; ++k) {
+            tw[k] = -1;
+            if (k == 1 && !tries[t][1]) continue;
+            snprintf(label[k], sizeof label[k], "%.*g", tries[t][0], values[k]);
+            tw[k] = text(rgba, w, h, 0, 0, scale, label[k], 0);
+            const int tick = x0 + k * (bar_w - 1) / 2;
+            tx[k] = tick - tw[k] / 2;
+            if (tx[k] < x0) tx[k] = x0;
+            if (tx[k] + tw[k] > x0 + bar_w) tx[k] = x0 + bar_w - tw[k];
+            fits = fits && tx[k] >= right + 2 * scale;
+            right = tx[k] + tw[k];
+        }
+        if (!fits) continue;
         static const float white[3] = {1, 1, 1};
-        fill(rgba, w, h, tick, y0 + bar_h, tick + 1, y0 + bar_h + margin / 2 + 1, white, 1.0f);
-        text(rgba, w, h, tx, y0 + bar_h + margin, scale, label, 1);
+        for (int k = 0; k < 3; ++k) {
+            if (tw[k] < 0) continue;
+            const int tick = x0 + k * (bar_w - 1) / 2;
+            fill(rgba, w, h, tick, y0 + bar_h, tick + 1, y0 + bar_h + margin / 2 + 1, white, 1.0f);
+            text(rgba, w, h, tx[k], y0 + bar_h + margin, scale, label[k], 1);
+        }
+        break;
     }
     return 1;
 }

@@ -575,7 +575,6 @@ static int wait_for_work(leap_viewer_session *s)
     return !s->stop;
 }
 
-/* Reports a screenshot written, with the `leap render` line that reproduces it. */
 /* Segmentations: the objects shown as --show or --hide options (empty when all are shown). */
 static void objects_args(const leap_scene *scene, char *out, size_t size)
 {
@@ -610,6 +609,7 @@ static void objects_args(const leap_scene *scene, char *out, size_t size)
     }
 }
 
+/* Reports a screenshot written, with the `leap render` line that reproduces it. */
 static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char *path)
 {
     char args[1024], objects[1024];
@@ -623,7 +623,7 @@ static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char 
     session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s%s --size %ux%u %s%s%s", path,
                  overlays, s->desc.volume_path, s->desc.open_options ? s->desc.open_options : "", grid ? " --grid " : "",
                  grid ? grid : "", (unsigned)s->width, (unsigned)s->height, args, objects,
-                 st->tf_point_count ? " (with the edited opacity curve: save it with tfsave or the panel, then give "
+                 !st->labels && !leap_viewer_tf_arg(st) ? " (with the edited opacity curve: save it with tfsave or the panel, then give "
                                       "that file to --tf)" : "");
 }
 

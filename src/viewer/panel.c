@@ -37,6 +37,12 @@ leap_result session_save_tf(leap_viewer_session *s, const char *path)
         session_note(s, LEAP_VIEWER_NOTE_STATUS, "transfer function not saved: %s", err.msg);
         return r;
     }
+    leap_viewer_tf_saved(&s->v, path);
+    pthread_mutex_lock(&s->mu); /* the render thread's copy names the file in its screenshot lines */
+    memcpy(s->posted.tf_saved, s->v.tf_saved, sizeof s->v.tf_saved);
+    memcpy(s->posted.tf_saved_from, s->v.tf_saved_from, sizeof s->v.tf_saved_from);
+    s->posted.tf_saved_edits = s->v.tf_saved_edits;
+    pthread_mutex_unlock(&s->mu);
     snprintf(s->ui_message, sizeof s->ui_message, "saved %s (use it with --tf %s --range %.6g,%.6g)", path, path,
              s->v.range[0], s->v.range[1]);
     if (!s->desc.quiet)

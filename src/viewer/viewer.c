@@ -559,6 +559,19 @@ void leap_viewer_resize(leap_viewer *v, int width, int height)
     if (height > 0) v->height = height;
 }
 
+void leap_viewer_tf_saved(leap_viewer *v, const char *path)
+{
+    snprintf(v->tf_saved, sizeof v->tf_saved, "%s", path);
+    snprintf(v->tf_saved_from, sizeof v->tf_saved_from, "%s", v->tf);
+    v->tf_saved_edits = v->tf_edits;
+}
+
+const char *leap_viewer_tf_arg(const leap_viewer *v)
+{
+    if (v->tf_saved[0] && v->tf_saved_edits == v->tf_edits && !strcmp(v->tf_saved_from, v->tf)) return v->tf_saved;
+    return v->tf_point_count ? NULL : v->tf;
+}
+
 int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
 {
     leap_camera cam;
@@ -581,7 +594,8 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
                  s->ambient, s->diffuse, s->specular, s->shininess);
     }
     char look[640] = ""; /* a segmentation's objects have their own colours: no TF, no range */
-    if (!v->labels) snprintf(look, sizeof look, " --tf %s --range %.17g,%.17g", v->tf, v->range[0], v->range[1]);
+    const char *tf = leap_viewer_tf_arg(v);
+    if (!v->labels) snprintf(look, sizeof look, " --tf %s --range %.17g,%.17g", tf ? tf : v->tf, v->range[0], v->range[1]);
     return snprintf(buf, size,
                     "--mode %s%s --step %.17g --eye %.17g,%.17g,%.17g "
                     "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s%s",
