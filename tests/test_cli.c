@@ -112,6 +112,30 @@ static void check_pipeline_cache(const char *tmp, const char *sphere)
     unsetenv("LEAP_CACHE_DIR");
 }
 
+/* A level set (OpenVDB's vdb_tool) renders as its inside by default: the ray through the
+ * middle meets the sphere, a corner ray only its background (transparent, where the value
+ * range put it at the opaque top of viridis before). */
+static void check_level_set(const char *tmp)
+{
+    char vdb[1024], png[1100], args[4096];
+    snprintf(vdb, sizeof vdb, "%s/level_set.vdb", tmp);
+    snprintf(png, sizeof png, "%s/level_set.png", tmp);
+    snprintf(args, sizeof args, "vdb_tool -sphere dim=64 radius=1 width=3 -write %s > /dev/null", vdb);
+    CHECK_MSG(system(args) == 0, "%s failed", args);
+    snprintf(args, sizeof args, "render %s -o %s --size 48x48 --stats - -q", vdb, png);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "\"level-set\""), "%s: %s", args, out_text);
+    int w = 0, h = 0, c = 0;
+    float *px = NULL;
+    leap_error err = {{0}};
+    CHECK_OK(leap_image_read(png, &w, &h, &c, &px, &err), &err);
+    if (px && w == 48 && h == 48 && c >= 3) {
+        const float *mid = px + ((size_t)24 * w + 24) * c, *corner = px + ((size_t)1 * w + 1) * c;
+        CHECK_MSG(mid[0] > 0.3f && corner[0] == 0.0f && corner[1] == 0.0f && corner[2] == 0.0f,
+                  "level set: middle %g, corner %g %g %g", mid[0], corner[0], corner[1], corner[2]);
+    }
+    free(px);
+}
+
 int main(void)
 {
     const char *tmp = LEAP_TEST_TMP;
@@ -121,13 +145,14 @@ int main(void)
     snprintf(out, sizeof out, "%s/out.png", tmp);
 
     check_pipeline_cache(tmp, sphere);
+    check_level_set(tmp);
 
     /* Help. */
     CHECK(run("--help") == 0 && strstr(out_text, "render") && strstr(out_text, "info"));
     CHECK(run("render --help") == 0 && strstr(out_text, "--orbit") && strstr(out_text, "--stats"));
     CHECK(run("info --help") == 0 && strstr(out_text, "--json"));
     CHECK(run("render --list-tf") == 0 && strstr(out_text, "inferno ") && strstr(out_text, "ct ") &&
-          strstr(out_text, "cool-to-warm ") && strstr(out_text, "Hounsfield"));
+          strstr(out_text, "cool-to-warm ") && strstr(out_text, "Hounsfield") && strstr(out_text, "level-set "));
     CHECK(run("") == 2);
     CHECK(run("frobnicate") == 2 && strstr(out_text, "frobnicate"));
 
@@ -171,6 +196,53 @@ int main(void)
     snprintf(args, sizeof args, "render %s -o %s --memory-budget 1", sphere, out);
     EXPECT_FAIL(1, args, "a memory budget of 1 byte is too small", out);
     CHECK_MSG(strstr(out_text, sphere) && strstr(out_text, "at least"), "%s", out_text);
+    {   /* and the least it names serves (read into memory, when that takes less) */
+        const char *least = strstr(out_text, "at least ");
+        const double mib = least ? strtod(least + strlen("at least "), NULL) : 0;
+        snprintf(args, sizeof args, "render %s -o %s --size 32x32 -q --memory-budget %.2fMiB", sphere, out, mib);
+        CHECK_MSG(mib > 0 && run(args) == 0, "the least budget named, %.2f MiB, does not serve: %s", mib, out_text);
+    }
+    /* --pixel takes two whole numbers, nothing looser */
+    static const char *const bad_pixels[] = {"0x10,3", "1e2,3", "+5,5", " 5,5", "1.5,2", "5,", "5,5,5"};
+    for (size_t i = 0; i < sizeof bad_pixels / sizeof *bad_pixels; ++i) {
+        snprintf(args, sizeof args, "pick %s --size 32x32 --pixel '%s'", sphere, bad_pixels[i]);
+        CHECK_MSG(run(args) == 2 && strstr(out_text, "whole numbers"), "%s: %s", args, out_text);
+        snprintf(args, sizeof args, "segments %s --size 32x32 --pixel '%s'", sphere, bad_pixels[i]);
+        CHECK_MSG(run(args) == 2 && strstr(out_text, "whole numbers"), "%s: %s", args, out_text);
+    }
+    snprintf(args, sizeof args, "pick %s --size 32x32 --pixel -1,5", sphere);
+    CHECK_MSG(run(args) == 2 && strstr(out_text, "outside the 32x32 image"), "%s: %s", args, out_text);
+    snprintf(args, sizeof args, "segments %s --size 32x32 --pixel 99999999999,0", sphere);
+    CHECK_MSG(run(args) == 2 && strstr(out_text, "outside the 32x32 image"), "%s: %s", args, out_text);
+    /* A message longer than the error buffer keeps its reason (after a long path). */
+    {
+        char name[400];
+        memset(name, 'x', 300);
+        name[300] = '\0';
+        snprintf(args, sizeof args, "render %s -o %s/%s.png --size 16x16", sphere, tmp, name);
+        CHECK_MSG(run(args) == 1 && strstr(out_text, "too long"), "a long output name: %s", out_text);
+    }
+    /* Environment variables leap cannot use are named, and the defaults apply. */
+    setenv("LEAP_INDEX_MAX", "lots", 1);
+    setenv("LEAP_PIPELINE_CACHE", "banana", 1);
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 -q", sphere, out);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "LEAP_INDEX_MAX='lots'") && strstr(out_text, "LEAP_PIPELINE_CACHE='banana'"),
+              "environment warnings: %s", out_text);
+    unsetenv("LEAP_INDEX_MAX");
+    unsetenv("LEAP_PIPELINE_CACHE");
+    /* --stats /dev/stdout into a pipe writes there (a link to a pipe, not to a file) */
+    {
+        char cmd[4096];
+        snprintf(cmd, sizeof cmd, "%s render %s -o %s --size 16x16 -q --stats /dev/stdout | grep -c '\"samples_per_pixel\"'",
+                 LEAP_EXE, sphere, out);
+        FILE *p = popen(cmd, "r");
+        char got[64] = "";
+        if (p) {
+            if (!fgets(got, sizeof got, p)) got[0] = '\0';
+            pclose(p);
+        }
+        CHECK_MSG(atoi(got) == 1, "--stats /dev/stdout into a pipe: '%s'", got);
+    }
     /* A typo gets the closest name; a word far from every name gets none. */
     static const struct {
         const char *opts, *suggestion;

@@ -343,6 +343,16 @@ static void test_bad_files(void)
     expect_error("huge dimensions", lying, LEAP_ERR_OOM, "more than this machine");
     copy_prefix(good, lying, -1, 40, 9); /* dim[0] = 9 */
     expect_error("dim[0] = 9", lying, LEAP_ERR_FORMAT, "NIfTI");
+    copy_prefix(good, lying, -1, 44, -40); /* dim[2] = -40: the library reads sizes below 1 as 1 */
+    expect_error("dim[2] = -40", lying, LEAP_ERR_FORMAT, "dim[2] is -40");
+    copy_prefix(good, lying, -1, 46, 0); /* dim[3] = 0 */
+    expect_error("dim[3] = 0", lying, LEAP_ERR_FORMAT, "dim[3] is 0");
+    copy_prefix(good, cut, 352 + 2 * NX * NY * NZ - 1, -1, 0); /* one byte short */
+    {
+        char needs[64];
+        snprintf(needs, sizeof needs, "needs %d bytes but holds %d", 352 + 2 * NX * NY * NZ, 352 + 2 * NX * NY * NZ - 1);
+        expect_error("one byte short", cut, LEAP_ERR_FORMAT, needs);
+    }
     const char *text = tmp_file("text.nii");
     FILE *f = fopen(text, "w");
     if (f) {

@@ -438,6 +438,17 @@ int main(void)
         printf("tubes.vdb naive vs reference: rmse %.2e max %.2e\n", d.rmse, d.max_abs);
         CHECK(d.rmse < 2e-3);
         check_modes(r, s, "tubes.vdb", W, H, NULL);
+        /* the grid's value range is its exact smallest and largest object IDs (not float-rounded) */
+        const leap_label_object *objs = leap_labels_objects(s->labels);
+        const size_t n = leap_labels_count(s->labels);
+        int64_t lo = INT64_MAX, hi = INT64_MIN;
+        for (size_t i = 0; i < n; ++i) {
+            if (leap_labels_is_background(s->labels, i)) continue;
+            lo = objs[i].id < lo ? objs[i].id : lo;
+            hi = objs[i].id > hi ? objs[i].id : hi;
+        }
+        CHECK_MSG(s->info->label_min == lo && s->info->label_max == hi, "label range %lld .. %lld, objects %lld .. %lld",
+                  (long long)s->info->label_min, (long long)s->info->label_max, (long long)lo, (long long)hi);
         free(gpu);
         free(ref);
         leap_scene_destroy(s);

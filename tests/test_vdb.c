@@ -766,7 +766,7 @@ static leap_result try_everything(const char *path, char *msg, size_t cap)
     leap_result r = leap_vdb_open(path, &f, &err);
     if (r != LEAP_OK) {
         CHECK(f == NULL);
-        snprintf(msg, cap, "%s", err.msg);
+        snprintf(msg, cap, "%.255s", err.msg);
         return r;
     }
     for (int i = 0; i < leap_vdb_grid_count(f) && r == LEAP_OK; ++i) {
@@ -784,7 +784,7 @@ static leap_result try_everything(const char *path, char *msg, size_t cap)
         }
     }
     leap_vdb_close(f);
-    snprintf(msg, cap, "%s", err.msg);
+    snprintf(msg, cap, "%.255s", err.msg);
     return r;
 }
 

@@ -18,11 +18,13 @@ typedef enum leap_result {
 
 /* Human-readable detail for the last failure; owned by the caller, never global. */
 typedef struct leap_error {
-    char msg[256];
+    char msg[1024];
 } leap_error;
 
 /* Formats `fmt` into err->msg (err may be NULL) and returns `code`, so callers can
- * write `return leap_fail(err, LEAP_ERR_IO, "cannot open '%s'", path);`. */
+ * write `return leap_fail(err, LEAP_ERR_IO, "cannot open '%s'", path);`. The arguments may
+ * include err->msg itself. A message longer than err->msg keeps its start and its end (the
+ * reason usually comes last, after a path) with "..." between. */
 leap_result leap_fail(leap_error *err, leap_result code, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 3, 4)))

@@ -63,6 +63,7 @@ typedef struct leap_scene_index {
                                 why", "not used: ... read lazily", "off"; "" for a grid in memory */
     int lazy;                /* no index served and the grid records its leaves' scan: read lazily
                                 (leap_vdb_load_grid_lazily), no index written */
+    uint64_t in_memory_bytes; /* the least budget that reads the grid into memory */
 } leap_scene_index;
 
 typedef struct leap_scene {

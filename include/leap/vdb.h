@@ -50,6 +50,7 @@ typedef struct leap_grid_info {
     uint64_t leaf_count;
     uint64_t active_tiles[LEAP_TILE_LEVELS];
     double value_min, value_max; /* finite min/max over active voxels and tiles (background if none) */
+    int64_t label_min, label_max; /* labels: the same, exact (value_min/max are float-rounded IDs) */
     uint64_t nonfinite_values;   /* NaN/Inf found in leaf buffers and tiles */
     uint64_t memory_bytes;       /* OpenVDB's memUsage() of the loaded tree (read on demand: with the
                                     leaves' offsets) */

@@ -165,8 +165,17 @@ leap_result leap_output_target(const char *path, char *target, size_t n, int *st
     *stream = 0;
     if (lstat(path, &st) == 0 && S_ISLNK(st.st_mode)) {
         char resolved[PATH_MAX];
-        if (!realpath(path, resolved))
-            return leap_fail(err, LEAP_ERR_IO, "%s: a link that leads to no file (%s)", path, strerror(errno));
+        if (!realpath(path, resolved)) {
+            /* /dev/stdout into a pipe: a link to /proc/self/fd/1, which names no file but opens the
+             * pipe (a stream written in place) */
+            const int e = errno;
+            if (stat(path, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode) &&
+                snprintf(target, n, "%s", path) < (int)n) {
+                *stream = 1;
+                return LEAP_OK;
+            }
+            return leap_fail(err, LEAP_ERR_IO, "%s: a link that leads to no file (%s)", path, strerror(e));
+        }
         if (snprintf(target, n, "%s", resolved) >= (int)n) return leap_fail(err, LEAP_ERR_IO, "%s: path too long", path);
     } else if (snprintf(target, n, "%s", path) >= (int)n) {
         return leap_fail(err, LEAP_ERR_IO, "%s: path too long", path);

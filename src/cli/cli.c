@@ -42,6 +42,7 @@ int leap_cli_main(int argc, char **argv)
         return EXIT_USAGE;
     }
     const char *verb = argv[1];
+    cli_check_environment();
     if (!strcmp(verb, "help") && argc >= 3) { /* leap help VERB: that verb's help */
         char *verb_help[] = {argv[0], argv[2], "--help", NULL};
         return leap_cli_main(3, verb_help);

@@ -33,9 +33,11 @@ const char *cli_camera_options_help =
     "                      float32, float64; little-endian unless :be), opened Z-up\n"
     "  --voxel X,Y,Z       raw files: voxel size in world units (default 1,1,1)\n"
     "  --tf PRESET|FILE    transfer function: a preset (grey, viridis, hot, cloud, inferno,\n"
-    "                      cool-to-warm, black-body, ct, labels; see --list-tf) or a ParaView\n"
-    "                      JSON colour map (default: viridis; segmentations: object colours)\n"
-    "  --range LO,HI       values mapped onto the transfer function (default: grid range)\n"
+    "                      cool-to-warm, black-body, ct, labels, level-set; see --list-tf) or a\n"
+    "                      ParaView JSON colour map (default: viridis; level sets: level-set;\n"
+    "                      segmentations: object colours)\n"
+    "  --range LO,HI       values mapped onto the transfer function (default: grid range;\n"
+    "                      level sets: -W,W, W the largest distance stored)\n"
     "  --mip               maximum intensity projection: each pixel shows the TF at the\n"
     "                      largest value along its ray (skipping stays exact)\n"
     "  --minip             minimum intensity projection: the TF at the smallest value\n"
@@ -134,6 +136,9 @@ int cli_input_option(int argc, char **argv, int *i, const char *verb, leap_input
         if (missing || leap__parse_numbers(v, s, 3, 3) != 3 || !(s[0] > 0 && s[1] > 0 && s[2] > 0) ||
             !(isfinite(s[0]) && isfinite(s[1]) && isfinite(s[2])))
             FAIL("--voxel must be X,Y,Z with positive finite sizes");
+        if (s[0] * s[1] * s[2] < 1e-14) /* OpenVDB refuses a transform of determinant below 3e-15 */
+            FAIL("--voxel %g,%g,%g: a voxel of volume %g is too small for an OpenVDB transform (at least 1e-14): "
+                 "give the sizes in larger units", s[0], s[1], s[2], s[0] * s[1] * s[2]);
         return 1;
     }
     return 0;

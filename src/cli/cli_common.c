@@ -116,6 +116,43 @@ const char *cli_option_value(int argc, char **argv, int *i, const char *name, in
     return argv[++*i];
 }
 
+void cli_check_environment(void)
+{
+    const char *v = getenv("LEAP_PIPELINE_CACHE");
+    if (v && strcmp(v, "0") && strcmp(v, "1"))
+        fprintf(stderr, "leap: warning: LEAP_PIPELINE_CACHE='%s': 0 turns the pipeline cache off, 1 keeps it; it "
+                "stays on\n", v);
+    v = getenv("LEAP_CACHE_DIR");
+    struct stat st;
+    if (v && *v && stat(v, &st) == 0 && !S_ISDIR(st.st_mode))
+        fprintf(stderr, "leap: warning: LEAP_CACHE_DIR='%s' is not a directory: no pipeline cache is kept\n", v);
+    v = getenv("LEAP_INDEX_MAX");
+    if (v && *v && !leap__parse_bytes(v))
+        fprintf(stderr, "leap: warning: LEAP_INDEX_MAX='%s' is not a size (such as 512MiB); the default 1 GiB "
+                "applies\n", v);
+    v = getenv("LEAP_PROGRESS_DELAY_MS");
+    char *end = NULL;
+    const double ms = v ? strtod(v, &end) : 0;
+    if (v && !(end != v && *end == '\0' && ms >= 0 && ms <= 1e9))
+        fprintf(stderr, "leap: warning: LEAP_PROGRESS_DELAY_MS='%s' is not a delay in milliseconds (0 to 1e9); "
+                "progress shows after the default second\n", v);
+}
+
+int cli_parse_pixel(const char *v, long long xy[2])
+{
+    for (int k = 0; k < 2; ++k) {
+        const int negative = *v == '-';
+        v += negative;
+        if (!isdigit((unsigned char)*v)) return 0;
+        long long n = 0;
+        for (; isdigit((unsigned char)*v); ++v)
+            if (n < 1000000000000000LL) n = 10 * n + (*v - '0'); /* far beyond every image side */
+        xy[k] = negative ? -n : n;
+        if (*v++ != (k == 0 ? ',' : '\0')) return 0;
+    }
+    return 1;
+}
+
 int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs, const char *const *outputs,
                       int n_outputs)
 {

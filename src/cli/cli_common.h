@@ -40,9 +40,16 @@ void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked);
 /* Exit code for a library error: usage errors are 2, everything else 1. */
 int cli_exit_code(leap_result r);
 
+/* Warns about LEAP_* environment variables whose values leap cannot use (the defaults apply). */
+void cli_check_environment(void);
+
 /* "--name value" or "--name=value": the value, or NULL (with *missing set when the value is
  * absent); advances *i past what it consumed. */
 const char *cli_option_value(int argc, char **argv, int *i, const char *name, int *missing);
+
+/* --pixel X,Y: two whole decimal numbers (a '-' sign allowed, so that a negative pixel is named
+ * outside the image), nothing else. Returns 1 and the pixel, or 0. */
+int cli_parse_pixel(const char *v, long long xy[2]);
 /* Usage error (exit 2) naming both paths if any output is the same file as an existing
  * input (device and inode after links; NULL entries are skipped); 0 otherwise. */
 int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs, const char *const *outputs,

@@ -70,8 +70,16 @@ static cJSON *info_json(const leap_grid_info *gi, int loaded)
     double tiles[LEAP_TILE_LEVELS];
     for (int i = 0; i < LEAP_TILE_LEVELS; ++i) tiles[i] = (double)gi->active_tiles[i];
     cJSON_AddItemToObject(g, "active_tiles_8_128_4096", cJSON_CreateDoubleArray(tiles, LEAP_TILE_LEVELS));
-    cJSON_AddNumberToObject(g, "value_min", gi->value_min);
-    cJSON_AddNumberToObject(g, "value_max", gi->value_max);
+    if (gi->labels) { /* exact 64-bit IDs, beyond what a double holds */
+        char id[32];
+        snprintf(id, sizeof id, "%lld", (long long)gi->label_min);
+        cJSON_AddRawToObject(g, "value_min", id);
+        snprintf(id, sizeof id, "%lld", (long long)gi->label_max);
+        cJSON_AddRawToObject(g, "value_max", id);
+    } else {
+        cJSON_AddNumberToObject(g, "value_min", gi->value_min);
+        cJSON_AddNumberToObject(g, "value_max", gi->value_max);
+    }
     cJSON_AddNumberToObject(g, "nonfinite_values", (double)gi->nonfinite_values);
     cJSON_AddNumberToObject(g, "memory_bytes", (double)gi->memory_bytes);
     return g;
@@ -108,7 +116,10 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
     printf("  leaves         %llu\n", (unsigned long long)gi->leaf_count);
     printf("  active tiles   %llu (8^3), %llu (128^3), %llu (4096^3)\n", (unsigned long long)gi->active_tiles[0],
            (unsigned long long)gi->active_tiles[1], (unsigned long long)gi->active_tiles[2]);
-    printf("  values         %g .. %g%s\n", gi->value_min, gi->value_max, gi->nonfinite_values ? " (finite)" : "");
+    if (gi->labels)
+        printf("  values         %lld .. %lld\n", (long long)gi->label_min, (long long)gi->label_max);
+    else
+        printf("  values         %g .. %g%s\n", gi->value_min, gi->value_max, gi->nonfinite_values ? " (finite)" : "");
     if (gi->nonfinite_values)
         printf("  non-finite     %llu values (NaN read as background, +-Inf as the finite max/min)\n",
                (unsigned long long)gi->nonfinite_values);
@@ -350,13 +361,18 @@ int cli_info(int argc, char **argv)
             gi = *leap_grid_get_info(grid);
             loaded = 1;
         }
+        /* --labels first: a grid it does not apply to is refused before anything is printed */
+        const leap_result made = labels && grid && gi.scalar && !leap_grid_has_labels(grid)
+                                     ? leap_grid_make_labels(grid, &err) : LEAP_OK;
+        if (made) {
+            rc = made == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg) : cli_runtime_error("%s", err.msg);
+            leap_grid_destroy(grid);
+            break;
+        }
+        if (grid) gi = *leap_grid_get_info(grid);
         cJSON *jg = json ? info_json(&gi, loaded) : NULL;
         if (jg) cJSON_AddItemToArray(grids, jg);
         else print_info_text(&gi, loaded);
-        const leap_result made = labels && grid && gi.scalar && !leap_grid_has_labels(grid)
-                                     ? leap_grid_make_labels(grid, &err) : LEAP_OK;
-        if (made) rc = made == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg)
-                                              : cli_runtime_error("%s", err.msg);
         if (!rc && grid && leap_grid_has_labels(grid)) rc = info_objects(grid, objects, jg);
         else if (!rc && objects && !json)
             printf("  objects        none: not a segmentation (%s values; --labels reads integer values as one)\n",

@@ -27,7 +27,7 @@ int cli_pick(int argc, char **argv)
 {
     cli_camera_options o;
     cli_camera_options_init(&o);
-    double pixel[2];
+    double pixel[2] = {0, 0};
     int has_pixel = 0, json = 0;
     double min_opacity = 0.0;
     for (int i = 2; i < argc; ++i) {
@@ -47,9 +47,11 @@ int cli_pick(int argc, char **argv)
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--pixel", &missing)) || missing) {
-            if (missing || leap__parse_numbers(v, pixel, 2, 2) != 2 || pixel[0] != (int)pixel[0] ||
-                pixel[1] != (int)pixel[1] || pixel[0] < 0 || pixel[1] < 0)
-                return cli_usage_error("pick", "--pixel must be X,Y (non-negative integers)");
+            long long xy[2];
+            if (missing || !cli_parse_pixel(v, xy))
+                return cli_usage_error("pick", "--pixel must be X,Y (whole numbers: column, row from the top left)");
+            pixel[0] = (double)xy[0];
+            pixel[1] = (double)xy[1];
             has_pixel = 1;
             continue;
         }
@@ -63,7 +65,7 @@ int cli_pick(int argc, char **argv)
     int rc = cli_camera_options_check("pick", &o, 1);
     if (rc) return rc;
     if (!has_pixel) return cli_usage_error("pick", "no pixel given (--pixel X,Y)");
-    if (pixel[0] >= o.width || pixel[1] >= o.height)
+    if (pixel[0] < 0 || pixel[1] < 0 || pixel[0] >= o.width || pixel[1] >= o.height)
         return cli_usage_error("pick", "--pixel %.0f,%.0f lies outside the %dx%d image", pixel[0], pixel[1], o.width,
                                o.height);
     leap_error err = {{0}};

@@ -34,7 +34,8 @@ static const char *segments_help_tail =
 
 typedef struct seg_options {
     cli_camera_options view;
-    int has_pixel, px, py, json, quiet;
+    int has_pixel, json, quiet;
+    long long px, py;
     const char *outdir;
 } seg_options;
 
@@ -59,14 +60,14 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "--pixel", &missing)) || missing) {
-            double xy[2];
+            long long xy[2];
             if (missing) return cli_usage_error("segments", "option --pixel needs a value");
-            if (leap__parse_numbers(v, xy, 2, 2) != 2 || xy[0] != floor(xy[0]) || xy[1] != floor(xy[1]) ||
-                fabs(xy[0]) > 1e6 || fabs(xy[1]) > 1e6)
-                return cli_usage_error("segments", "--pixel '%s' must be X,Y (integers)", v);
+            if (!cli_parse_pixel(v, xy))
+                return cli_usage_error("segments", "--pixel '%s' must be X,Y (whole numbers: column, row from the top "
+                                       "left)", v);
             o->has_pixel = 1;
-            o->px = (int)xy[0];
-            o->py = (int)xy[1];
+            o->px = xy[0];
+            o->py = xy[1];
             continue;
         }
         if ((v = cli_option_value(argc, argv, &i, "-o", &missing)) || missing ||
@@ -90,7 +91,7 @@ static int parse_args(int argc, char **argv, seg_options *o, int *done)
     if (!o->has_pixel && !o->outdir) return cli_usage_error("segments", "nothing to do: give --pixel X,Y or -o DIR");
     if (o->json && !o->has_pixel) return cli_usage_error("segments", "--json goes with --pixel");
     if (o->has_pixel && (o->px < 0 || o->py < 0 || o->px >= o->view.width || o->py >= o->view.height))
-        return cli_usage_error("segments", "--pixel %d,%d is outside the %dx%d image (0-based, row 0 at the top)",
+        return cli_usage_error("segments", "--pixel %lld,%lld is outside the %dx%d image (0-based, row 0 at the top)",
                                o->px, o->py, o->view.width, o->view.height);
     return 0;
 }
@@ -190,7 +191,7 @@ int cli_segments(int argc, char **argv)
                                      .height = o.view.height};
     if (o.has_pixel) {
         leap_dump_pixel p;
-        if (leap_dump_frame_pixel(frame, o.px, o.py, &p, &err)) {
+        if (leap_dump_frame_pixel(frame, (int)o.px, (int)o.py, &p, &err)) {
             cli_runtime_error("%s", err.msg);
             goto done;
         }

@@ -129,6 +129,9 @@ static leap_result open_vdb(const char *path, const leap_input_options *options,
         return leap_fail(err, LEAP_ERR_USAGE, "--threshold applies to imported scans (NIfTI); in '%s', an OpenVDB "
                          "file, the inactive voxels already are the empty space", path);
     }
+    if (r == LEAP_ERR_FORMAT && (ends_with(path, ".png") || ends_with(path, ".PNG")))
+        return leap_fail(err, r, "'%s': one image, not a volume: give the folder of its slices or a quoted pattern "
+                         "such as 'DIR/*.png'", path);
     if (r == LEAP_ERR_FORMAT && !ends_with(path, ".vdb")) {
         char msg[sizeof err->msg];
         memcpy(msg, err->msg, sizeof msg);

@@ -165,10 +165,10 @@ static leap_result check_header(const char *path, const nifti_image *nim, int *i
     if (!gz && stat(iname, &st) == 0 && (uint64_t)st.st_size < (uint64_t)nim->iname_offset + bytes)
         return leap_fail(err, LEAP_ERR_FORMAT,
                          "'%s' is truncated: its header promises %lld x %lld x %lld voxels of %s (%llu bytes from "
-                         "offset %lld) but the file holds %llu bytes",
+                         "offset %lld), so the file needs %llu bytes but holds %llu",
                          iname, (long long)nim->nx, (long long)nim->ny, (long long)nim->nz,
-                         type_name(nim->datatype), (unsigned long long)bytes,
-                         (long long)nim->iname_offset, (unsigned long long)st.st_size);
+                         type_name(nim->datatype), (unsigned long long)bytes, (long long)nim->iname_offset,
+                         (unsigned long long)nim->iname_offset + bytes, (unsigned long long)st.st_size);
     return LEAP_OK;
 }
 
@@ -206,11 +206,26 @@ leap_result leap__input_open_nifti(const char *path, const leap_input_options *o
         int64_t d0 = version == 1 ? ((nifti_1_header *)raw)->dim[0] : ((nifti_2_header *)raw)->dim[0];
         int16_t swapped = (int16_t)d0;
         nifti_swap_2bytes(1, &swapped);
-        if ((d0 < 1 || d0 > 7) && version == 1 && swapped >= 1 && swapped <= 7) d0 = swapped;
+        const int swap = (d0 < 1 || d0 > 7) && version == 1 && swapped >= 1 && swapped <= 7;
+        if (swap) d0 = swapped;
         if (d0 < 1 || d0 > 7) {
             free(raw);
             return leap_fail(err, LEAP_ERR_FORMAT, "'%s': dim[0] is %lld; a NIfTI header has 1 to 7 dimensions",
                              path, (long long)d0);
+        }
+        /* The library reads a size of 0 or less as 1: a corrupt header would open as a slab. */
+        for (int a = 1; a <= d0; ++a) {
+            int64_t d = version == 1 ? ((nifti_1_header *)raw)->dim[a] : ((nifti_2_header *)raw)->dim[a];
+            if (swap) {
+                int16_t s16 = (int16_t)d;
+                nifti_swap_2bytes(1, &s16);
+                d = s16;
+            }
+            if (d < 1) {
+                free(raw);
+                return leap_fail(err, LEAP_ERR_FORMAT, "'%s': dim[%d] is %lld; sizes must be at least 1", path, a,
+                                 (long long)d);
+            }
         }
     }
     free(raw);

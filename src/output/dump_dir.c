@@ -40,8 +40,11 @@ static int names_free(const leap_dump_dir *d, leap_error *err)
     for (int i = 0; i < F_COUNT; ++i) {
         struct stat st;
         if (lstat(d->final[i], &st) == 0 && !S_ISREG(st.st_mode)) {
-            leap_fail(err, LEAP_ERR_IO, "%s: in the way of the dump's file of that name (not a regular file); nothing "
-                      "was replaced", d->final[i]);
+            /* a link too: the dump's files are replaced by renames, which would replace the link
+             * itself, not write where it leads */
+            leap_fail(err, LEAP_ERR_IO, "%s: in the way of the dump's file of that name (%s); nothing was replaced",
+                      d->final[i], S_ISLNK(st.st_mode) ? "a symbolic link, which the dump would replace: remove it "
+                      "or dump elsewhere" : S_ISDIR(st.st_mode) ? "a directory" : "not a regular file");
             return 0;
         }
     }

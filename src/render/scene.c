@@ -65,6 +65,7 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
                                  leap_scene_index *x, leap_grid **out, leap_error *err)
 {
     const uint64_t need = 2 * leap_vdb_grid_memory_estimate(file, grid);
+    x->in_memory_bytes = need;
     if (need <= budget) return leap_vdb_load_grid(file, grid, out, err);
     leap_result r = x->use ? find_index(x, path, leap_vdb_grid_name(file, grid), err) : LEAP_OK;
     /* Without an index, a grid that records its leaves' scan is read lazily: no leaf to open. */
@@ -176,12 +177,15 @@ static leap_result share_budget(leap_scene *s, const char *path, leap_error *err
                           (uint64_t)a->slot_count * (sizeof *a->slot_cells + sizeof *a->slot_ranges);
     const uint64_t least = held + LEAP_SLOT_TEXELS * sizeof(float);
     char text[32];
+    /* A budget below this grid's on-demand bookkeeping may still hold the whole grid. */
+    const int in_memory = s->index.in_memory_bytes && s->index.in_memory_bytes < least;
     if (least > s->memory_budget)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: a memory budget of %s is too small for this grid read on "
                          "demand: its topology, tables and bookkeeping take %.2f MiB; give --memory-budget (or "
-                         "LEAP_MEMORY_BUDGET) at least %.2f MiB", path ? path : "the volume",
+                         "LEAP_MEMORY_BUDGET) at least %.2f MiB%s", path ? path : "the volume",
                          budget_text(s->memory_budget, text), (double)held / (1 << 20),
-                         (double)least / (1 << 20));
+                         ceil((double)(in_memory ? s->index.in_memory_bytes : least) / (1 << 20) * 100) / 100, /* enough */
+                         in_memory ? " (the grid is then read into memory)" : "");
     s->gpu_cache_bytes = s->memory_budget - held;
     return LEAP_OK;
 }
@@ -672,10 +676,21 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         s->march.step = desc->step > 0 ? desc->step : 0.5;
         double lo = desc->has_range ? desc->range[0] : s->info->value_min;
         double hi = desc->has_range ? desc->range[1] : s->info->value_max;
+        /* A level set's outside is its background, above every active value: over the value
+         * range it took the top of the transfer function and hid the surface in an opaque box.
+         * Its own preset over a range symmetric about the surface shows the inside. */
+        const int level_set = !desc->tf && !desc->labels && !s->info->labels && !strcmp(s->info->grid_class, "level set");
+        if (level_set && !desc->has_range) {
+            const double w = fmax(fmax(fabs(lo), fabs(hi)), fabs(s->info->background));
+            if (w > 0 && isfinite(w)) lo = -w, hi = w;
+        }
         /* A grid of one value: the range is widened below it, so the value maps onto the
          * top of the transfer function and renders instead of vanishing in [v, v]. */
         if (!(hi > lo)) lo = hi - fmax(1.0, fabs(hi) * 1e-3);
-        const char *tf = desc->tf ? desc->tf : strcmp(s->info->value_type, "int32") == 0 ? "labels" : "viridis";
+        const char *tf = desc->tf          ? desc->tf
+                         : level_set          ? "level-set"
+                         : strcmp(s->info->value_type, "int32") == 0 ? "labels"
+                                                                      : "viridis";
         r = leap_tf_from_arg(tf, leap_scene_label_count(lo, hi), &s->tf, err);
         s->march.range_lo = lo;
         s->march.range_hi = hi;

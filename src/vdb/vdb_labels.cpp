@@ -67,6 +67,8 @@ leap_result leap_grid_make_labels(leap_grid *grid, leap_error *err)
             }
         grid->labels.reset(new LabelTree(tree));
         grid->info.labels = 1;
+        grid->info.label_min = int64_t(grid->info.value_min); // integers below 2^24: exact
+        grid->info.label_max = int64_t(grid->info.value_max);
         return LEAP_OK;
     });
 }

@@ -3,6 +3,8 @@
 // through leap_error.
 #include "vdb_internal.h"
 
+#include <openvdb/tools/Count.h>
+
 #include <chrono>
 #include <thread>
 
@@ -952,6 +954,12 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, bool lazil
         g->on_demand = std::move(od);
         const leap_grid_scan *recorded = file->recorded[gi].leaf_count ? &file->recorded[gi] : nullptr;
         scan_grid(*g, on_demand ? known : nullptr, recorded);
+        if (g->labels) { // exact IDs: the scan's range is of the float tree
+            const vdb::math::MinMax<int64_t> ids = vdb::tools::minMax(*g->labels);
+            const bool any = g->info.active_voxels > 0;
+            g->info.label_min = any ? ids.min() : g->labels->background();
+            g->info.label_max = any ? ids.max() : g->labels->background();
+        }
         leap_result r = leap_grid_read_status(g.get(), err);
         if (r) return r;
         *out = g.release();

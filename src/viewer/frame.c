@@ -98,7 +98,7 @@ static leap_result apply_tf(leap_viewer_session *s, leap_viewer *st, leap_error 
     if (!r) r = leap_scene_set_step(s->scene, st->step, err);
     if (!r) r = leap_renderer_bind_scene(s->renderer, s->scene, err);
     if (r == LEAP_ERR_UNSUPPORTED && st->shade.on) {
-        snprintf(s->shade_refusal, sizeof s->shade_refusal, "%s", err->msg);
+        snprintf(s->shade_refusal, sizeof s->shade_refusal, "%.500s", err->msg);
         return apply_tf(s, st, err);
     }
     ++s->tf_gen;
@@ -161,7 +161,7 @@ static void answer_hover(leap_viewer_session *s, const leap_viewer *st, double x
         else
             describe_pick(s->scene, &p, 1, text, sizeof text);
     } else {
-        snprintf(text, sizeof text, "no pick: %s", err.msg[0] ? err.msg : "no frame yet");
+        snprintf(text, sizeof text, "no pick: %.200s", err.msg[0] ? err.msg : "no frame yet");
     }
     pthread_mutex_lock(&s->mu);
     snprintf(s->pub.hover_text, sizeof s->pub.hover_text, "%s", text);
@@ -693,7 +693,7 @@ void *session_render_thread(void *arg)
         if (!tr) tr = apply_objects(s, &st, &err);
         if (tr) {
             char msg[1100];
-            snprintf(msg, sizeof msg, "transfer function '%s': %s", st.tf, err.msg);
+            snprintf(msg, sizeof msg, "transfer function '%.200s': %.800s", st.tf, err.msg);
             if (script_mode) {
                 set_fatal(s, tr, msg);
                 break;

@@ -33,7 +33,7 @@ leap_result session_save_tf(leap_viewer_session *s, const char *path)
     if (!r)
         r = leap_tf_save_json(&tf, (const double (*)[2])s->v.tf_points, s->v.tf_point_count, path, &err);
     if (r) {
-        snprintf(s->ui_message, sizeof s->ui_message, "not saved: %s", err.msg);
+        snprintf(s->ui_message, sizeof s->ui_message, "not saved: %.500s", err.msg);
         session_note(s, LEAP_VIEWER_NOTE_STATUS, "transfer function not saved: %s", err.msg);
         return r;
     }
@@ -56,7 +56,7 @@ static void load_tf(leap_viewer_session *s, const char *path)
     leap_error err;
     leap_tf tf;
     if (leap_tf_from_arg(path, 1, &tf, &err)) { /* checked here so that a bad file does not stop the view */
-        snprintf(s->ui_message, sizeof s->ui_message, "not loaded: %s", err.msg);
+        snprintf(s->ui_message, sizeof s->ui_message, "not loaded: %.500s", err.msg);
         return;
     }
     s->bits |= leap_viewer_set_tf(&s->v, path);

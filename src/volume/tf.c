@@ -62,8 +62,8 @@ static void set_name(leap_tf *out, const char *name)
 
 /* ---- presets ------------------------------------------------------------------------- */
 
-static const char *const preset_names[] = {"grey",         "viridis", "labels", "hot", "cloud",
-                                           "cool-to-warm", "inferno", "black-body", "ct", NULL};
+static const char *const preset_names[] = {"grey",         "viridis", "labels",     "hot", "cloud",
+                                           "cool-to-warm", "inferno", "black-body", "ct",  "level-set", NULL};
 
 /* One line per preset, in the order of preset_names (leap render --list-tf). */
 static const char *const preset_notes[] = {
@@ -76,6 +76,7 @@ static const char *const preset_notes[] = {
     "black-purple-orange-yellow perceptual map, transparent below 5 % of the range",
     "ParaView's black-body radiation (black-red-yellow-white), transparent below 5 % of the range",
     "CT in Hounsfield units with --range -1000,2000: air and fat transparent, soft tissue faint red, bone ivory",
+    "level sets (the default for them, over -w .. w): inside opaque, outside transparent; add --shade for the shape",
     NULL,
 };
 
@@ -231,6 +232,20 @@ static void fill_cloud(leap_tf *out)
     }
 }
 
+/* Level sets over a range symmetric about 0 (the surface at u = 0.5): opaque inside from a
+ * tenth of the range below the surface, transparent outside, ivory, brighter towards the
+ * surface. */
+static void fill_level_set(leap_tf *out)
+{
+    for (int i = 0; i < N_TABLE; ++i) {
+        const double u = table_u(i), light = 0.6 + 0.8 * fmin(u, 0.5);
+        out->rgba[i][0] = clamp01f(0.95 * light);
+        out->rgba[i][1] = clamp01f(0.90 * light);
+        out->rgba[i][2] = clamp01f(0.80 * light);
+        out->rgba[i][3] = clamp01f((0.5 - u) / 0.1);
+    }
+}
+
 /* Label volumes: the range spans `label_count` integers lo .. lo + label_count - 1, so
  * label offset L sits at u = L / (label_count - 1). Each table entry takes the colour of
  * the nearest label; offset 0 (the background when the range starts at 0) is fully
@@ -283,6 +298,9 @@ leap_result leap_tf_preset(const char *name, int label_count, leap_tf *out, leap
     } else if (strcmp(name, "ct") == 0) {
         fill_ct(out);
         set_name(out, "ct");
+    } else if (strcmp(name, "level-set") == 0) {
+        fill_level_set(out);
+        set_name(out, "level-set");
     } else if (find_colour_map(name)) {
         fill_colour_map(find_colour_map(name), out);
         set_name(out, name);
