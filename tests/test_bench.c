@@ -137,14 +137,18 @@ static void check_config_large_and_nested_output(void)
 static void check_without_naive(void)
 {
     char cmd[4096], path[2048];
-    snprintf(cmd, sizeof cmd, "rm -rf %s/lone && %s bench %s/sphere.vdb --sizes 32x24 --views 1 --steps 1 "
-             "--modes sparseleap --repeats 1 --warmup 0 -o %s/lone 2>%s/lone.err", LEAP_TEST_TMP,
-             LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    /* into the folder of the two-volume bench with naive: none of its plots stays behind */
+    snprintf(cmd, sizeof cmd, "rm -rf %s/lone && cp -r %s/bench %s/lone && %s bench %s/sphere.vdb --sizes 32x24 "
+             "--views 1 --steps 1 --modes sparseleap --repeats 1 --warmup 0 -o %s/lone 2>%s/lone.err", LEAP_TEST_TMP,
+             LEAP_TEST_TMP, LEAP_TEST_TMP, LEAP_EXE, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
     check_succeeds(cmd, "lone.err", "bench --modes sparseleap");
     snprintf(path, sizeof path, "%s/lone/stages.png", LEAP_TEST_TMP);
     CHECK(access(path, R_OK) == 0);
-    snprintf(path, sizeof path, "%s/lone/speedup.png", LEAP_TEST_TMP);
-    CHECK(access(path, F_OK) != 0);
+    static const char *const gone[] = {"speedup.png", "speedup.gp", "speedup.dat", "speed_error_1.png", "speed_error_1.dat"};
+    for (size_t i = 0; i < sizeof gone / sizeof *gone; ++i) {
+        snprintf(path, sizeof path, "%s/lone/%s", LEAP_TEST_TMP, gone[i]);
+        CHECK_MSG(access(path, F_OK) != 0, "an earlier run's %s left beside the new report", gone[i]);
+    }
     snprintf(path, sizeof path, "%s/lone/report.md", LEAP_TEST_TMP);
     char *md = read_whole_file(path, NULL);
     CHECK(md && strstr(md, "stages.png") && !strstr(md, "speedup.png"));
@@ -185,6 +189,7 @@ static void check_one_camera(void)
         snprintf(path, sizeof path, "%s/cam/report.md", LEAP_TEST_TMP);
         char *md = read_whole_file(path, NULL);
         CHECK(md && strstr(md, "One camera, eye 0,0,150, target "));
+        CHECK_MSG(md && strstr(md, "Transfer function: each volume's default"), "the report names no transfer function");
         free(md);
     }
     snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --eye 0,0,150 -o %s/cam 2>/dev/null", LEAP_EXE, LEAP_VOLUMES,
@@ -197,6 +202,9 @@ static void check_one_camera(void)
     snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb --modes bbox,bbox -o %s/twice 2>/dev/null", LEAP_EXE,
              LEAP_VOLUMES, LEAP_TEST_TMP);
     CHECK_MSG(run_status(cmd) == 2, "--modes bbox,bbox must be a usage error");
+    snprintf(cmd, sizeof cmd, "%s bench %s/sphere.vdb %s/sphere.vdb -o %s/twice 2>/dev/null", LEAP_EXE, LEAP_VOLUMES,
+             LEAP_VOLUMES, LEAP_TEST_TMP);
+    CHECK_MSG(run_status(cmd) == 2, "a volume given twice must be a usage error");
 }
 
 /* A GPU cache smaller than one layer of the sphere's bricks: the cache's slots and passes in
@@ -301,6 +309,14 @@ static void check_failures_keep_work(void)
     snprintf(path, sizeof path, "%s/shaded", LEAP_TEST_TMP);
     CHECK_MSG(rc == 2 && access(path, F_OK) != 0, "shaded segmentation: exit %d, folder %s", rc,
               access(path, F_OK) == 0 ? "left" : "not made");
+    /* ... also behind a scalar volume: refused before that volume's frames, not after them */
+    snprintf(cmd, sizeof cmd, "rm -rf %s/shaded && %s bench %s/sphere.vdb %s/labels.vdb --sizes 16x16 --views 1 "
+             "--steps 1 --modes naive --repeats 1 --warmup 0 --look shade -o %s/shaded 2>%s/shaded.err", LEAP_TEST_TMP,
+             LEAP_EXE, LEAP_VOLUMES, LEAP_VOLUMES, LEAP_TEST_TMP, LEAP_TEST_TMP);
+    err = check_fails(cmd, "shaded.err", 2, "labels.vdb: shading", "shading a segmentation behind a scalar volume");
+    CHECK_MSG(err && !strstr(err, "sphere.vdb view") && access(path, F_OK) != 0,
+              "frames ran before the refusal: %s", err ? err : "");
+    free(err);
 
     snprintf(path, sizeof path, "%s/cut.vdb", LEAP_TEST_TMP);
     snprintf(cmd, sizeof cmd, "head -c 3000 %s/cloud.vdb > %s && rm -rf %s/part && %s bench %s/sphere.vdb %s "

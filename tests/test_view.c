@@ -589,7 +589,31 @@ int main(void)
         rc = run(cmd);
         CHECK_MSG(rc == 0, "objects session: exit %d: %s", rc, out_text);
         renders_back(tmp, "objects", "--hide 235039259,620132502", "objects hidden");
+        /* Looks from --objects and --label-opacity: no --show or --hide list carries them, so the
+         * line names a file of the visible objects and their looks written beside the shot. */
+        char objects[1100], opts[2300];
+        snprintf(objects, sizeof objects, "%s/looks-objects.txt", tmp);
+        write_text(objects, "235039259 #ff0000 0.9\n1096786827745 #00ff00 0.2\n9870943406\n");
+        snprintf(opts, sizeof opts, "--size 128x128 --objects %s --label-opacity 0.8", objects);
+        rc = view_script(xvfb, tmp, "looks", "orbit 35 25\nscreenshot @/looks-a.png\nhide 9870943406\n"
+                         "screenshot @/looks-b.png\nshow all\nscreenshot @/looks-c.png\nquit\n", tubes, opts);
+        CHECK_MSG(rc == 0, "looks session: exit %d: %s", rc, out_text);
+        char session[8192];
+        snprintf(session, sizeof session, "%s", out_text);
+        static const char *const looks[] = {"looks-a", "looks-b", "looks-c"};
+        for (int k = 0; k < 3; ++k) {
+            char expect[1200];
+            snprintf(expect, sizeof expect, "--objects %s/%s.objects.txt", tmp, looks[k]);
+            free(out_text);
+            out_text = strdup(session);
+            renders_back(tmp, looks[k], expect, "objects with their own looks");
+        }
     }
+
+    /* Clipping planes given to leap view are in its line as --clip-plane. */
+    rc = view_script(xvfb, tmp, "clipped", "screenshot @/clipped.png\nquit\n", vol, "--size 96x96 --clip 'x<0'");
+    CHECK_MSG(rc == 0, "clipped session: exit %d: %s", rc, out_text);
+    renders_back(tmp, "clipped", "--clip-plane -1,0,0,0", "a command-line clip");
 
     /* Through a brick cache of a few bricks: the frame's first pass already shows an incomplete
      * picture; the screenshot waits for the finished frame, which `leap render` gives back

@@ -184,12 +184,28 @@ static int fastest_mode(const leap_bench_desc *o, const bench_row *rows, size_t 
     return at;
 }
 
+/* The plots an earlier bench left in the folder: this run writes its own, and one of another
+ * run (more volumes, naive among the modes) beside them would not belong to results.csv. */
+static void remove_old_plots(const leap_bench_desc *o)
+{
+    static const char *const ext[] = {"dat", "gp", "png", "svg"};
+    char path[4096];
+    for (int plot = -2; plot < MAX_ITEMS; ++plot)
+        for (int e = 0; e < 4; ++e) {
+            if (plot == -2) snprintf(path, sizeof path, "%s/speedup.%s", o->out, ext[e]);
+            else if (plot == -1) snprintf(path, sizeof path, "%s/stages.%s", o->out, ext[e]);
+            else snprintf(path, sizeof path, "%s/speed_error_%d.%s", o->out, plot, ext[e]);
+            remove(path);
+        }
+}
+
 leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, size_t nrows,
                                const fixed_costs *fixed, const char *device, const vdb_runner *vdb,
                                const char *extra_md, leap_error *err)
 {
     int have_errors = !o->no_reference;
     char path[4096];
+    remove_old_plots(o);
     snprintf(path, sizeof path, "%s/report.md", o->out);
     report_file md_file, sp_file = {.f = NULL}, sg_file = {.f = NULL};
     FILE *md = report_open(&md_file, path);
@@ -206,6 +222,8 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
                 "are rendered as a user gets them, without the statistics' naive count; one more frame per "
                 "configuration, untimed, gives the samples, events and segments. ",
             device, views, o->repeats, o->warmup);
+    fprintf(md, "Transfer function: %s%s%s. ", o->tf ? o->tf : "each volume's default (segmentations: object colours)",
+            o->objects ? "; objects: " : "", o->objects ? o->objects : "");
     if (o->gpu_cache_bytes)
         fprintf(md, "The volume's bricks go through a GPU cache of %.1f MiB (--gpu-cache): a frame whose rays need "
                     "bricks it does not hold takes more passes. ", (double)o->gpu_cache_bytes / (1 << 20));
@@ -406,7 +424,7 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
     int with_naive = 0; /* the speedup plot needs naive's frames */
     for (int m = 0; m < o->nmodes; ++m) with_naive |= o->modes[m] == LEAP_RENDER_NAIVE;
     snprintf(path, sizeof path, "%s/speedup.dat", o->out);
-    if (!with_naive) remove(path);
+    if (!with_naive) remove(path); /* written with the others, plotted only with naive */
     char body[2048];
     snprintf(body, sizeof body,
              "set title 'speedup over naive (step %g)'\nset style data histograms\nset style fill solid 0.8\n"

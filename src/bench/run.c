@@ -462,6 +462,25 @@ leap_result leap_bench_run(const leap_bench_desc *given, leap_bench_outcome *out
                              !found ? strerror(e) : S_ISDIR(st.st_mode) ? "it is a directory" : strerror(errno));
         }
     }
+    /* Options only one kind of volume takes, against each OpenVDB file's grid (its metadata,
+     * no voxel read): refused before the first frame rather than at that volume's turn. */
+    for (int vi = 0; vi < o->nvolumes && (o->shade || o->mip || o->show || o->objects); ++vi) {
+        const char *v = o->volumes[vi], *dot = strrchr(v, '.');
+        leap_vdb_file *file = NULL;
+        leap_error ignore;
+        if (!dot || strcmp(dot, ".vdb") || leap_vdb_open(v, &file, &ignore)) continue; /* imports: at their turn */
+        const int index = leap_vdb_find_grid(file, NULL);
+        const int labels = index >= 0 && leap_vdb_grid_labels(file, index);
+        leap_vdb_close(file);
+        const char *why = labels && o->shade  ? "shading (--look shade) lights the gradient of a scalar volume; it is a "
+                                                "segmentation, with objects, not values"
+                          : labels && o->mip  ? "MIP and minIP (--look mip, minip) take the extreme value along a ray; it "
+                                                "is a segmentation, with objects, not values"
+                          : !labels && o->show ? "--show needs a segmentation (an int32 or int64 grid)"
+                          : !labels && o->objects ? "--objects needs a segmentation (an int32 or int64 grid)"
+                                                  : NULL;
+        if (why && index >= 0) return leap_fail(err, LEAP_ERR_USAGE, "%s: %s", v, why);
+    }
     leap_made_dirs made; /* removed again when the bench fails before its first row */
     leap_result lr = leap_make_dirs(o->out, &made, err);
     if (lr) return lr;

@@ -4,6 +4,7 @@
  * vdb_render is run on the same frames as an external timing baseline. */
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "cli_common.h"
@@ -161,8 +162,14 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
                 snprintf(key, sizeof key, "%s", name);
                 v = i + 1 < argc ? argv[++i] : NULL;
             }
-            if (!v) {
-                rc = cli_usage_error("bench", "option %s needs a value", a);
+            if (!v) { /* an option the bench does not know is that, even last on the line */
+                leap_error probe;
+                const int unknown = leap_bench_set_option(o, key, "", &probe) == LEAP_ERR_USAGE &&
+                                    !strncmp(probe.msg, "unknown option", 14);
+                char dashed[72];
+                snprintf(dashed, sizeof dashed, "--%s", key);
+                rc = unknown ? cli_unknown_option("bench", dashed, &bench_help, 1)
+                             : cli_usage_error("bench", "option %s needs a value", a);
             } else if ((lr = leap_bench_set_option(o, key, v, &err)) == LEAP_ERR_USAGE &&
                        !strncmp(err.msg, "unknown option", 14)) {
                 char dashed[72];
@@ -180,6 +187,21 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
         if (lr) rc = bench_error(lr, err.msg);
     }
     if (!rc && !o->nvolumes) rc = cli_usage_error("bench", "no volume given");
+    /* A volume twice gives rows the report cannot tell apart (they are named by file name). */
+    for (int i = 0; !rc && i < o->nvolumes; ++i)
+        for (int j = 0; !rc && j < i; ++j) {
+            struct stat a, b;
+            const char *na = strrchr(o->volumes[i], '/'), *nb = strrchr(o->volumes[j], '/');
+            na = na ? na + 1 : o->volumes[i];
+            nb = nb ? nb + 1 : o->volumes[j];
+            if (!strcmp(o->volumes[i], o->volumes[j]) ||
+                (stat(o->volumes[i], &a) == 0 && stat(o->volumes[j], &b) == 0 && a.st_dev == b.st_dev &&
+                 a.st_ino == b.st_ino))
+                rc = cli_usage_error("bench", "%s is given twice (each volume once)", o->volumes[i]);
+            else if (!strcmp(na, nb))
+                rc = cli_usage_error("bench", "%s and %s share the file name the report names volumes by: give "
+                                     "one of them another name (a link will do)", o->volumes[j], o->volumes[i]);
+        }
     if (!rc && !o->out) rc = cli_usage_error("bench", "no output directory given (-o DIR)");
     /* Asked for the comparison: fail before hours of rendering rather than leave it out. */
     if (!rc && o->vs_vdb && !leap_bench_find_vdb_render(o->vdb_render_exe, sizeof o->vdb_render_exe))

@@ -191,8 +191,12 @@ static int load_script(const view_options *o, leap_viewer_script *script)
 static int run_session(const view_options *o, leap_scene *scene, const leap_viewer_script *script, int scripted)
 {
     const leap_input_options *io = &o->view.scene.input;
-    char open_options[512] = "";
+    char open_options[2048] = "";
     int len = 0;
+    for (int k = 0; k < o->view.scene.clip_count; ++k) /* --clip and --clip-plane, as world planes */
+        len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --clip-plane %.17g,%.17g,%.17g,%.17g",
+                        o->view.scene.clip[k][0], o->view.scene.clip[k][1], o->view.scene.clip[k][2],
+                        o->view.scene.clip[k][3]);
     if (io->raw) len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --raw %s", io->raw);
     if (io->voxel[0] > 0)
         len += snprintf(open_options + len, sizeof open_options - (size_t)len, " --voxel %.17g,%.17g,%.17g",

@@ -8,6 +8,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "leap/files.h"
 #include "leap/image.h"
 #include "leap/legend.h"
 #include "leap/reference.h"
@@ -609,12 +610,55 @@ static void objects_args(const leap_scene *scene, char *out, size_t size)
     }
 }
 
+/* Segmentations whose objects do not all have their default looks (--objects FILE colours or
+ * opacities, --label-opacity): the visible objects and their looks, written beside the
+ * screenshot (SHOT without its extension + ".objects.txt") for `--objects` of the render line,
+ * since no --show or --hide list carries a look. Returns 1 and " --objects FILE" in `arg`. */
+static int objects_file(const leap_scene *scene, const char *shot, char *arg, size_t size)
+{
+    const leap_labels *l = scene->labels;
+    if (!l) return 0;
+    const size_t n = leap_labels_count(l);
+    const leap_label_object *o = leap_labels_objects(l);
+    int changed = 0;
+    for (size_t i = 0; i < n && !changed; ++i) {
+        float hashed[3];
+        double rgba[4];
+        leap_labels_hash_colour(o[i].id, hashed);
+        leap_labels_rgba(l, i, rgba);
+        changed = (float)rgba[0] != hashed[0] || (float)rgba[1] != hashed[1] || (float)rgba[2] != hashed[2] ||
+                  (rgba[3] > 0 && (float)rgba[3] != (float)LEAP_LABEL_OPACITY);
+    }
+    if (!changed) return 0;
+    char path[1100];
+    const char *dot = strrchr(shot, '.'), *slash = strrchr(shot, '/');
+    const int stem = dot && (!slash || dot > slash) ? (int)(dot - shot) : (int)strlen(shot);
+    snprintf(path, sizeof path, "%.*s.objects.txt", stem, shot);
+    size_t cap = 64 + n * 96, len = 0;
+    char *text = malloc(cap);
+    if (!text) return 0;
+    len += (size_t)snprintf(text, cap, "# the objects shown in %s: ID R,G,B OPACITY\n", shot);
+    for (size_t i = 0; i < n; ++i) {
+        double rgba[4];
+        leap_labels_rgba(l, i, rgba);
+        if (!(rgba[3] > 0)) continue;
+        len += (size_t)snprintf(text + len, cap - len, "%lld %.9g,%.9g,%.9g %.9g\n", (long long)o[i].id, rgba[0],
+                                rgba[1], rgba[2], rgba[3]);
+    }
+    leap_error err;
+    const leap_result r = leap_file_publish_text(path, text, &err);
+    free(text);
+    if (r) return 0;
+    snprintf(arg, size, "%s --objects %s", scene->info->labels ? "" : " --labels", path);
+    return 1;
+}
+
 /* Reports a screenshot written, with the `leap render` line that reproduces it. */
 static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char *path)
 {
-    char args[1024], objects[1024];
+    char args[1024], objects[1200];
     leap_viewer_render_args(st, args, sizeof args);
-    objects_args(s->scene, objects, sizeof objects);
+    if (!objects_file(s->scene, path, objects, sizeof objects)) objects_args(s->scene, objects, sizeof objects);
     const char *overlays = st->show_boxes && st->show_heat ? " (overlays: boxes, heat map)"
                            : st->show_boxes                ? " (overlay: boxes)"
                            : st->show_heat                 ? " (overlay: heat map)"
