@@ -310,6 +310,7 @@ int cli_info(int argc, char **argv)
     leap_vdb_file *file = NULL;
     leap_input_info source;
     if (cli_input_options_check("info", input, &io)) return EXIT_USAGE;
+    io.labels = labels; /* an imported integer volume is read as exact IDs, as render reads it */
     if (leap_scene_memory_budget(budget, &budget, &err)) return cli_usage_error("info", "%s", err.msg);
     leap_result r = leap_input_open(input, &io, &file, &source, &err);
     if (r) return cli_input_error(input, NULL, r, err.msg);
