@@ -191,14 +191,11 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
     for (int i = 0; !rc && i < o->nvolumes; ++i)
         for (int j = 0; !rc && j < i; ++j) {
             struct stat a, b;
-            const char *na = strrchr(o->volumes[i], '/'), *nb = strrchr(o->volumes[j], '/');
-            na = na ? na + 1 : o->volumes[i];
-            nb = nb ? nb + 1 : o->volumes[j];
             if (!strcmp(o->volumes[i], o->volumes[j]) ||
                 (stat(o->volumes[i], &a) == 0 && stat(o->volumes[j], &b) == 0 && a.st_dev == b.st_dev &&
                  a.st_ino == b.st_ino))
                 rc = cli_usage_error("bench", "%s is given twice (each volume once)", o->volumes[i]);
-            else if (!strcmp(na, nb))
+            else if (!strcmp(leap__base_name(o->volumes[i]), leap__base_name(o->volumes[j])))
                 rc = cli_usage_error("bench", "%s and %s share the file name the report names volumes by: give "
                                      "one of them another name (a link will do)", o->volumes[j], o->volumes[i]);
         }
