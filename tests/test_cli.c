@@ -134,6 +134,9 @@ static void check_level_set(const char *tmp)
                   "level set: middle %g, corner %g %g %g", mid[0], corner[0], corner[1], corner[2]);
     }
     free(px);
+    /* MIP of a level set: the largest value along every ray is its transparent outside */
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 --mip -q", vdb, png);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "warning: the image is blank"), "%s: %s", args, out_text);
 }
 
 int main(void)
