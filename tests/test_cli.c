@@ -134,6 +134,19 @@ static void check_level_set(const char *tmp)
                   "level set: middle %g, corner %g %g %g", mid[0], corner[0], corner[1], corner[2]);
     }
     free(px);
+    /* An object ID beyond 2^53 as a JSON number is named as such (it read as out of range) */
+    {
+        char objects[1100], tubes[1100];
+        snprintf(objects, sizeof objects, "%s/big_id.json", tmp);
+        snprintf(tubes, sizeof tubes, "%s/tubes.vdb", LEAP_VOLUMES);
+        FILE *f = fopen(objects, "w");
+        if (f) {
+            fputs("[9223372036854775807]\n", f);
+            fclose(f);
+        }
+        snprintf(args, sizeof args, "render %s -o %s --size 16x16 --objects %s", tubes, png, objects);
+        CHECK_MSG(run(args) == 1 && strstr(out_text, "must be a decimal string"), "%s: %s", args, out_text);
+    }
     /* MIP of a level set: the largest value along every ray is its transparent outside */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --mip -q", vdb, png);
     CHECK_MSG(run(args) == 0 && strstr(out_text, "warning: the image is blank"), "%s: %s", args, out_text);

@@ -89,7 +89,7 @@ leap_result leap_bench_set_option(leap_bench_desc *o, const char *name, const ch
         }
         if (o->nsteps < 1) USAGE("--steps '%s' must be numbers in [0.001, 1e6], each once", v);
     } else if (!strcmp(name, "sizes")) {
-        if (!parse_list_sizes(v, o)) USAGE("--sizes '%s' must be WxH[,WxH...], each once", v);
+        if (!parse_list_sizes(v, o)) USAGE("--sizes '%s' must be WxH[,WxH...], each once, W and H from 1 to 16384", v);
     } else if (!strcmp(name, "views")) {
         if (!parse_count(v, 1, 360, &o->views)) USAGE("--views '%s' must be in 1..360", v);
     } else if (!strcmp(name, "repeats")) {

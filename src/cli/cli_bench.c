@@ -208,7 +208,13 @@ static int parse_args(int argc, char **argv, leap_bench_desc *o, const char **co
     if (!rc && o->tf) { /* a bad --tf fails before the output directory is made */
         leap_tf tf;
         leap_result tr = leap_tf_from_arg(o->tf, 2, &tf, &err);
-        if (tr) rc = bench_error(tr, err.msg);
+        if (tr && *config_path) { /* it may come from the config file */
+            char msg[sizeof err.msg + 64];
+            snprintf(msg, sizeof msg, "%s (--tf, or \"tf\" in %s)", err.msg, *config_path);
+            rc = bench_error(tr, msg);
+        } else if (tr) {
+            rc = bench_error(tr, err.msg);
+        }
     }
     return rc;
 }

@@ -249,7 +249,8 @@ static leap_result parse_command(parse_ctx *p, char **tok, int n, leap_viewer_cm
     case LEAP_VIEWER_OP_SHOW: case LEAP_VIEWER_OP_HIDE:
         if (strcmp(tok[1], "all") != 0) {
             if (!parse_number(tok[1], &c->num[0]) || c->num[0] != floor(c->num[0]) || fabs(c->num[0]) > 9007199254740992.0)
-                return perr(p, "'%s' is not an object ID (a whole number) or 'all'", tok[1], NULL);
+                return perr(p, "'%s' is not an object ID a script takes (a whole number from 0 to 2^53) or 'all'",
+                            tok[1], NULL);
             c->count = 1;
         }
         break;

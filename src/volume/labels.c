@@ -278,8 +278,12 @@ static leap_result load_objects_json(leap_labels *l, const char *path, const cha
         int64_t id = 0;
         float rgb[3];
         if (!json_id(idv, &id))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: the ID must be an integer from 0 to 2^63 - 1 (a decimal "
-                          "string beyond 2^53)", path, n + 1);
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: %s", path, n + 1,
+                          cJSON_IsNumber(idv) && idv->valuedouble >= 9007199254740992.0 &&
+                                  idv->valuedouble <= 9223372036854775808.0
+                              ? "an ID of 2^53 or more must be a decimal string (\"9007199254740993\"): a JSON number "
+                                "that large is not exact"
+                              : "the ID must be an integer from 0 to 2^63 - 1 (a decimal string from 2^53 on)");
         else if (col && (!cJSON_IsString(col) || !parse_colour(col->valuestring, rgb)))
             r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"color\" must be \"#rrggbb\" or \"R,G,B\"", path, n + 1);
         else if (op && (!cJSON_IsNumber(op) || !(op->valuedouble >= 0 && op->valuedouble <= 1)))
