@@ -55,6 +55,10 @@ typedef struct vdb_runner {
 } vdb_runner;
 
 int bench_cmp_double(const void *a, const void *b);
+/* The files of plot `plot` (-2 speedup, -1 stages, k >= 0 volume k's speed against error), of
+ * kind 0..BENCH_PLOT_FILES-1 (data, gnuplot script, PNG, SVG), in the output folder out. */
+enum { BENCH_PLOT_FILES = 4 };
+void bench_plot_file(const char *out, int plot, int kind, char path[4096]);
 /* PSNR in dB of an RMSE of values in [0, 1]; 200 for an exact image (RMSE 0). */
 double bench_psnr(double rmse);
 /* Passes text to d's message callback, if any. */

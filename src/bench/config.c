@@ -217,18 +217,20 @@ leap_result leap_bench_load_config(leap_bench_desc *o, const char *path, leap_er
     return apply_config(o, path, root, err);
 }
 
+void bench_plot_file(const char *out, int plot, int kind, char path[4096])
+{
+    static const char *const ext[BENCH_PLOT_FILES] = {"dat", "gp", "png", "svg"};
+    if (plot == -2) snprintf(path, 4096, "%s/speedup.%s", out, ext[kind]);
+    else if (plot == -1) snprintf(path, 4096, "%s/stages.%s", out, ext[kind]);
+    else snprintf(path, 4096, "%s/speed_error_%d.%s", out, plot, ext[kind]);
+}
+
 int leap_bench_output_paths(const leap_bench_desc *o, char (*paths)[4096], int max)
 {
-    enum { PER_PLOT = 4 };
     int n = 0;
     const char *fixed[] = {"results.csv", "report.md"};
     for (int i = 0; i < 2 && n < max; ++i) snprintf(paths[n++], sizeof paths[0], "%s/%s", o->out, fixed[i]);
-    const char *ext[PER_PLOT] = {"dat", "gp", "png", "svg"};
     for (int plot = -2; plot < o->nvolumes; ++plot)
-        for (int e = 0; e < PER_PLOT && n < max; ++e) {
-            if (plot == -2) snprintf(paths[n++], sizeof paths[0], "%s/speedup.%s", o->out, ext[e]);
-            else if (plot == -1) snprintf(paths[n++], sizeof paths[0], "%s/stages.%s", o->out, ext[e]);
-            else snprintf(paths[n++], sizeof paths[0], "%s/speed_error_%d.%s", o->out, plot, ext[e]);
-        }
+        for (int e = 0; e < BENCH_PLOT_FILES && n < max; ++e) bench_plot_file(o->out, plot, e, paths[n++]);
     return n;
 }

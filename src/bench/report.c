@@ -188,13 +188,10 @@ static int fastest_mode(const leap_bench_desc *o, const bench_row *rows, size_t 
  * run (more volumes, naive among the modes) beside them would not belong to results.csv. */
 static void remove_old_plots(const leap_bench_desc *o)
 {
-    static const char *const ext[] = {"dat", "gp", "png", "svg"};
     char path[4096];
     for (int plot = -2; plot < MAX_ITEMS; ++plot)
-        for (int e = 0; e < 4; ++e) {
-            if (plot == -2) snprintf(path, sizeof path, "%s/speedup.%s", o->out, ext[e]);
-            else if (plot == -1) snprintf(path, sizeof path, "%s/stages.%s", o->out, ext[e]);
-            else snprintf(path, sizeof path, "%s/speed_error_%d.%s", o->out, plot, ext[e]);
+        for (int kind = 0; kind < BENCH_PLOT_FILES; ++kind) {
+            bench_plot_file(o->out, plot, kind, path);
             remove(path);
         }
 }

@@ -116,6 +116,17 @@ const char *cli_option_value(int argc, char **argv, int *i, const char *name, in
     return argv[++*i];
 }
 
+/* LEAP_PROGRESS_DELAY_MS: how long work runs before its bar shows; 1 and *ms (if given) when
+ * `text` is a number of milliseconds in [0, 1e9], else 0. */
+static int progress_delay_ms(const char *text, double *ms)
+{
+    char *end = NULL;
+    const double v = strtod(text, &end);
+    if (!(end != text && *end == '\0' && v >= 0 && v <= 1e9)) return 0;
+    if (ms) *ms = v;
+    return 1;
+}
+
 void cli_check_environment(void)
 {
     const char *v = getenv("LEAP_PIPELINE_CACHE");
@@ -131,9 +142,7 @@ void cli_check_environment(void)
         fprintf(stderr, "leap: warning: LEAP_INDEX_MAX='%s' is not a size (such as 512MiB); the default 1 GiB "
                 "applies\n", v);
     v = getenv("LEAP_PROGRESS_DELAY_MS");
-    char *end = NULL;
-    const double ms = v ? strtod(v, &end) : 0;
-    if (v && !(end != v && *end == '\0' && ms >= 0 && ms <= 1e9))
+    if (v && !progress_delay_ms(v, NULL))
         fprintf(stderr, "leap: warning: LEAP_PROGRESS_DELAY_MS='%s' is not a delay in milliseconds (0 to 1e9); "
                 "progress shows after the default second\n", v);
 }
@@ -293,9 +302,7 @@ void cli_progress_bar_report(void *user, const char *what, double done)
     static double delay_ms = -1;
     if (delay_ms < 0) {
         const char *env = getenv("LEAP_PROGRESS_DELAY_MS");
-        char *end = NULL;
-        double v = env ? strtod(env, &end) : 0;
-        delay_ms = env && end != env && *end == '\0' && v >= 0 && v <= 1e9 ? v : 1000;
+        if (!env || !progress_delay_ms(env, &delay_ms)) delay_ms = 1000;
     }
     if (now - bar->start_ms < delay_ms || now - bar->drawn_ms < 100 || !isatty(2)) return;
     char text[80];
