@@ -649,6 +649,8 @@ int main(void)
     EXPECT_FAIL(2, args, "--range does not apply to a segmentation", out);
     snprintf(args, sizeof args, "render %s -o %s --label-opacity 0.1", sphere, out);
     EXPECT_FAIL(2, args, "--label-opacity applies to segmentations", out);
+    snprintf(args, sizeof args, "render %s -o %s --hide 3", sphere, out);
+    EXPECT_FAIL(2, args, "--hide needs a segmentation", out);
     {
         /* The refusal comes from the grid's metadata, before a voxel is read: a segmentation
          * whose voxel data is corrupt is refused for --tf, where its read would fail. */
@@ -665,6 +667,11 @@ int main(void)
             EXPECT_FAIL(1, args, "corrupt", out);
             snprintf(args, sizeof args, "render %s -o %s --tf hot", bad, out);
             EXPECT_FAIL(2, args, "--tf does not apply to a segmentation", out);
+            /* ... as MIP and shading are (they were refused once the atlas was built). */
+            snprintf(args, sizeof args, "render %s -o %s --mip", bad, out);
+            EXPECT_FAIL(2, args, "MIP takes the largest value along a ray; a segmentation", out);
+            snprintf(args, sizeof args, "render %s -o %s --shade", bad, out);
+            EXPECT_FAIL(2, args, "shading lights the gradient of a scalar volume", out);
         }
         free(bytes);
     }

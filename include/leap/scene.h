@@ -152,6 +152,14 @@ leap_result leap_scene_set_step(leap_scene *scene, double step, leap_error *err)
  * cells_learned_last > 0 (leap_renderer_learn_scene does both). Errors: LEAP_ERR_OOM. */
 leap_result leap_scene_learn(leap_scene *scene, leap_error *err);
 
+/* The options of `desc` that its volume's kind does not take (leap_scene_create refuses them
+ * too), from an OpenVDB file's metadata without reading a voxel: shading, MIP or minIP of a
+ * segmentation, objects chosen in a scalar volume, and with desc->refuse_other_kind the
+ * transfer function or range of a segmentation or --label-opacity of a scalar volume.
+ * Other inputs (imports) and files that do not open pass: leap_scene_create finds them.
+ * Errors: LEAP_ERR_USAGE. */
+leap_result leap_scene_check_kind(const leap_scene_desc *desc, leap_error *err);
+
 /* Number of distinct integer values in the scene's range (for the label preset). */
 int leap_scene_label_count(double range_lo, double range_hi);
 

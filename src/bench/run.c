@@ -348,14 +348,21 @@ static leap_result measure_toggles(bench_state *b, leap_scene *s, int vi, leap_e
     return leap_scene_update_objects(s, err);
 }
 
-/* Every size and view of one volume, then its fixed costs. */
-static leap_result run_volume(bench_state *b, int vi, leap_error *err)
+/* The scene of volume vi, as the bench's options give it. */
+static leap_scene_desc scene_desc(const leap_bench_desc *o, int vi)
 {
-    const leap_bench_desc *o = b->o;
     leap_scene_desc sd = {.path = o->volumes[vi], .tf = o->tf, .step = o->steps[0], .exact_boxes = o->exact_boxes,
                           .show = o->show, .objects = o->objects, .mip = o->mip, .shade = leap_shading_default(),
                           .memory_budget = o->memory_budget};
     sd.shade.on = o->shade;
+    return sd;
+}
+
+/* Every size and view of one volume, then its fixed costs. */
+static leap_result run_volume(bench_state *b, int vi, leap_error *err)
+{
+    const leap_bench_desc *o = b->o;
+    const leap_scene_desc sd = scene_desc(o, vi);
     leap_scene *s = NULL;
     leap_result lr;
     b->outcome->failed_volume = vi;
@@ -462,24 +469,12 @@ leap_result leap_bench_run(const leap_bench_desc *given, leap_bench_outcome *out
                              !found ? strerror(e) : S_ISDIR(st.st_mode) ? "it is a directory" : strerror(errno));
         }
     }
-    /* Options only one kind of volume takes, against each OpenVDB file's grid (its metadata,
-     * no voxel read): refused before the first frame rather than at that volume's turn. */
-    for (int vi = 0; vi < o->nvolumes && (o->shade || o->mip || o->show || o->objects); ++vi) {
-        const char *v = o->volumes[vi], *dot = strrchr(v, '.');
-        leap_vdb_file *file = NULL;
-        leap_error ignore;
-        if (!dot || strcmp(dot, ".vdb") || leap_vdb_open(v, &file, &ignore)) continue; /* imports: at their turn */
-        const int index = leap_vdb_find_grid(file, NULL);
-        const int labels = index >= 0 && leap_vdb_grid_labels(file, index);
-        leap_vdb_close(file);
-        const char *why = labels && o->shade  ? "shading (--look shade) lights the gradient of a scalar volume; it is a "
-                                                "segmentation, with objects, not values"
-                          : labels && o->mip  ? "MIP and minIP (--look mip, minip) take the extreme value along a ray; it "
-                                                "is a segmentation, with objects, not values"
-                          : !labels && o->show ? "--show needs a segmentation (an int32 or int64 grid)"
-                          : !labels && o->objects ? "--objects needs a segmentation (an int32 or int64 grid)"
-                                                  : NULL;
-        if (why && index >= 0) return leap_fail(err, LEAP_ERR_USAGE, "%s: %s", v, why);
+    /* Options only one kind of volume takes (from each OpenVDB file's metadata, no voxel read):
+     * refused before the first frame rather than at that volume's turn. */
+    for (int vi = 0; vi < o->nvolumes; ++vi) {
+        const leap_scene_desc sd = scene_desc(o, vi);
+        leap_error why;
+        if (leap_scene_check_kind(&sd, &why)) return leap_fail(err, LEAP_ERR_USAGE, "%s: %s", o->volumes[vi], why.msg);
     }
     leap_made_dirs made; /* removed again when the bench fails before its first row */
     leap_result lr = leap_make_dirs(o->out, &made, err);

@@ -98,9 +98,30 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     return r;
 }
 
-/* leap_scene_desc.refuse_other_kind: options that only the other kind of volume takes. */
-static leap_result refuse_other_kind(const leap_scene_desc *desc, int labels, leap_error *err)
+/* Options that only the other kind of volume takes, known from a grid's metadata before any
+ * voxel is read. Shading, MIP and choosing objects are always refused there; the transfer
+ * function, range and object opacity only with leap_scene_desc.refuse_other_kind. */
+/* Shading or MIP (mip: > 0 MIP, < 0 minIP) of a segmentation. */
+static leap_result refuse_look(int labels, int shade, int mip, leap_error *err)
 {
+    if (labels && shade)
+        return leap_fail(err, LEAP_ERR_USAGE, "shading lights the gradient of a scalar volume; a segmentation has "
+                         "objects, not values");
+    if (labels && mip)
+        return leap_fail(err, LEAP_ERR_USAGE, "%s takes the %s value along a ray; a segmentation has objects, not values",
+                         mip > 0 ? "MIP" : "minIP", mip > 0 ? "largest" : "smallest");
+    return LEAP_OK;
+}
+
+static leap_result refuse_kind(const leap_scene_desc *desc, int labels, leap_error *err)
+{
+    if (refuse_look(labels, desc->shade.on, desc->mip, err)) return LEAP_ERR_USAGE;
+    const char *choose = desc->show ? "--show" : desc->hide ? "--hide" : desc->objects ? "--objects" : NULL;
+    if (!labels && choose)
+        return leap_fail(err, LEAP_ERR_USAGE,
+                         "%s needs a segmentation: an int32 or int64 grid, or --labels for a grid of integer values",
+                         choose);
+    if (!desc->refuse_other_kind) return LEAP_OK;
     if (labels && (desc->tf || desc->has_range))
         return leap_fail(err, LEAP_ERR_USAGE, "%s does not apply to a segmentation: its objects take colours hashed "
                          "from their IDs (--objects sets colours and opacities, --label-opacity the opacity)",
@@ -109,6 +130,18 @@ static leap_result refuse_other_kind(const leap_scene_desc *desc, int labels, le
         return leap_fail(err, LEAP_ERR_USAGE, "--label-opacity applies to segmentations (int32 or int64 grids, or "
                          "--labels); this volume's values go through the transfer function (--tf)");
     return LEAP_OK;
+}
+
+leap_result leap_scene_check_kind(const leap_scene_desc *desc, leap_error *err)
+{
+    const char *dot = strrchr(desc->path, '.');
+    leap_vdb_file *file = NULL;
+    leap_error ignore;
+    if (!dot || strcmp(dot, ".vdb") || leap_vdb_open(desc->path, &file, &ignore)) return LEAP_OK;
+    const int index = leap_vdb_find_grid(file, desc->grid);
+    const int labels = desc->labels || (index >= 0 && leap_vdb_grid_labels(file, index));
+    leap_vdb_close(file);
+    return index >= 0 ? refuse_kind(desc, labels, err) : LEAP_OK;
 }
 
 /* Reads the grid into memory, or on demand when it would not fit the budget: in memory a grid
@@ -141,7 +174,7 @@ static leap_result open_grid(leap_scene *s, const leap_scene_desc *desc, const l
                          names[0] ? names : "none");
     }
     /* Known from the grid's metadata: a refusal reads no voxel. */
-    if (desc->refuse_other_kind) r = refuse_other_kind(desc, desc->labels || leap_vdb_grid_labels(file, index), err);
+    r = refuse_kind(desc, desc->labels || leap_vdb_grid_labels(file, index), err);
     if (!r) r = leap_scene_load_grid(file, index, path, s->memory_budget, &s->index, &s->grid, err);
     leap_vdb_close(file);
     return r;
@@ -462,9 +495,7 @@ leap_result leap_scene_learn(leap_scene *s, leap_error *err)
 leap_result leap_scene_set_mip(leap_scene *s, int mip, leap_error *err)
 {
     mip = mip > 0 ? LEAP_MIP_MAX : mip < 0 ? LEAP_MIP_MIN : 0;
-    if (mip && s->labels)
-        return leap_fail(err, LEAP_ERR_USAGE, "%s takes the %s value along a ray; a segmentation has objects, not values",
-                         mip > 0 ? "MIP" : "minIP", mip > 0 ? "largest" : "smallest");
+    if (refuse_look(s->labels != NULL, 0, mip, err)) return LEAP_ERR_USAGE;
     if (mip == s->march.mip) return LEAP_OK;
     s->march.mip = mip;
     return leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
@@ -477,9 +508,7 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
         s->march.shade.on = 0;
         return LEAP_OK;
     }
-    if (s->labels)
-        return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) lights the gradient of a scalar volume; a "
-                         "segmentation has objects, not values");
+    if (refuse_look(s->labels != NULL, 1, 0, err)) return LEAP_ERR_USAGE;
     if (s->march.mip)
         return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) does not apply to %s: a projected pixel has no "
                          "surface to light", s->march.mip > 0 ? "MIP (--mip)" : "minIP (--minip)");
@@ -594,13 +623,7 @@ leap_result leap_scene_set_step(leap_scene *s, double step, leap_error *err)
 /* The objects shown: --objects, then --show, then --hide. */
 static leap_result choose_objects(leap_scene *s, const leap_scene_desc *d, leap_error *err)
 {
-    if (!s->labels) {
-        const char *opt = d->show ? "--show" : d->hide ? "--hide" : d->objects ? "--objects" : NULL;
-        if (!opt) return LEAP_OK;
-        return leap_fail(err, LEAP_ERR_USAGE,
-                         "%s needs a segmentation: an int32 or int64 grid, or --labels for a grid of integer values",
-                         opt);
-    }
+    if (!s->labels) return LEAP_OK; /* objects asked of a scalar volume were refused (refuse_kind) */
     leap_result r = LEAP_OK;
     size_t n = 0, found = 0;
     const size_t count = leap_labels_count(s->labels);
@@ -736,9 +759,6 @@ static leap_result create(const leap_scene_desc *desc, const char *set_aside, le
         s->set_classes = malloc(((size_t)s->atlas->object_count + s->atlas->record_count) * sizeof *s->set_classes + 1);
         if (!s->set_classes) r = leap_fail(err, LEAP_ERR_OOM, "out of memory for the label sets");
     }
-    if (!r && desc->mip && s->labels)
-        r = leap_fail(err, LEAP_ERR_USAGE, "%s takes the %s value along a ray; %s is a segmentation (objects, not values)",
-                      desc->mip > 0 ? "--mip" : "--minip", desc->mip > 0 ? "largest" : "smallest", desc->path);
     if (!r) s->march.mip = desc->mip > 0 ? LEAP_MIP_MAX : desc->mip < 0 ? LEAP_MIP_MIN : 0;
     if (!r) r = leap_scene_set_shading(s, &desc->shade, err);
     if (!r) r = leap_scene_set_tf(s, &s->tf, s->march.range_lo, s->march.range_hi, err);
