@@ -375,11 +375,12 @@ static void test_lists(void)
     CHECK(leap_labels_select(s->labels, "1,,2", 1, &n, &err) == LEAP_ERR_USAGE);
     CHECK(leap_labels_select(s->labels, "99999999999999999999", 1, &n, &err) == LEAP_ERR_USAGE);
     const char *file = tmp_file("objects.txt");
+    leap_objects_loaded loaded;
     FILE *f = fopen(file, "w");
     fputs("# chosen objects\n1\n4 #ff8000 0.25\n7 0.1,0.2,0.3\n", f);
     fclose(f);
-    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, NULL, &err), &err);
-    CHECK(n == 3 && leap_labels_visible_count(s->labels) == 3);
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &loaded, &err), &err);
+    CHECK(loaded.listed == 3 && leap_labels_visible_count(s->labels) == 3);
     double rgba[4];
     leap_labels_rgba(s->labels, (size_t)leap_labels_find(s->labels, 4), rgba);
     CHECK_NEAR(rgba[0], 1.0, 1e-6);
@@ -389,29 +390,41 @@ static void test_lists(void)
     f = fopen(file, "w");
     fputs("{\"objects\": [1, \"4\", {\"id\": 7, \"color\": \"#0000ff\", \"opacity\": 0.75}]}", f);
     fclose(f);
-    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, NULL, &err), &err);
-    CHECK(n == 3 && leap_labels_visible_count(s->labels) == 3);
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &loaded, &err), &err);
+    CHECK(loaded.listed == 3 && leap_labels_visible_count(s->labels) == 3);
     leap_labels_rgba(s->labels, (size_t)leap_labels_find(s->labels, 7), rgba);
     CHECK(rgba[2] == 1.0 && rgba[0] == 0.0 && fabs(rgba[3] - 0.75) < 1e-6);
     f = fopen(file, "w");
     fputs("{\"segments\": [\"2\", \"3\"]}", f);
     fclose(f);
-    CHECK_OK(leap_labels_load_objects(s->labels, file, &n, NULL, &err), &err);
-    CHECK(n == 2 && leap_labels_visible_count(s->labels) == 2 && leap_labels_visible(s->labels, 2));
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &loaded, &err), &err);
+    CHECK(loaded.listed == 2 && leap_labels_visible_count(s->labels) == 2 && leap_labels_visible(s->labels, 2));
     f = fopen(file, "w");
     fputs("[1, 2.5]", f);
     fclose(f);
-    CHECK_MSG(leap_labels_load_objects(s->labels, file, &n, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "entry 2"),
+    CHECK_MSG(leap_labels_load_objects(s->labels, file, &loaded, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "entry 2"),
               "bad JSON entry: %s", err.msg);
-    const char *bad[] = {"1\n2\nabc\n", "1 #ff80\n", "1 #ff8000 2\n", "1 2 3 4 5\n"};
-    const int line[] = {3, 1, 1, 1};
-    for (int i = 0; i < 4; ++i) {
+    /* Comments after the fields, a byte order mark, an ID listed twice alike, IDs the volume
+     * lacks (counted, with the first's line). */
+    f = fopen(file, "w");
+    fputs("\xEF\xBB\xBF" "1 # the first\n  # indented\n4 #ff8000 0.25 # orange\n5 #\n123456 # elsewhere\n4 #ff8000 "
+          "0.25\n777\n", f);
+    fclose(f);
+    CHECK_OK(leap_labels_load_objects(s->labels, file, &loaded, &err), &err);
+    CHECK_MSG(loaded.listed == 6 && loaded.found == 3 && loaded.missing == 2 && loaded.first_missing_at == 5 &&
+                  loaded.first_missing_id == 123456 && !loaded.json && leap_labels_visible_count(s->labels) == 3,
+              "listed %zu found %zu missing %zu first at %zu", loaded.listed, loaded.found, loaded.missing,
+              loaded.first_missing_at);
+    const char *bad[] = {"1\n2\nabc\n", "1 #ff80\n", "1 #ff8000 2\n", "1 2 3 4 5\n", "1\n4 #ff8000\n1\n4 #0000ff\n",
+                         "[1, {\"id\": 4, \"colour\": \"#ff0000\"}]", "[1, 4, {\"id\": 4, \"opacity\": 0.5}]"};
+    const char *where[] = {"line 3", "line 1", "line 1", "line 1", "line 4: object 4 is listed again (line 2)",
+                           "entry 2: unknown key \"colour\"", "entry 3: object 4 is listed again (entry 2)"};
+    for (int i = 0; i < 7; ++i) {
         f = fopen(file, "w");
         fputs(bad[i], f);
         fclose(f);
-        char want[32];
-        snprintf(want, sizeof want, "line %d", line[i]);
-        CHECK_MSG(leap_labels_load_objects(s->labels, file, &n, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, want),
+        const char *want = where[i];
+        CHECK_MSG(leap_labels_load_objects(s->labels, file, &loaded, &err) == LEAP_ERR_FORMAT && strstr(err.msg, want),
                   "bad object file %d: %s", i, err.msg);
     }
     leap_scene_destroy(s);

@@ -60,14 +60,25 @@ void leap_labels_rgba(const leap_labels *labels, size_t index, double rgba[4]);
  * LEAP_ERR_USAGE naming the bad item. */
 leap_result leap_labels_select(leap_labels *labels, const char *list, int visible, size_t *matched, leap_error *err);
 
+/* What leap_labels_load_objects found in a file. */
+typedef struct leap_objects_loaded {
+    size_t listed;           /* entries (lines with an ID, or JSON entries) */
+    size_t found;            /* distinct objects of the volume among them */
+    size_t missing;          /* entries whose ID the volume lacks */
+    size_t first_missing_at; /* the line (entry, for JSON) of the first of them */
+    int json;                /* the file was JSON */
+    int64_t first_missing_id;
+} leap_objects_loaded;
+
 /* Shows exactly the objects a file lists. Text: one per line, ID [COLOUR] [OPACITY], COLOUR
- * #rrggbb or R,G,B in [0, 1], OPACITY in [0, 1] per voxel; '#' at the start of a line makes a
- * comment. JSON (the file starts with [ or {): an array of IDs, {"objects": [ID or {"id",
- * "color", "opacity"}, ...]}, or a neuroglancer layer's {"segments": ["ID", ...]}; IDs as
- * numbers below 2^53 or as decimal strings. IDs the volume lacks are skipped: *listed counts
- * every entry, *found those of the volume's objects (either may be NULL). Errors: LEAP_ERR_IO,
- * LEAP_ERR_FORMAT naming the file and line or entry. */
-leap_result leap_labels_load_objects(leap_labels *labels, const char *path, size_t *listed, size_t *found,
+ * #rrggbb or R,G,B in [0, 1], OPACITY in [0, 1] per voxel; '#' opens a comment where it begins
+ * a word (but for the colour after the ID). JSON (the file starts with [ or {): an array of IDs,
+ * {"objects": [ID or {"id", "color", "opacity"}, ...]}, or a neuroglancer layer's {"segments":
+ * ["ID", ...]}; IDs as numbers below 2^53 or as decimal strings. A leading UTF-8 byte order mark
+ * is skipped. IDs the volume lacks are skipped and counted in *out (may be NULL); an object
+ * listed again must keep its look. Errors: LEAP_ERR_IO, LEAP_ERR_OOM, LEAP_ERR_FORMAT naming the
+ * file and line or entry. */
+leap_result leap_labels_load_objects(leap_labels *labels, const char *path, leap_objects_loaded *out,
                                      leap_error *err);
 
 /* Number of visible objects (drawn with a non-zero opacity). */

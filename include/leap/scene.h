@@ -76,6 +76,7 @@ typedef struct leap_scene {
     leap_occupancy *occupancy;
     leap_boxes *boxes;
     leap_labels *labels;       /* segmentations: the objects (NULL for scalar volumes) */
+    leap_objects_loaded objects_loaded; /* what --objects (leap_scene_desc.objects) found */
     uint8_t *set_classes;      /* segmentations: class per label set (leap_atlas_label_classes) */
     uint32_t *object_record_start, *object_records; /* object -> the mixed cells holding it
                                                        (built on the first toggle) */

@@ -66,6 +66,15 @@ static int names_path(const char *msg, const char *path)
     return 0;
 }
 
+void cli_warn_objects(const leap_scene *scene)
+{
+    const leap_objects_loaded *loaded = &scene->objects_loaded;
+    if (loaded->missing && loaded->found)
+        fprintf(stderr, "leap: warning: --objects: %zu of the %zu IDs listed %s of this volume (the first: %lld, %s "
+                        "%zu)\n", loaded->missing, loaded->listed, loaded->missing == 1 ? "is not an object" : "are not objects",
+                (long long)loaded->first_missing_id, loaded->json ? "entry" : "line", loaded->first_missing_at);
+}
+
 void cli_warn_scene(const leap_scene *scene, int legend)
 {
     char why[256];
@@ -74,6 +83,7 @@ void cli_warn_scene(const leap_scene *scene, int legend)
                 scene->atlas->empty ? ""
                 : scene->labels     ? " (--show, --hide or --objects change that)"
                                     : " (--range or --tf change that)");
+    cli_warn_objects(scene);
     if (legend && scene->labels)
         fprintf(stderr, "leap: warning: no legend: a segmentation's colours belong to its objects, not to a value "
                         "scale\n");

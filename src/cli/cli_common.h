@@ -31,9 +31,11 @@ const char *cli_printable(const char *s, char *buf, size_t cap);
  * Returns the exit code for r. */
 int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg);
 
+/* Warns of the IDs an --objects file lists that the volume lacks (the rest are shown). */
+void cli_warn_objects(const leap_scene *scene);
 /* Warns on stderr when the scene can show nothing (leap_scene_shows_nothing): the image will be
- * blank, and the user learns why rather than finding a black file; and when a legend was asked
- * for a segmentation (it has none). */
+ * blank, and the user learns why rather than finding a black file; when a legend was asked
+ * for a segmentation (it has none); and as cli_warn_objects. */
 void cli_warn_scene(const leap_scene *scene, int legend);
 /* The brick cache's image exceeds the room --gpu-cache gave (`asked`; 0: none given). */
 void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked);

@@ -267,6 +267,7 @@ int cli_view(int argc, char **argv)
         cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
         return cli_exit_code(r);
     }
+    cli_warn_objects(scene);
     rc = run_session(&o, scene, &script, o.script || o.frames || o.screenshot);
     leap_scene_destroy(scene);
     leap_viewer_script_free(&script);

@@ -625,13 +625,15 @@ static leap_result choose_objects(leap_scene *s, const leap_scene_desc *d, leap_
 {
     if (!s->labels) return LEAP_OK; /* objects asked of a scalar volume were refused (refuse_kind) */
     leap_result r = LEAP_OK;
-    size_t n = 0, found = 0;
+    size_t n = 0;
     const size_t count = leap_labels_count(s->labels);
     const leap_label_object *o = leap_labels_objects(s->labels);
-    if (d->objects) r = leap_labels_load_objects(s->labels, d->objects, &n, &found, err);
+    const leap_objects_loaded *loaded = &s->objects_loaded;
+    if (d->objects) r = leap_labels_load_objects(s->labels, d->objects, &s->objects_loaded, err);
     char none[1200] = ""; /* the option that names none of the volume's objects */
-    if (!r && d->objects && n > 0 && found == 0)
-        snprintf(none, sizeof none, "--objects %.1024s lists %zu ID%s, none of them one", d->objects, n, n == 1 ? "" : "s");
+    if (!r && d->objects && loaded->listed > 0 && loaded->found == 0)
+        snprintf(none, sizeof none, "--objects %.1024s lists %zu ID%s, none of them one", d->objects, loaded->listed,
+                 loaded->listed == 1 ? "" : "s");
     if (!r && !none[0] && d->show) {
         if (!d->objects) leap_labels_select(s->labels, "all", 0, NULL, err);
         r = leap_labels_select(s->labels, d->show, 1, &n, err);

@@ -253,11 +253,46 @@ static int json_id(const cJSON *v, int64_t *id)
     return 1;
 }
 
+/* One load of an object file: where each object was first listed (line or entry; 0: not yet). */
+typedef struct objects_load {
+    leap_labels *labels;
+    leap_objects_loaded *out;
+    uint32_t *listed_at;
+    const char *path, *unit; /* "line" or "entry" */
+} objects_load;
+
+/* Shows object `id` (listed at line or entry `at`) with the colour and opacity given (NULL, < 0:
+ * its own). An ID the volume lacks is counted and skipped; one listed again must not change its
+ * look. */
+static leap_result list_object(objects_load *ld, size_t at, int64_t id, const float *rgb, double opacity,
+                               leap_error *err)
+{
+    leap_objects_loaded *out = ld->out;
+    ++out->listed;
+    const int64_t index = leap_labels_find(ld->labels, id);
+    if (index < 0) { /* an object of another volume of the same dataset */
+        if (!out->missing++) out->first_missing_at = at, out->first_missing_id = id;
+        return LEAP_OK;
+    }
+    object_look *look = &ld->labels->looks[index];
+    const object_look before = *look;
+    leap_labels_set_look(ld->labels, (size_t)index, rgb, opacity);
+    if (ld->listed_at[index]) {
+        if (!memcmp(before.rgb, look->rgb, sizeof look->rgb) && before.opacity == look->opacity) return LEAP_OK;
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s %zu: object %lld is listed again (%s %u) with another colour or "
+                         "opacity", ld->path, ld->unit, at, (long long)id, ld->unit, ld->listed_at[index]);
+    }
+    ld->listed_at[index] = (uint32_t)at;
+    ++out->found;
+    look->visible = 1;
+    return LEAP_OK;
+}
+
 /* The JSON forms: [ID, ...], {"objects": [ID | {"id", "color", "opacity"}, ...]}, or a
  * neuroglancer segmentation layer's {"segments": ["ID", ...]}. */
-static leap_result load_objects_json(leap_labels *l, const char *path, const char *text, size_t *listed,
-                                     size_t *found, leap_error *err)
+static leap_result load_objects_json(objects_load *ld, const char *text, leap_error *err)
 {
+    const char *path = ld->path;
     cJSON *root = cJSON_Parse(text);
     const cJSON *list = cJSON_IsArray(root) ? root : NULL;
     if (!list && cJSON_IsObject(root)) {
@@ -271,63 +306,52 @@ static leap_result load_objects_json(leap_labels *l, const char *path, const cha
     }
     leap_result r = LEAP_OK;
     size_t n = 0;
-    for (const cJSON *e = list->child; e && !r; e = e->next, ++n) {
+    for (const cJSON *e = list->child; e && !r; e = e->next) {
+        ++n;
         const cJSON *idv = cJSON_IsObject(e) ? cJSON_GetObjectItemCaseSensitive(e, "id") : e;
         const cJSON *col = cJSON_IsObject(e) ? cJSON_GetObjectItemCaseSensitive(e, "color") : NULL;
         const cJSON *op = cJSON_IsObject(e) ? cJSON_GetObjectItemCaseSensitive(e, "opacity") : NULL;
+        for (const cJSON *key = cJSON_IsObject(e) ? e->child : NULL; key && !r; key = key->next)
+            if (strcmp(key->string, "id") && strcmp(key->string, "color") && strcmp(key->string, "opacity"))
+                r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: unknown key \"%.40s\" (an object takes \"id\", "
+                              "\"color\" and \"opacity\")", path, n, key->string);
         int64_t id = 0;
         float rgb[3];
+        if (r) break;
         if (!json_id(idv, &id))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: %s", path, n + 1,
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: %s", path, n,
                           cJSON_IsNumber(idv) && idv->valuedouble >= 9007199254740992.0 &&
                                   idv->valuedouble <= 9223372036854775808.0
                               ? "an ID of 2^53 or more must be a decimal string (\"9007199254740993\"): a JSON number "
                                 "that large is not exact"
                               : "the ID must be an integer from 0 to 2^63 - 1 (a decimal string from 2^53 on)");
         else if (col && (!cJSON_IsString(col) || !parse_colour(col->valuestring, rgb)))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"color\" must be \"#rrggbb\" or \"R,G,B\"", path, n + 1);
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"color\" must be \"#rrggbb\" or \"R,G,B\"", path, n);
         else if (op && (!cJSON_IsNumber(op) || !(op->valuedouble >= 0 && op->valuedouble <= 1)))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"opacity\" must be a number in [0, 1]", path, n + 1);
-        if (r) break;
-        const int64_t index = leap_labels_find(l, id);
-        if (index < 0) continue;
-        ++*found;
-        l->looks[index].visible = 1;
-        leap_labels_set_look(l, (size_t)index, col ? rgb : NULL, op ? op->valuedouble : -1);
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s: entry %zu: \"opacity\" must be a number in [0, 1]", path, n);
+        else
+            r = list_object(ld, n, id, col ? rgb : NULL, op ? op->valuedouble : -1, err);
     }
     cJSON_Delete(root);
-    if (!r && listed) *listed = n;
     return r;
 }
 
-leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *listed, size_t *found,
-                                     leap_error *err)
+/* The text form: one object a line, ID [COLOUR] [OPACITY], and comments. */
+static leap_result load_objects_text(objects_load *ld, char *data, leap_error *err)
 {
-    size_t found_here = 0;
-    if (!found) found = &found_here;
-    *found = 0;
-    char *data = NULL;
-    size_t size = 0;
-    leap_result r = leap_file_read(path, "object list", 64u << 20, &data, &size, err);
-    if (r) return r;
-    for (size_t i = 0; i < l->count; ++i) l->looks[i].visible = 0;
-    const char *first = data + strspn(data, " \t\r\n");
-    if (*first == '[' || *first == '{') {
-        r = load_objects_json(l, path, data, listed, found, err);
-        free(data);
-        return r;
-    }
-    size_t n = 0;
-    int line = 0;
+    leap_result r = LEAP_OK;
+    size_t line = 0;
     for (char *p = data; p && *p && !r;) {
         char *next = strchr(p, '\n');
         if (next) *next++ = '\0';
         ++line;
-        char *hash = p[0] == '#' ? p : NULL; /* a whole-line comment; '#rrggbb' comes after the ID */
-        if (hash) *hash = '\0';
+        /* '#' opens a comment where it begins a word, but for '#rrggbb' right after the ID. */
         char *tok[4];
         int count = 0;
-        for (char *t = strtok(p, " \t\r"); t && count < 4; t = strtok(NULL, " \t\r")) tok[count++] = t;
+        for (char *t = strtok(p, " \t\r"); t && count < 4; t = strtok(NULL, " \t\r")) {
+            if (t[0] == '#' && (count != 1 || t[1] == '\0')) break;
+            tok[count++] = t;
+        }
         p = next;
         if (count == 0) continue;
         const char *q = tok[0];
@@ -336,24 +360,42 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, size_t *l
         double opacity = -1;
         char *end;
         if (count > 3 || !parse_id(&q, &id) || *q)
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: expected 'ID [COLOUR] [OPACITY]' (ID from 0 to 2^63 - 1, COLOUR "
-                          "#rrggbb or R,G,B)",
-                          path, line);
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %zu: expected 'ID [COLOUR] [OPACITY]' (ID from 0 to 2^63 - 1, "
+                          "COLOUR #rrggbb or R,G,B)", ld->path, line);
         else if (count >= 2 && !parse_colour(tok[1], rgb))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: colour '%.40s' is not #rrggbb or R,G,B in [0, 1]", path,
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %zu: colour '%.40s' is not #rrggbb or R,G,B in [0, 1]", ld->path,
                           line, tok[1]);
         else if (count == 3 && (opacity = strtod(tok[2], &end), *end || !(opacity >= 0 && opacity <= 1)))
-            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %d: opacity '%.40s' is not a number in [0, 1]", path, line,
+            r = leap_fail(err, LEAP_ERR_FORMAT, "%s, line %zu: opacity '%.40s' is not a number in [0, 1]", ld->path, line,
                           tok[2]);
-        if (r) break;
-        const int64_t index = leap_labels_find(l, id);
-        ++n;
-        if (index < 0) continue; /* an object of another volume of the same dataset */
-        ++*found;
-        l->looks[index].visible = 1;
-        leap_labels_set_look(l, (size_t)index, count >= 2 ? rgb : NULL, opacity);
+        else
+            r = list_object(ld, line, id, count >= 2 ? rgb : NULL, opacity, err);
     }
+    return r;
+}
+
+leap_result leap_labels_load_objects(leap_labels *l, const char *path, leap_objects_loaded *out, leap_error *err)
+{
+    leap_objects_loaded ignored;
+    if (!out) out = &ignored;
+    memset(out, 0, sizeof *out);
+    char *data = NULL;
+    size_t size = 0;
+    leap_result r = leap_file_read(path, "object list", 64u << 20, &data, &size, err);
+    if (r) return r;
+    objects_load ld = {.labels = l, .out = out, .listed_at = calloc(l->count + 1, sizeof(uint32_t)), .path = path};
+    if (!ld.listed_at) {
+        free(data);
+        return leap_fail(err, LEAP_ERR_OOM, "out of memory for the object list %s", path);
+    }
+    for (size_t i = 0; i < l->count; ++i) l->looks[i].visible = 0;
+    char *text = data + (strncmp(data, "\xEF\xBB\xBF", 3) ? 0 : 3); /* a UTF-8 byte order mark */
+    const char *first = text + strspn(text, " \t\r\n");
+    const int json = *first == '[' || *first == '{';
+    ld.unit = json ? "entry" : "line";
+    out->json = json;
+    r = json ? load_objects_json(&ld, text, err) : load_objects_text(&ld, text, err);
+    free(ld.listed_at);
     free(data);
-    if (!r && listed) *listed = n;
     return r;
 }
