@@ -108,6 +108,47 @@ static void outputs_never_replace_inputs(void)
     clean_dir(out_dir);
 }
 
+/* 4. A slice of an image stack (a folder or a pattern) named as an output: refused as the
+ * input itself is, for -o, --stats and a turntable's frames. */
+static void stack_slices_never_replaced(void)
+{
+    char dir[1200], slice[3][1300], pattern[1300], frames[1300];
+    snprintf(dir, sizeof dir, "%s/stack", in_dir);
+    mkdir(dir, 0755);
+    float pixels[8 * 8];
+    leap_error err;
+    for (int k = 0; k < 3; ++k) {
+        for (int i = 0; i < 64; ++i) pixels[i] = (float)(k * 64 + i) / 192.0f;
+        snprintf(slice[k], sizeof slice[k], "%s/s%d.png", dir, k);
+        CHECK_OK(leap_image_write(slice[k], 8, 8, 1, NULL, pixels, &err), &err);
+    }
+    char before[1200];
+    snprintf(before, sizeof before, "%s", out_path("s1.before"));
+    copy_file(slice[1], before);
+    snprintf(pattern, sizeof pattern, "%s/s*.png", dir);
+    snprintf(frames, sizeof frames, "%s/s%%d.png", dir);
+    const char *const *cases[] = {
+        ARGV("render", dir, "-o", slice[1]),
+        ARGV("render", pattern, "-o", slice[1]),
+        ARGV("render", dir, "-o", out_path("fine.png"), "--stats", slice[1]),
+        ARGV("render", dir, "-o", frames, "--turntable", "2", "--size", "8x8"),
+        ARGV("view", dir, "--screenshot", slice[1]),
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof *cases; ++c) {
+        ++case_count;
+        char text[4096];
+        args_text(cases[c], text, sizeof text);
+        run_leap(cases[c]);
+        CHECK_MSG(res.code == 2 && strstr(res.err, "is a slice of the input"), "leap %s -> exit %d: %s", text, res.code,
+                  res.err);
+        CHECK_MSG(same_bytes(slice[1], before), "leap %s changed a slice of its input", text);
+    }
+    ++case_count;
+    run_leap(ARGV("render", dir, "-o", out_path("fine.png"), "--size", "8x8"));
+    CHECK_MSG(res.code == 0, "a stack rendered beside it: exit %d: %s", res.code, res.err);
+    clean_dir(out_dir);
+}
+
 /* 5. Files that are not regular files never block and never leave anything behind. */
 static void non_regular_files(void)
 {
@@ -505,6 +546,7 @@ int main(void)
 {
     harness_init();
     outputs_never_replace_inputs();
+    stack_slices_never_replaced();
     non_regular_files();
     special_outputs();
     signals_and_limits();

@@ -61,6 +61,10 @@ int leap_input_is_nifti(const char *path);
  * their stored scale; row 0 (the top) is the largest y; Z-up, voxel sizes from --voxel. */
 int leap_input_is_slices(const char *path);
 
+/* 1 if `file` is one of the files of the image stack `path` (leap_input_is_slices), the same
+ * file by any name: an output there would overwrite the input. */
+int leap_input_slices_hold(const char *path, const char *file);
+
 /* Opens `path` as a leap_vdb_file (options may be NULL; options->raw reads a raw file). Errors: LEAP_ERR_IO (missing,
  * unreadable), LEAP_ERR_FORMAT (not a supported format, truncated or inconsistent header;
  * the message names the file and the field), LEAP_ERR_UNSUPPORTED (a data type or shape leap

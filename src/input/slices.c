@@ -2,6 +2,7 @@
  * files in natural name order (slice2 before slice10), each page one z slice. */
 #define _GNU_SOURCE /* strverscmp */
 #include "input_internal.h"
+#include "leap/files.h"
 #include "leap/image.h"
 
 #include <dirent.h>
@@ -34,69 +35,102 @@ int leap_input_is_slices(const char *path)
     return dot && (!strcasecmp(dot, ".tif") || !strcasecmp(dot, ".tiff"));
 }
 
-leap_result leap__input_open_slices(const char *path, const leap_input_options *o, leap_vdb_file **out,
-                                    leap_input_info *info, leap_error *err)
+/* The files of a stack, in natural name order: a folder's (allocated), a pattern's (the glob's)
+ * or the one file. */
+typedef struct slice_files {
+    char **names;
+    size_t count;
+    glob_t g;
+    int globbed, folder;
+    char *one[1];
+} slice_files;
+
+static void free_files(slice_files *f)
 {
-    char **files = NULL;
-    size_t count = 0;
-    glob_t g = {0};
-    int globbed = 0;
+    if (f->folder)
+        for (size_t i = 0; i < f->count; ++i) free(f->names[i]);
+    if (f->folder) free(f->names);
+    if (f->globbed) globfree(&f->g);
+    memset(f, 0, sizeof *f);
+}
+
+static leap_result list_files(const char *path, slice_files *f, leap_error *err)
+{
+    memset(f, 0, sizeof *f);
     struct stat st;
     const int exists = stat(path, &st) == 0;
     if (!exists && strpbrk(path, "*?[")) {
-        const int rc = glob(path, 0, NULL, &g);
-        globbed = 1;
-        if (rc == GLOB_NOMATCH || g.gl_pathc == 0) {
-            globfree(&g);
+        const int rc = glob(path, 0, NULL, &f->g);
+        f->globbed = 1;
+        if (rc == GLOB_NOMATCH || f->g.gl_pathc == 0) {
+            free_files(f);
             return leap_fail(err, LEAP_ERR_IO, "'%s': no file matches", path);
         }
         if (rc != 0) {
-            globfree(&g);
+            free_files(f);
             return leap_fail(err, LEAP_ERR_IO, "'%s': the pattern cannot be read", path);
         }
-        files = g.gl_pathv;
-        count = g.gl_pathc;
+        f->names = f->g.gl_pathv;
+        f->count = f->g.gl_pathc;
     } else if (exists && S_ISDIR(st.st_mode)) {
         DIR *d = opendir(path);
         if (!d) return leap_fail(err, LEAP_ERR_IO, "cannot open the directory '%s': %s", path, strerror(errno));
+        f->folder = 1;
         size_t cap = 0;
         for (struct dirent *e; (e = readdir(d));) {
             if (e->d_name[0] == '.' || !is_image_name(e->d_name)) continue;
-            if (count == cap) {
+            if (f->count == cap) {
                 cap = cap ? cap * 2 : 64;
-                char **grown = realloc(files, cap * sizeof *files);
+                char **grown = realloc(f->names, cap * sizeof *f->names);
                 if (!grown) break;
-                files = grown;
+                f->names = grown;
             }
             const size_t len = strlen(path) + strlen(e->d_name) + 2;
-            if (!(files[count] = malloc(len))) break;
-            snprintf(files[count++], len, "%s/%s", path, e->d_name);
+            if (!(f->names[f->count] = malloc(len))) break;
+            snprintf(f->names[f->count++], len, "%s/%s", path, e->d_name);
         }
         closedir(d);
-        if (!count) {
-            free(files);
+        if (!f->count) {
+            free_files(f);
             return leap_fail(err, LEAP_ERR_FORMAT,
                              "'%s' is a directory with no .tif, .tiff or .png slices (leap opens .vdb and NIfTI "
                              "files, TIFF stacks, directories of image slices and raw files)",
                              path);
         }
     } else {
-        FILE *f = fopen(path, "rb");
-        if (!f) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
-        fclose(f);
-        files = (char **)&path;
-        count = 1;
+        FILE *file = fopen(path, "rb");
+        if (!file) return leap_fail(err, LEAP_ERR_IO, "cannot open '%s': %s", path, strerror(errno));
+        fclose(file);
+        f->one[0] = (char *)path;
+        f->names = f->one;
+        f->count = 1;
     }
-    if (count > 1) qsort(files, count, sizeof *files, natural_order);
-    const leap_image_slices_request request = {.what = path, .files = (const char *const *)files, .file_count = count,
+    if (f->count > 1) qsort(f->names, f->count, sizeof *f->names, natural_order);
+    return LEAP_OK;
+}
+
+int leap_input_slices_hold(const char *path, const char *file)
+{
+    slice_files f;
+    leap_error ignore;
+    if (!leap_input_is_slices(path) || list_files(path, &f, &ignore)) return 0;
+    int held = 0;
+    for (size_t i = 0; i < f.count && !held; ++i) held = leap_file_same(file, f.names[i]);
+    free_files(&f);
+    return held;
+}
+
+leap_result leap__input_open_slices(const char *path, const leap_input_options *o, leap_vdb_file **out,
+                                    leap_input_info *info, leap_error *err)
+{
+    slice_files f;
+    leap_result r = list_files(path, &f, err);
+    if (r) return r;
+    const leap_image_slices_request request = {.what = path, .files = (const char *const *)f.names, .file_count = f.count,
                                                .labels = o && o->labels, .check_memory = leap__input_check_memory};
     leap_image_slices slices;
-    leap_result r = leap_image_read_slices(&request, &slices, err);
-    const int folder = !globbed && count >= 1 && files != (char **)&path;
-    if (folder)
-        for (size_t i = 0; i < count; ++i) free(files[i]);
-    if (folder) free(files);
-    if (globbed) globfree(&g);
+    r = leap_image_read_slices(&request, &slices, err);
+    free_files(&f);
     if (r) return r;
     double m[4][4] = {{0}};
     for (int a = 0; a < 3; ++a) m[a][a] = o && o->voxel[a] > 0 ? o->voxel[a] : 1.0;
