@@ -747,6 +747,17 @@ int main(void)
               "%s", out_text);
     snprintf(args, sizeof args, "info %s --raw 4x4x4:float32 --objects", ints_path);
     CHECK_MSG(run(args) == 0 && strstr(out_text, "not a segmentation (float values"), "%s", out_text);
+    /* --eye/--target without --up takes the volume's up (Z for a raw file): a front view along Y
+     * renders (it was refused against +Y), and so does a top view along that up, turned as an
+     * orbit at its pole; an --up given along the view is still refused. */
+    const char *const eye_views[] = {"--eye 0,-10,0 --target 0,0,0", "--eye 0,0,10 --target 0,0,0",
+                                     "--eye 0,0,-10 --target 0,0,0"};
+    for (int i = 0; i < 3; ++i) {
+        snprintf(args, sizeof args, "render %s --raw 4x4x4:float32 -o %s --size 8x8 -q %s", ints_path, out, eye_views[i]);
+        CHECK_MSG(run(args) == 0, "%s: %s", eye_views[i], out_text);
+    }
+    snprintf(args, sizeof args, "render %s -o %s --size 8x8 -q --eye 0,10,0 --target 0,0,0", sphere, out);
+    CHECK_MSG(run(args) == 0, "a top view of a Y-up volume: %s", out_text);
     snprintf(args, sizeof args, "info %s --raw 4x4x4:float32 --labels --objects", frac_path);
     CHECK_MSG(run(args) == 2 && strstr(out_text, "not an integer"), "%s", out_text);
     /* A file name that is not UTF-8 (byte 0xFF) comes out of JSON as U+FFFD, valid UTF-8

@@ -341,6 +341,26 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 #undef FAIL
 }
 
+/* The up of an --eye/--target camera: `up`, unless the user gave none and the volume's looks
+ * along the view (a top view of a Z-up scan): then +Y, or -Z where +Y is the view too, as the
+ * orbit turns at its poles. */
+static void eye_up(const cli_camera_options *o, double up[3])
+{
+    if (o->has_up) return;
+    const double d[3] = {o->target[0] - o->eye[0], o->target[1] - o->eye[1], o->target[2] - o->eye[2]};
+    const double *const choices[] = {up, (const double[3]){0, 1, 0}, (const double[3]){0, 0, -1}};
+    for (int i = 0; i < 3; ++i) {
+        const double *u = choices[i];
+        const double c[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+        const double cl = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+        const double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+        if (cl > 1e-6 * dl * ul) {
+            if (u != up) memcpy(up, u, 3 * sizeof *up);
+            return;
+        }
+    }
+}
+
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
 {
     if (!o->input) return cli_usage_error(verb, "no input volume given");
@@ -358,6 +378,7 @@ int cli_camera_options_check(const char *verb, const cli_camera_options *o, int 
         memcpy(cam.eye, o->eye, sizeof cam.eye);
         memcpy(cam.target, o->target, sizeof cam.target);
         memcpy(cam.up, o->up, sizeof cam.up);
+        eye_up(o, cam.up);
         leap_rays view;
         leap_error err = {{0}};
         if (leap_rays_make(&cam, o->width, o->height, identity, origin, &view, &err) != LEAP_OK)
@@ -393,6 +414,7 @@ leap_result cli_camera(const cli_camera_options *o, const leap_scene *s, leap_ca
         memcpy(cam->eye, o->eye, sizeof cam->eye);
         memcpy(cam->target, o->target, sizeof cam->target);
         memcpy(cam->up, up, sizeof cam->up);
+        eye_up(o, cam->up);
     } else {
         double az = o->has_orbit ? o->orbit[0] : 35, el = o->has_orbit ? o->orbit[1] : 25;
         double dist = o->orbit_n == 3 ? o->orbit[2] : 0;

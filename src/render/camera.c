@@ -154,7 +154,7 @@ leap_result leap_rays_make(const leap_camera *cam, int width, int height,
     if (!(rl > 1e-9 * ul))
         return leap_fail(err, LEAP_ERR_USAGE,
                          "camera: up vector is parallel to the view direction; choose another "
-                         "up vector or elevation");
+                         "up vector (--up)");
     for (int c = 0; c < 3; ++c)
         right[c] /= rl;
     double up[3];
