@@ -672,6 +672,32 @@ static void test_slices(void)
     snprintf(path, sizeof path, "%s/nothing*.tif", dir);
     CHECK_MSG(leap_input_open(path, NULL, &file, NULL, &err) == LEAP_ERR_IO && strstr(err.msg, "no file matches"),
               "%s", err.msg);
+    /* Truncated files: a stack cut after some pages, a slice cut in its strips. Both were read
+     * without a word (the pages after the cut dropped, the missing rows zero). */
+    const char *cut = tmp_file("cut");
+    mkdir(cut, 0755);
+    snprintf(args, sizeof args, "--pattern checker 64x64 1 -d uint8 --compression none -o %s/whole.tif", cut);
+    oiio(args);
+    snprintf(args, sizeof args, "%s/whole.tif %s/whole.tif %s/whole.tif %s/whole.tif --siappendall --compression none "
+             "-o %s/../stack_cut.tif", cut, cut, cut, cut, cut);
+    oiio(args);
+    const char *cut_names[2] = {tmp_file("stack_cut.tif"), NULL};
+    char slice_path[1200];
+    snprintf(slice_path, sizeof slice_path, "%s/whole.tif", cut);
+    cut_names[1] = slice_path;
+    for (int i = 0; i < 2; ++i) {
+        long size = 0;
+        unsigned char *bytes = read_whole_file(cut_names[i], &size);
+        CHECK(bytes && size > 4096);
+        if (!bytes) continue;
+        FILE *f = fopen(cut_names[i], "wb");
+        fwrite(bytes, 1, (size_t)(i == 0 ? size * 6 / 10 : size / 2), f); /* a stack: its last IFDs go */
+        fclose(f);
+        free(bytes);
+        CHECK_MSG(leap_input_open(i == 0 ? cut_names[0] : cut, NULL, &file, NULL, &err) == LEAP_ERR_FORMAT &&
+                      strstr(err.msg, "cannot be read") && strstr(err.msg, "truncated or corrupt"),
+                  "a truncated %s: %s", i == 0 ? "stack" : "slice", err.msg);
+    }
     leap_vdb_close(file);
 }
 

@@ -108,6 +108,14 @@ leap_result read_slices(const leap_image_slices_request *request, leap_image_sli
                 }
                 pages.push_back(Page{f, s});
             }
+            // The pages end where the next one cannot be read. Past the last page OIIO 2.4 gives
+            // the file's name as the error; anything else is libtiff's (a page the chain names
+            // is missing: a truncated or corrupt file, whose later pages would be lost unsaid).
+            std::string e = in->geterror();
+            if (!e.empty() && e != files[f])
+                return host->fail(err, LEAP_ERR_FORMAT, "'%s': the page after page %zu cannot be read (truncated or "
+                                 "corrupt?): %s", files[f], pages.empty() || pages.back().file != f ? size_t(0) :
+                                 size_t(pages.back().subimage), e.c_str());
         }
         if (pages.empty()) return host->fail(err, LEAP_ERR_FORMAT, "%s: no image slices", what);
         if (pages.size() > size_t(INT32_MAX / 2) || width > INT32_MAX / 2 || height > INT32_MAX / 2)
@@ -136,11 +144,13 @@ leap_result read_slices(const leap_image_slices_request *request, leap_image_sli
                 open_file = pages[z].file;
                 if (!in) return host->fail(err, LEAP_ERR_IO, "'%s': cannot be read again", files[open_file]);
             }
-            if (!in->read_image(pages[z].subimage, 0, 0, 1, type, buf.data())) {
-                std::string e = in->geterror();
-                return host->fail(err, LEAP_ERR_FORMAT, "'%s', page %d: %s", files[open_file], pages[z].subimage,
-                                 e.empty() ? "pixels cannot be read (truncated or corrupt)" : e.c_str());
-            }
+            // A short strip reads "successfully", with an error left behind (OIIO 2.4).
+            const bool read = in->read_image(pages[z].subimage, 0, 0, 1, type, buf.data());
+            std::string e = in->geterror();
+            e = e.substr(0, e.find('\n')); // the first of libtiff's lines, one per strip
+            if (!read || !e.empty())
+                return host->fail(err, LEAP_ERR_FORMAT, "'%s', page %d: pixels cannot be read (truncated or corrupt): %s",
+                                 files[open_file], pages[z].subimage, e.empty() ? "no reason given" : e.c_str());
             std::vector<unsigned char> flipped(buf.size());
             const size_t row = size_t(width) * type.size();
             for (int y = 0; y < height; ++y)
