@@ -551,7 +551,14 @@ int main(void)
     /* ... and none where the planes keep data too small for the image's pixels (blobs.vdb at
      * 64 x 64): the clip is not what left the image blank. */
     snprintf(args, sizeof args, "render %s/blobs.vdb -o %s --size 64x64 --clip 'x<500'", LEAP_VOLUMES, out);
-    CHECK_MSG(run(args) == 0 && !strstr(out_text, "keep none"), "%s", out_text);
+    CHECK_MSG(run(args) == 0 && !strstr(out_text, "keep none") && strstr(out_text, "none meets the volume's non-empty "
+                                                                         "part inside the clipping planes"),
+              "%s", out_text);
+    /* A camera that looks away: warned of, as a blank image from the data's own values is. */
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 --eye 0,0,100 --target 0,0,200", sphere, out);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "no ray takes a sample: none meets the volume's non-empty part (the "
+                                                 "camera looks past it"),
+              "%s", out_text);
 
     /* Clipping: fewer samples, the planes in the stats as given. */
     snprintf(args, sizeof args, "render %s -o %s --size 32x32 --stats - -q --clip 'x<0' --clip-plane 0,1,0,2", sphere, out);

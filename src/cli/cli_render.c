@@ -516,15 +516,21 @@ int cli_render(int argc, char **argv)
 
     char why[256];
     const int shows_nothing = leap_scene_shows_nothing(scene, why, sizeof why);
+    const int clipped = scene->march.clip_count > 0;
     if (fs.total_samples == 0 && leap_scene_clip_keeps_nothing(scene) && !shows_nothing)
         fprintf(stderr, "leap: warning: no ray takes a sample: the clipping planes (--clip, --clip-plane) keep none of "
                         "the volume's non-empty part; the image is blank\n");
+    else if (fs.total_samples == 0 && !shows_nothing)
+        fprintf(stderr, "leap: warning: no ray takes a sample: none meets the volume's non-empty part%s (the camera "
+                        "looks past it, or it is smaller than a pixel); the image is blank\n",
+                clipped ? " inside the clipping planes" : "");
     else if (fs.total_samples > 0 && !shows_nothing) { /* samples taken, none of them seen */
         size_t seen = 0;
         for (size_t i = 0; i < n && !seen; ++i) seen = rgba[4 * i + 3] > 0;
         if (!seen)
             fprintf(stderr, "leap: warning: the image is blank: no sample any ray takes has opacity%s\n",
                     scene->march.mip ? " at its extreme (MIP and minIP colour the largest or smallest value)"
+                    : clipped        ? " (--range, --tf or the clipping planes change that)"
                                      : " (--range or --tf change that)");
     }
     if (renderer && scene->labels) {
