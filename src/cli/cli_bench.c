@@ -242,7 +242,7 @@ int cli_bench(int argc, char **argv)
     if (bar_drawn) fputc('\n', stderr); /* a bar a failure left open */
     bar_drawn = 0;
     if (lr && outcome.failed_volume >= 0)
-        rc = cli_input_error(o.volumes[outcome.failed_volume], o.tf, lr, err.msg);
+        rc = cli_input_error("bench", o.volumes[outcome.failed_volume], o.tf, lr, err.msg);
     else if (lr)
         rc = bench_error(lr, err.msg);
     else

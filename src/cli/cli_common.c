@@ -98,9 +98,10 @@ void cli_warn_cache(const leap_frame_stats *fs, uint64_t asked)
     if (leap_frame_cache_over(fs, asked, why, sizeof why)) fprintf(stderr, "leap: warning: %s\n", why);
 }
 
-int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg)
+int cli_input_error(const char *verb, const char *volume, const char *tf, leap_result r, const char *msg)
 {
-    if (r == LEAP_ERR_USAGE || names_path(msg, volume) || names_path(msg, tf))
+    if (r == LEAP_ERR_USAGE) return cli_usage_error(verb, "%s", msg);
+    if (names_path(msg, volume) || names_path(msg, tf))
         cli_runtime_error("%s", msg);
     else
         cli_runtime_error("%s: %s", volume, msg);

@@ -25,11 +25,11 @@ int cli_runtime_error(const char *fmt, ...) __attribute__((format(printf, 1, 2))
 /* A copy of s in buf with control characters replaced by '?' (as in messages), for
  * names read from files that are printed on stdout. Returns buf. */
 const char *cli_printable(const char *s, char *buf, size_t cap);
-/* Reports a failure while working on the input `volume` (with transfer function `tf`,
- * a preset name or a file; may be NULL): the message is prefixed with the volume's path
- * unless it already names one of the two or is about the user's options (LEAP_ERR_USAGE).
- * Returns the exit code for r. */
-int cli_input_error(const char *volume, const char *tf, leap_result r, const char *msg);
+/* Reports a failure of command `verb` while working on the input `volume` (with transfer
+ * function `tf`, a preset name or a file; may be NULL): one about the user's options
+ * (LEAP_ERR_USAGE) as cli_usage_error does; any other prefixed with the volume's path unless
+ * it already names one of the two. Returns the exit code for r. */
+int cli_input_error(const char *verb, const char *volume, const char *tf, leap_result r, const char *msg);
 
 /* Warns of the IDs an --objects file lists that the volume lacks (the rest are shown). */
 void cli_warn_objects(const leap_scene *scene);

@@ -99,7 +99,7 @@ int cli_convert(int argc, char **argv)
     if (r) {
         if (!quiet && isatty(2)) fputc('\n', stderr);
         /* the output's error names the output, not the input */
-        rc = writing ? cli_input_error(output, NULL, r, err.msg) : cli_input_error(input, NULL, r, err.msg);
+        rc = writing ? cli_input_error("convert", output, NULL, r, err.msg) : cli_input_error("convert", input, NULL, r, err.msg);
     } else {
         stage(quiet, 3, "done");
         const leap_grid_info *gi = leap_grid_get_info(grid);

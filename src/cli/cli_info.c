@@ -305,7 +305,7 @@ int cli_info(int argc, char **argv)
     for (int i = 0; i < ntf; ++i) { /* a bad --tf fails before the report, as render's does */
         leap_tf tf;
         leap_result tr = leap_tf_from_arg(tfs[i], 2, &tf, &err);
-        if (tr) return tr == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg) : cli_input_error(tfs[i], NULL, tr, err.msg);
+        if (tr) return tr == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg) : cli_input_error("info", tfs[i], NULL, tr, err.msg);
     }
     leap_vdb_file *file = NULL;
     leap_input_info source;
@@ -313,7 +313,7 @@ int cli_info(int argc, char **argv)
     io.labels = labels; /* an imported integer volume is read as exact IDs, as render reads it */
     if (leap_scene_memory_budget(budget, &budget, &err)) return cli_usage_error("info", "%s", err.msg);
     leap_result r = leap_input_open(input, &io, &file, &source, &err);
-    if (r) return cli_input_error(input, NULL, r, err.msg);
+    if (r) return cli_input_error("info", input, NULL, r, err.msg);
     cJSON *root = json ? cJSON_CreateObject() : NULL;
     cJSON *grids = json ? cJSON_AddArrayToObject(root, "grids") : NULL;
     if (json) {

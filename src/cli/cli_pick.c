@@ -74,7 +74,7 @@ int cli_pick(int argc, char **argv)
      * and without its gradients the volume may be read on demand. */
     o.scene.shade.on = 0;
     leap_result r = cli_scene_create(&o.scene, 1, &scene, &err);
-    if (r) return cli_input_error(o.input, o.scene.tf, r, err.msg);
+    if (r) return cli_input_error("pick", o.input, o.scene.tf, r, err.msg);
     rc = 0;
     leap_camera cam;
     leap_rays rays;
@@ -83,7 +83,7 @@ int cli_pick(int argc, char **argv)
                               .labels = scene->labels};
     if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_rays(scene, &cam, o.width, o.height, &rays, &err)) ||
         (r = leap_reference_pick(&rd, pixel[0] + 0.5, pixel[1] + 0.5, min_opacity, &p, &err))) {
-        rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
+        rc = cli_input_error("pick", o.input, o.scene.tf, r, err.msg);
         goto done;
     }
     if (json) {

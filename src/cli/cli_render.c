@@ -440,7 +440,7 @@ int cli_render(int argc, char **argv)
     if (mode >= 0) device_start_begin(&device);
     leap_result r = cli_scene_create(&o.scene, quiet, &scene, &err);
     if (r) {
-        rc = cli_input_error(o.input, o.scene.tf, r, err.msg);
+        rc = cli_input_error("render", o.input, o.scene.tf, r, err.msg);
         goto done;
     }
     cli_warn_scene(scene, o.legend);
@@ -457,7 +457,7 @@ int cli_render(int argc, char **argv)
     rc = EXIT_RUNTIME;
     if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_rays(scene, &cam, o.width, o.height, &view, &err))) {
         rc = cli_exit_code(r);
-        cli_input_error(o.input, o.scene.tf, r, err.msg);
+        cli_input_error("render", o.input, o.scene.tf, r, err.msg);
         goto done;
     }
     size_t n = (size_t)o.width * o.height;
@@ -490,7 +490,7 @@ int cli_render(int argc, char **argv)
         times.setup = device.ms;
         double t = leap__now_ms();
         if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
-            cli_input_error(o.input, o.scene.tf, r, err.msg);
+            cli_input_error("render", o.input, o.scene.tf, r, err.msg);
             goto done;
         }
         times.upload = leap__now_ms() - t;
@@ -504,7 +504,7 @@ int cli_render(int argc, char **argv)
         if (!r) r = leap_scene_learn(scene, &err); /* a scene read lazily: what its rays read, for --stats */
         if (r) {
             rc = cli_exit_code(r);
-            cli_input_error(o.input, o.scene.tf, r, err.msg);
+            cli_input_error("render", o.input, o.scene.tf, r, err.msg);
             goto done;
         }
         cli_warn_cache(&fs, o.gpu_cache_bytes);

@@ -133,7 +133,7 @@ int cli_segments(int argc, char **argv)
     if (o.outdir && leap_dump_dir_open(o.outdir, &dir, &err)) return cli_runtime_error("%s", err.msg);
     if (o.outdir) leap_image_preload(); /* the dump's heat maps */
     if ((r = cli_scene_create(&o.view.scene, 1, &scene, &err))) {
-        rc = cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
+        rc = cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_camera cam;
@@ -141,7 +141,7 @@ int cli_segments(int argc, char **argv)
     if ((r = cli_camera(&o.view, scene, &cam, &err)) ||
         (r = leap_scene_rays(scene, &cam, o.view.width, o.view.height, &view, &err))) {
         rc = cli_exit_code(r);
-        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
+        cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     size_t n = (size_t)o.view.width * o.view.height;
@@ -159,7 +159,7 @@ int cli_segments(int argc, char **argv)
         goto done;
     }
     if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
-        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
+        cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_frame_stats fs;
@@ -169,7 +169,7 @@ int cli_segments(int argc, char **argv)
         progress(&o, msg);
         if ((r = leap_renderer_render(renderer, &view, &scene->march, LEAP_RENDER_NAIVE, NULL, NULL, naive, &fs, &err))) {
             rc = cli_exit_code(r);
-            cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
+            cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
             goto done;
         }
         snprintf(msg, sizeof msg, "rendering %dx%d sparseleap...", o.view.width, o.view.height);
@@ -178,7 +178,7 @@ int cli_segments(int argc, char **argv)
     if ((r = leap_renderer_render(renderer, &view, &scene->march, LEAP_RENDER_SPARSELEAP, rgba, NULL, samples, &fs,
                                   &err))) {
         rc = cli_exit_code(r);
-        cli_input_error(o.view.input, o.view.scene.tf, r, err.msg);
+        cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .occupancy = scene->occupancy, .rays = &view, .march = &scene->march,

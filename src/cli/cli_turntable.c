@@ -72,7 +72,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
     leap_image_preload();
     leap_result r = cli_scene_create(&o->scene, quiet, &scene, &err);
     if (r) {
-        rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
+        rc = cli_input_error("render", o->input, o->scene.tf, r, err.msg);
         goto done;
     }
     cli_warn_scene(scene, o->legend);
@@ -82,7 +82,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
     }
     leap_renderer_desc rd = {.device_name = o->device, .max_segments = (uint32_t)o->max_segments, .cache_bytes = o->gpu_cache_bytes};
     if ((r = leap_renderer_create(&rd, &renderer, &err)) || (r = leap_renderer_bind_scene(renderer, scene, &err))) {
-        rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
+        rc = cli_input_error("render", o->input, o->scene.tf, r, err.msg);
         goto done;
     }
     leap_renderer_count_naive(renderer, 0); /* no statistics per frame */
@@ -104,7 +104,7 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
             (r = leap_renderer_render(renderer, &view, &scene->march, (leap_mode)leap_mode_from_name(o->mode_name), rgba,
                                       depth, samples, &fs, &err))) {
             if (!quiet) fputc('\n', stderr);
-            rc = cli_input_error(o->input, o->scene.tf, r, err.msg);
+            rc = cli_input_error("render", o->input, o->scene.tf, r, err.msg);
             goto done;
         }
         render_ms += leap__now_ms() - t;
