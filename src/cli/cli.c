@@ -30,7 +30,9 @@ static const char *main_help =
     "  convert SCAN.nii.gz -o OUT.vdb           write a volume as an OpenVDB file\n"
     "\n"
     "VOLUME: an OpenVDB file (.vdb); a NIfTI-1/2 scan (.nii, .nii.gz), a TIFF stack, a folder of\n"
-    "slices or a raw file (--raw), opened Z-up.\n"
+    "slices, a quoted pattern of slices ('scan/*.png', natural order: 2 before 10) or a raw file\n"
+    "(--raw), opened Z-up. Slices are single-channel (grey) TIFF or PNG images of one size; slice\n"
+    "0 is the bottom, and an image's top row the largest y.\n"
     "\n"
     "Run 'leap <command> --help' for the options of a command.\n"
     "Exit codes: 0 success, 1 runtime failure, 2 usage error.\n";

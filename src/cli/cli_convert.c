@@ -21,7 +21,8 @@ static const char *convert_help =
     "  -o, --output OUT.vdb  the file to write (through a temporary file and a rename)\n"
     "  --threshold V       voxels below V become background (inactive)\n"
     "  --raw WxHxD:TYPE[:le|be]  VOLUME is a header-less file (see 'leap render --help')\n"
-    "  --voxel X,Y,Z       raw files: voxel size in world units (default 1,1,1)\n"
+    "  --voxel X,Y,Z       raw files and image stacks: voxel size in world units (default\n"
+    "                      1,1,1)\n"
     "  --labels            write integer values as a segmentation (int64 grid)\n"
     "  --grid NAME         grid to convert (default: the first scalar grid)\n"
     "  -q, --quiet         no progress or summary on stderr\n";
