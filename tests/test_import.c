@@ -654,6 +654,19 @@ static void test_slices(void)
     snprintf(args, sizeof args, "info %s/sphere.vdb --voxel 0.2,0.2,1", LEAP_VOLUMES);
     CHECK(run(args) == 2);
 
+    /* Two slices numbered alike (s11, s011): refused, naming both (both were stacked, in an
+     * order the names do not give). */
+    snprintf(args, sizeof args, "--pattern constant:color=0.5 8x6 1 -d uint16 -o %s/s011.tif", dir);
+    oiio(args);
+    {
+        leap_vdb_file *twice = NULL;
+        CHECK_MSG(leap_input_open(dir, NULL, &twice, NULL, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "s011.tif") &&
+                      strstr(err.msg, "s11.tif") && strstr(err.msg, "numbered alike"),
+                  "%s", err.msg);
+        leap_vdb_close(twice);
+        snprintf(path, sizeof path, "%s/s011.tif", dir);
+        remove(path);
+    }
     /* A slice of another size, an RGB slice, an empty folder, a pattern matching nothing. */
     snprintf(args, sizeof args, "--pattern constant:color=0.5 9x6 1 -d uint16 -o %s/s12.tif", dir);
     oiio(args);

@@ -5,6 +5,7 @@
 #include "leap/files.h"
 #include "leap/image.h"
 
+#include <ctype.h>
 #include <dirent.h>
 #include <errno.h>
 #include <glob.h>
@@ -23,6 +24,58 @@ static int is_image_name(const char *name)
 static int natural_order(const void *a, const void *b)
 {
     return strverscmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+/* `name` without the leading zeros of its numbers (z02.tif: z2.tif), malloc'd; NULL: no memory. */
+static char *without_leading_zeros(const char *name)
+{
+    char *out = malloc(strlen(name) + 1), *o = out;
+    if (!out) return NULL;
+    for (const char *p = name; *p;) {
+        const int starts_number = isdigit((unsigned char)*p) && (p == name || !isdigit((unsigned char)p[-1]));
+        if (starts_number)
+            while (*p == '0' && isdigit((unsigned char)p[1])) ++p;
+        *o++ = *p++;
+    }
+    *o = '\0';
+    return out;
+}
+
+static int by_text(const void *a, const void *b)
+{
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+
+/* The first two names that differ only in leading zeros (z2.tif, z02.tif): which of them is
+ * which slice would be a guess. 0: none (or no memory to look). */
+static int numbered_twice(char *const *names, size_t count, size_t *first, size_t *second)
+{
+    char **keys = malloc(count * sizeof *keys);
+    size_t made = 0;
+    int found = 0;
+    if (keys)
+        for (; made < count && (keys[made] = without_leading_zeros(names[made])); ++made) {}
+    if (keys && made == count) {
+        char **sorted = malloc(count * sizeof *sorted);
+        if (sorted) {
+            memcpy(sorted, keys, count * sizeof *keys);
+            qsort(sorted, count, sizeof *sorted, by_text);
+            for (size_t i = 1; i < count && !found; ++i)
+                if (!strcmp(sorted[i - 1], sorted[i])) {
+                    found = 1;
+                    *first = *second = count;
+                    for (size_t k = 0; k < count; ++k)
+                        if (!strcmp(keys[k], sorted[i])) {
+                            if (*first == count) *first = k;
+                            else if (*second == count) *second = k;
+                        }
+                }
+            free(sorted);
+        }
+    }
+    for (size_t k = 0; k < made; ++k) free(keys[k]);
+    free(keys);
+    return found && *second < count;
 }
 
 int leap_input_is_slices(const char *path)
@@ -106,6 +159,13 @@ static leap_result list_files(const char *path, slice_files *f, leap_error *err)
         f->count = 1;
     }
     if (f->count > 1) qsort(f->names, f->count, sizeof *f->names, natural_order);
+    size_t a = 0, b = 0;
+    if (f->count > 1 && numbered_twice(f->names, f->count, &a, &b)) {
+        const leap_result r = leap_fail(err, LEAP_ERR_FORMAT, "'%s' and '%s' are numbered alike (one slice twice?); "
+                                        "remove or rename one", f->names[a], f->names[b]);
+        free_files(f);
+        return r;
+    }
     return LEAP_OK;
 }
 
