@@ -404,21 +404,26 @@ static void test_lists(void)
     fclose(f);
     CHECK_MSG(leap_labels_load_objects(s->labels, file, &loaded, &err) == LEAP_ERR_FORMAT && strstr(err.msg, "entry 2"),
               "bad JSON entry: %s", err.msg);
-    /* Comments after the fields, a byte order mark, an ID listed twice alike, IDs the volume
-     * lacks (counted, with the first's line). */
+    /* Comments after the fields, a byte order mark, IDs listed again alike or bare (in either
+     * order), IDs the volume lacks (counted, with the first's line). */
     f = fopen(file, "w");
     fputs("\xEF\xBB\xBF" "1 # the first\n  # indented\n4 #ff8000 0.25 # orange\n5 #\n123456 # elsewhere\n4 #ff8000 "
-          "0.25\n777\n", f);
+          "0.25\n777\n1 #00ff00\n4\n", f);
     fclose(f);
     CHECK_OK(leap_labels_load_objects(s->labels, file, &loaded, &err), &err);
-    CHECK_MSG(loaded.listed == 6 && loaded.found == 3 && loaded.missing == 2 && loaded.first_missing_at == 5 &&
+    leap_labels_rgba(s->labels, (size_t)leap_labels_find(s->labels, 1), rgba);
+    CHECK(rgba[0] == 0.0 && rgba[1] == 1.0);
+    leap_labels_rgba(s->labels, (size_t)leap_labels_find(s->labels, 4), rgba);
+    CHECK(rgba[0] == 1.0 && fabs(rgba[3] - 0.25) < 1e-6);
+    CHECK_MSG(loaded.listed == 8 && loaded.found == 3 && loaded.missing == 2 && loaded.first_missing_at == 5 &&
                   loaded.first_missing_id == 123456 && !loaded.json && leap_labels_visible_count(s->labels) == 3,
               "listed %zu found %zu missing %zu first at %zu", loaded.listed, loaded.found, loaded.missing,
               loaded.first_missing_at);
     const char *bad[] = {"1\n2\nabc\n", "1 #ff80\n", "1 #ff8000 2\n", "1 2 3 4 5\n", "1\n4 #ff8000\n1\n4 #0000ff\n",
-                         "[1, {\"id\": 4, \"colour\": \"#ff0000\"}]", "[1, 4, {\"id\": 4, \"opacity\": 0.5}]"};
-    const char *where[] = {"line 3", "line 1", "line 1", "line 1", "line 4: object 4 is listed again (line 2)",
-                           "entry 2: unknown key \"colour\"", "entry 3: object 4 is listed again (entry 2)"};
+                         "[1, {\"id\": 4, \"colour\": \"#ff0000\"}]",
+                         "[1, {\"id\": 4, \"opacity\": 0.25}, 4, {\"id\": 4, \"opacity\": 0.5}]"};
+    const char *where[] = {"line 3", "line 1", "line 1", "line 1", ", line 4: object 4 has another colour or opacity on line 2",
+                           "entry 2: unknown key \"colour\"", ": entry 4: object 4 has another colour or opacity on entry 2"};
     for (int i = 0; i < 7; ++i) {
         f = fopen(file, "w");
         fputs(bad[i], f);

@@ -473,8 +473,7 @@ leap_result leap_bench_run(const leap_bench_desc *given, leap_bench_outcome *out
      * refused before the first frame rather than at that volume's turn. */
     for (int vi = 0; vi < o->nvolumes; ++vi) {
         const leap_scene_desc sd = scene_desc(o, vi);
-        leap_error why;
-        if (leap_scene_check_kind(&sd, &why)) return leap_fail(err, LEAP_ERR_USAGE, "%s: %s", o->volumes[vi], why.msg);
+        if (leap_scene_check_kind(&sd, err)) return LEAP_ERR_USAGE;
     }
     leap_made_dirs made; /* removed again when the bench fails before its first row */
     leap_result lr = leap_make_dirs(o->out, &made, err);

@@ -347,24 +347,27 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
 #undef FAIL
 }
 
-/* The up of an --eye/--target camera: `up`, unless the user gave none and the volume's looks
- * along the view (a top view of a Z-up scan): then +Y, or -Z where +Y is the view too, as the
- * orbit turns at its poles. */
+/* The up of an --eye/--target camera: `up`, unless the user gave none and the volume's lies
+ * along the view (a top view of a Z-up scan): then the up an orbit has at that pole (azimuth 0),
+ * by the test leap_rays_make refuses it with. */
 static void eye_up(const cli_camera_options *o, double up[3])
 {
     if (o->has_up) return;
-    const double d[3] = {o->target[0] - o->eye[0], o->target[1] - o->eye[1], o->target[2] - o->eye[2]};
-    const double *const choices[] = {up, (const double[3]){0, 1, 0}, (const double[3]){0, 0, -1}};
-    for (int i = 0; i < 3; ++i) {
-        const double *u = choices[i];
-        const double c[3] = {d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
-        const double cl = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-        const double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), ul = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-        if (cl > 1e-6 * dl * ul) {
-            if (u != up) memcpy(up, u, 3 * sizeof *up);
-            return;
-        }
-    }
+    double d[3], c[3];
+    for (int a = 0; a < 3; ++a) d[a] = o->target[a] - o->eye[a];
+    const double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), ul = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
+    if (!(dl > 0)) return; /* eye == target: refused by the camera */
+    for (int a = 0; a < 3; ++a) d[a] /= dl;
+    c[0] = d[1] * up[2] - d[2] * up[1];
+    c[1] = d[2] * up[0] - d[0] * up[2];
+    c[2] = d[0] * up[1] - d[1] * up[0];
+    if (sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * ul) return;
+    const double along = d[0] * up[0] + d[1] * up[1] + d[2] * up[2]; /* < 0: looking down from above */
+    leap_camera pole;
+    leap_error ignore;
+    if (leap_camera_orbit_about(o->target, 1.0, up, 0.0, along < 0 ? 90.0 : -90.0, 1.0, 40.0, 0, &pole, &ignore) ==
+        LEAP_OK)
+        memcpy(up, pole.up, sizeof pole.up);
 }
 
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)

@@ -456,8 +456,7 @@ int cli_render(int argc, char **argv)
     leap_rays view;
     rc = EXIT_RUNTIME;
     if ((r = cli_camera(&o, scene, &cam, &err)) || (r = leap_scene_rays(scene, &cam, o.width, o.height, &view, &err))) {
-        rc = cli_exit_code(r);
-        cli_input_error("render", o.input, o.scene.tf, r, err.msg);
+        rc = cli_input_error("render", o.input, o.scene.tf, r, err.msg);
         goto done;
     }
     size_t n = (size_t)o.width * o.height;
@@ -490,7 +489,7 @@ int cli_render(int argc, char **argv)
         times.setup = device.ms;
         double t = leap__now_ms();
         if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
-            cli_input_error("render", o.input, o.scene.tf, r, err.msg);
+            rc = cli_input_error("render", o.input, o.scene.tf, r, err.msg);
             goto done;
         }
         times.upload = leap__now_ms() - t;
@@ -503,8 +502,7 @@ int cli_render(int argc, char **argv)
         cli_progress_bar_end(&bar);
         if (!r) r = leap_scene_learn(scene, &err); /* a scene read lazily: what its rays read, for --stats */
         if (r) {
-            rc = cli_exit_code(r);
-            cli_input_error("render", o.input, o.scene.tf, r, err.msg);
+            rc = cli_input_error("render", o.input, o.scene.tf, r, err.msg);
             goto done;
         }
         cli_warn_cache(&fs, o.gpu_cache_bytes);
@@ -528,10 +526,11 @@ int cli_render(int argc, char **argv)
         size_t seen = 0;
         for (size_t i = 0; i < n && !seen; ++i) seen = rgba[4 * i + 3] > 0;
         if (!seen)
-            fprintf(stderr, "leap: warning: the image is blank: no sample any ray takes has opacity%s\n",
-                    scene->march.mip ? " at its extreme (MIP and minIP colour the largest or smallest value)"
-                    : clipped        ? " (--range, --tf or the clipping planes change that)"
-                                     : " (--range or --tf change that)");
+            fprintf(stderr, "leap: warning: the image is blank: no sample any ray takes has opacity%s%s%s\n",
+                    scene->march.mip ? " at its extreme (MIP and minIP colour the largest or smallest value"
+                    : scene->labels  ? " (--show, --hide, --objects or --label-opacity"
+                                     : " (--range or --tf",
+                    clipped ? " or the clipping planes" : "", scene->march.mip ? ")" : " change that)");
     }
     if (renderer && scene->labels) {
         ids = malloc(n * sizeof *ids);

@@ -140,8 +140,7 @@ int cli_segments(int argc, char **argv)
     leap_rays view;
     if ((r = cli_camera(&o.view, scene, &cam, &err)) ||
         (r = leap_scene_rays(scene, &cam, o.view.width, o.view.height, &view, &err))) {
-        rc = cli_exit_code(r);
-        cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
+        rc = cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     size_t n = (size_t)o.view.width * o.view.height;
@@ -159,7 +158,7 @@ int cli_segments(int argc, char **argv)
         goto done;
     }
     if ((r = leap_renderer_bind_scene(renderer, scene, &err))) {
-        cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
+        rc = cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_frame_stats fs;
@@ -168,8 +167,7 @@ int cli_segments(int argc, char **argv)
         snprintf(msg, sizeof msg, "rendering %dx%d naive (per-pixel naive samples)...", o.view.width, o.view.height);
         progress(&o, msg);
         if ((r = leap_renderer_render(renderer, &view, &scene->march, LEAP_RENDER_NAIVE, NULL, NULL, naive, &fs, &err))) {
-            rc = cli_exit_code(r);
-            cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
+            rc = cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
             goto done;
         }
         snprintf(msg, sizeof msg, "rendering %dx%d sparseleap...", o.view.width, o.view.height);
@@ -177,8 +175,7 @@ int cli_segments(int argc, char **argv)
     }
     if ((r = leap_renderer_render(renderer, &view, &scene->march, LEAP_RENDER_SPARSELEAP, rgba, NULL, samples, &fs,
                                   &err))) {
-        rc = cli_exit_code(r);
-        cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
+        rc = cli_input_error("segments", o.view.input, o.view.scene.tf, r, err.msg);
         goto done;
     }
     leap_dump_frame_desc fd = {.renderer = renderer, .boxes = scene->boxes, .occupancy = scene->occupancy, .rays = &view, .march = &scene->march,

@@ -264,8 +264,7 @@ int cli_view(int argc, char **argv)
     leap_result r = cli_scene_create(&o.view.scene, o.quiet, &scene, &err);
     if (r) {
         leap_viewer_script_free(&script);
-        cli_input_error("view", o.view.input, o.view.scene.tf, r, err.msg);
-        return cli_exit_code(r);
+        return cli_input_error("view", o.view.input, o.view.scene.tf, r, err.msg);
     }
     cli_warn_objects(scene);
     rc = run_session(&o, scene, &script, o.script || o.frames || o.screenshot);

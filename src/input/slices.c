@@ -26,13 +26,16 @@ static int natural_order(const void *a, const void *b)
     return strverscmp(*(const char *const *)a, *(const char *const *)b);
 }
 
-/* `name` without the leading zeros of its numbers (z02.tif: z2.tif), malloc'd; NULL: no memory. */
+/* `name` without the leading zeros of the numbers in its last component (dir/z02.tif:
+ * dir/z2.tif), malloc'd; NULL: no memory. */
 static char *without_leading_zeros(const char *name)
 {
     char *out = malloc(strlen(name) + 1), *o = out;
     if (!out) return NULL;
+    const char *slash = strrchr(name, '/'), *base = slash ? slash + 1 : name;
     for (const char *p = name; *p;) {
-        const int starts_number = isdigit((unsigned char)*p) && (p == name || !isdigit((unsigned char)p[-1]));
+        const int starts_number =
+            p >= base && isdigit((unsigned char)*p) && (p == base || !isdigit((unsigned char)p[-1]));
         if (starts_number)
             while (*p == '0' && isdigit((unsigned char)p[1])) ++p;
         *o++ = *p++;
@@ -47,16 +50,18 @@ static int by_text(const void *a, const void *b)
 }
 
 /* The first two names that differ only in leading zeros (z2.tif, z02.tif): which of them is
- * which slice would be a guess. 0: none (or no memory to look). */
+ * which slice would be a guess. 1: found; 0: none; -1: no memory to look. */
 static int numbered_twice(char *const *names, size_t count, size_t *first, size_t *second)
 {
     char **keys = malloc(count * sizeof *keys);
     size_t made = 0;
-    int found = 0;
+    int found = keys ? 0 : -1;
     if (keys)
         for (; made < count && (keys[made] = without_leading_zeros(names[made])); ++made) {}
+    if (keys && made < count) found = -1;
     if (keys && made == count) {
         char **sorted = malloc(count * sizeof *sorted);
+        if (!sorted) found = -1;
         if (sorted) {
             memcpy(sorted, keys, count * sizeof *keys);
             qsort(sorted, count, sizeof *sorted, by_text);
@@ -75,7 +80,7 @@ static int numbered_twice(char *const *names, size_t count, size_t *first, size_
     }
     for (size_t k = 0; k < made; ++k) free(keys[k]);
     free(keys);
-    return found && *second < count;
+    return found < 0 ? -1 : found && *second < count;
 }
 
 int leap_input_is_slices(const char *path)
@@ -130,19 +135,27 @@ static leap_result list_files(const char *path, slice_files *f, leap_error *err)
         if (!d) return leap_fail(err, LEAP_ERR_IO, "cannot open the directory '%s': %s", path, strerror(errno));
         f->folder = 1;
         size_t cap = 0;
-        for (struct dirent *e; (e = readdir(d));) {
+        int failed = 0; /* an errno: the listing stopped short, and a stack must not lose slices */
+        errno = 0;
+        for (struct dirent *e; !failed && (e = readdir(d)); errno = 0) {
             if (e->d_name[0] == '.' || !is_image_name(e->d_name)) continue;
             if (f->count == cap) {
                 cap = cap ? cap * 2 : 64;
                 char **grown = realloc(f->names, cap * sizeof *f->names);
-                if (!grown) break;
-                f->names = grown;
+                if (!grown) failed = ENOMEM;
+                else f->names = grown;
             }
             const size_t len = strlen(path) + strlen(e->d_name) + 2;
-            if (!(f->names[f->count] = malloc(len))) break;
-            snprintf(f->names[f->count++], len, "%s/%s", path, e->d_name);
+            if (!failed && !(f->names[f->count] = malloc(len))) failed = ENOMEM;
+            if (!failed) snprintf(f->names[f->count++], len, "%s/%s", path, e->d_name);
         }
+        if (!failed) failed = errno; /* readdir's own */
         closedir(d);
+        if (failed) {
+            free_files(f);
+            return leap_fail(err, failed == ENOMEM ? LEAP_ERR_OOM : LEAP_ERR_IO, "cannot list the slices of '%s': %s",
+                             path, strerror(failed));
+        }
         if (!f->count) {
             free_files(f);
             return leap_fail(err, LEAP_ERR_FORMAT,
@@ -159,13 +172,6 @@ static leap_result list_files(const char *path, slice_files *f, leap_error *err)
         f->count = 1;
     }
     if (f->count > 1) qsort(f->names, f->count, sizeof *f->names, natural_order);
-    size_t a = 0, b = 0;
-    if (f->count > 1 && numbered_twice(f->names, f->count, &a, &b)) {
-        const leap_result r = leap_fail(err, LEAP_ERR_FORMAT, "'%s' and '%s' are numbered alike (one slice twice?); "
-                                        "remove or rename one", f->names[a], f->names[b]);
-        free_files(f);
-        return r;
-    }
     return LEAP_OK;
 }
 
@@ -173,7 +179,11 @@ int leap_input_slices_hold(const char *path, const char *file)
 {
     slice_files f;
     leap_error ignore;
-    if (!leap_input_is_slices(path) || list_files(path, &f, &ignore)) return 0;
+    struct stat st;
+    /* A file that does not exist overwrites nothing; a single stack file is the input itself. */
+    if (stat(file, &st) != 0 || !leap_input_is_slices(path) || (stat(path, &st) == 0 && !S_ISDIR(st.st_mode)) ||
+        list_files(path, &f, &ignore))
+        return 0;
     int held = 0;
     for (size_t i = 0; i < f.count && !held; ++i) held = leap_file_same(file, f.names[i]);
     free_files(&f);
@@ -186,6 +196,15 @@ leap_result leap__input_open_slices(const char *path, const leap_input_options *
     slice_files f;
     leap_result r = list_files(path, &f, err);
     if (r) return r;
+    size_t a = 0, b = 0;
+    const int twice = f.count > 1 ? numbered_twice(f.names, f.count, &a, &b) : 0;
+    if (twice) {
+        r = twice < 0 ? leap_fail(err, LEAP_ERR_OOM, "out of memory comparing the slice names of '%s'", path)
+                      : leap_fail(err, LEAP_ERR_FORMAT, "'%s' and '%s' are numbered alike (one slice twice?); remove or "
+                                  "rename one", f.names[a], f.names[b]);
+        free_files(&f);
+        return r;
+    }
     const leap_image_slices_request request = {.what = path, .files = (const char *const *)f.names, .file_count = f.count,
                                                .labels = o && o->labels, .check_memory = leap__input_check_memory};
     leap_image_slices slices;

@@ -98,9 +98,6 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
     return r;
 }
 
-/* Options that only the other kind of volume takes, known from a grid's metadata before any
- * voxel is read. Shading, MIP and choosing objects are always refused there; the transfer
- * function, range and object opacity only with leap_scene_desc.refuse_other_kind. */
 /* Shading or MIP (mip: > 0 MIP, < 0 minIP) of a segmentation. */
 static leap_result refuse_look(int labels, int shade, int mip, leap_error *err)
 {
@@ -113,7 +110,10 @@ static leap_result refuse_look(int labels, int shade, int mip, leap_error *err)
     return LEAP_OK;
 }
 
-static leap_result refuse_kind(const leap_scene_desc *desc, int labels, leap_error *err)
+/* Options that only the other kind of volume takes, known from a grid's metadata before its
+ * voxels are built into bricks. Shading, MIP and choosing objects are always refused there;
+ * the transfer function, range and object opacity only with leap_scene_desc.refuse_other_kind. */
+static leap_result kind_refusal(const leap_scene_desc *desc, int labels, leap_error *err)
 {
     if (refuse_look(labels, desc->shade.on, desc->mip, err)) return LEAP_ERR_USAGE;
     const char *choose = desc->show ? "--show" : desc->hide ? "--hide" : desc->objects ? "--objects" : NULL;
@@ -130,6 +130,18 @@ static leap_result refuse_kind(const leap_scene_desc *desc, int labels, leap_err
         return leap_fail(err, LEAP_ERR_USAGE, "--label-opacity applies to segmentations (int32 or int64 grids, or "
                          "--labels); this volume's values go through the transfer function (--tf)");
     return LEAP_OK;
+}
+
+/* kind_refusal, naming the volume (a bench's volumes are many). */
+static leap_result refuse_kind(const leap_scene_desc *desc, int labels, leap_error *err)
+{
+    const leap_result r = kind_refusal(desc, labels, err);
+    if (r && desc->path) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        leap_fail(err, r, "%s: %s", desc->path, why);
+    }
+    return r;
 }
 
 leap_result leap_scene_check_kind(const leap_scene_desc *desc, leap_error *err)

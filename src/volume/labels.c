@@ -253,17 +253,19 @@ static int json_id(const cJSON *v, int64_t *id)
     return 1;
 }
 
-/* One load of an object file: where each object was first listed (line or entry; 0: not yet). */
+/* One load of an object file: where each object was first listed (line or entry; 0: not yet)
+ * and where its colour or opacity was first given (0: not yet). */
 typedef struct objects_load {
     leap_labels *labels;
     leap_objects_loaded *out;
-    uint32_t *listed_at;
+    uint32_t *listed_at, *looked_at;
     const char *path, *unit; /* "line" or "entry" */
+    int json;
 } objects_load;
 
 /* Shows object `id` (listed at line or entry `at`) with the colour and opacity given (NULL, < 0:
- * its own). An ID the volume lacks is counted and skipped; one listed again must not change its
- * look. */
+ * its own). An ID the volume lacks is counted and skipped; one listed again may not give
+ * another colour or opacity than an earlier entry gave it. */
 static leap_result list_object(objects_load *ld, size_t at, int64_t id, const float *rgb, double opacity,
                                leap_error *err)
 {
@@ -276,12 +278,14 @@ static leap_result list_object(objects_load *ld, size_t at, int64_t id, const fl
     }
     object_look *look = &ld->labels->looks[index];
     const object_look before = *look;
+    const int gives_look = rgb || opacity >= 0;
     leap_labels_set_look(ld->labels, (size_t)index, rgb, opacity);
-    if (ld->listed_at[index]) {
-        if (!memcmp(before.rgb, look->rgb, sizeof look->rgb) && before.opacity == look->opacity) return LEAP_OK;
-        return leap_fail(err, LEAP_ERR_FORMAT, "%s: %s %zu: object %lld is listed again (%s %u) with another colour or "
-                         "opacity", ld->path, ld->unit, at, (long long)id, ld->unit, ld->listed_at[index]);
-    }
+    if (gives_look && ld->looked_at[index] &&
+        (memcmp(before.rgb, look->rgb, sizeof look->rgb) || before.opacity != look->opacity))
+        return leap_fail(err, LEAP_ERR_FORMAT, "%s%s%s %zu: object %lld has another colour or opacity on %s %u", ld->path,
+                         ld->json ? ": " : ", ", ld->unit, at, (long long)id, ld->unit, ld->looked_at[index]);
+    if (gives_look && !ld->looked_at[index]) ld->looked_at[index] = (uint32_t)at;
+    if (ld->listed_at[index]) return LEAP_OK;
     ld->listed_at[index] = (uint32_t)at;
     ++out->found;
     look->visible = 1;
@@ -383,8 +387,11 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, leap_obje
     size_t size = 0;
     leap_result r = leap_file_read(path, "object list", 64u << 20, &data, &size, err);
     if (r) return r;
-    objects_load ld = {.labels = l, .out = out, .listed_at = calloc(l->count + 1, sizeof(uint32_t)), .path = path};
-    if (!ld.listed_at) {
+    objects_load ld = {.labels = l, .out = out, .listed_at = calloc(l->count + 1, sizeof(uint32_t)),
+                       .looked_at = calloc(l->count + 1, sizeof(uint32_t)), .path = path};
+    if (!ld.listed_at || !ld.looked_at) {
+        free(ld.listed_at);
+        free(ld.looked_at);
         free(data);
         return leap_fail(err, LEAP_ERR_OOM, "out of memory for the object list %s", path);
     }
@@ -393,9 +400,10 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, leap_obje
     const char *first = text + strspn(text, " \t\r\n");
     const int json = *first == '[' || *first == '{';
     ld.unit = json ? "entry" : "line";
-    out->json = json;
+    ld.json = out->json = json;
     r = json ? load_objects_json(&ld, text, err) : load_objects_text(&ld, text, err);
     free(ld.listed_at);
+    free(ld.looked_at);
     free(data);
     return r;
 }
