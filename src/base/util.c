@@ -4,6 +4,7 @@
 #include <ctype.h>
 #include <math.h>
 #include <pthread.h>
+#include <stdio.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -219,4 +220,12 @@ void leap__run_jobs(void *(*fn)(void *), void *jobs, size_t job_bytes, size_t co
         else fn(job + i * job_bytes);
     }
     free(w);
+}
+
+const char *leap__bytes_text(uint64_t bytes, char text[32])
+{
+    if (bytes >= (1u << 20)) snprintf(text, 32, "%.2f MiB", (double)bytes / (1 << 20));
+    else if (bytes >= 1024) snprintf(text, 32, "%.2f KiB", (double)bytes / 1024);
+    else snprintf(text, 32, "%llu byte%s", (unsigned long long)bytes, bytes == 1 ? "" : "s");
+    return text;
 }

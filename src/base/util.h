@@ -16,6 +16,10 @@ int leap__grow(void **p, size_t *cap, size_t need, size_t elem);
  * read the same). 0 when malformed or below one byte. */
 uint64_t leap__parse_bytes(const char *s);
 
+/* A byte count as a user reads it: MiB, or KiB or bytes below one MiB (not "0.00 MiB");
+ * returns text. */
+const char *leap__bytes_text(uint64_t bytes, char text[32]);
+
 /* Between min_n and n comma-separated finite numbers ("1,2.5,-3"); returns the count or -1
  * (empty items, trailing commas, overflow and non-numbers are refused). */
 int leap__parse_numbers(const char *s, double *out, int min_n, int n);

@@ -389,8 +389,9 @@ int cli_info(int argc, char **argv)
                 cJSON_AddNumberToObject(od, "leaves_read", (double)leap_grid_leaves_read(grid));
                 cJSON_AddStringToObject(od, "index", note);
             } else {
-                printf("  on demand      over the memory budget of %.0f MiB: %llu leaves read (grid index: %s)\n",
-                       (double)budget / (1 << 20), (unsigned long long)leap_grid_leaves_read(grid), note);
+                char text[32];
+                printf("  on demand      over the memory budget of %s: %llu leaves read (grid index: %s)\n",
+                       leap__bytes_text(budget, text), (unsigned long long)leap_grid_leaves_read(grid), note);
             }
         }
         leap_grid_destroy(grid);

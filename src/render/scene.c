@@ -52,15 +52,6 @@ static leap_result find_index(leap_scene_index *x, const char *path, const char 
     return r;
 }
 
-/* A budget as a user reads it: MiB, or KiB or bytes below one MiB (not "0.00 MiB"). */
-static const char *budget_text(uint64_t bytes, char text[32])
-{
-    if (bytes >= (1u << 20)) snprintf(text, 32, "%.2f MiB", (double)bytes / (1 << 20));
-    else if (bytes >= 1024) snprintf(text, 32, "%.2f KiB", (double)bytes / 1024);
-    else snprintf(text, 32, "%llu byte%s", (unsigned long long)bytes, bytes == 1 ? "" : "s");
-    return text;
-}
-
 leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path, uint64_t budget,
                                  leap_scene_index *x, leap_grid **out, leap_error *err)
 {
@@ -93,7 +84,7 @@ leap_result leap_scene_load_grid(leap_vdb_file *file, int grid, const char *path
         char text[32];
         r = leap_fail(err, r, "the grid needs about %.2f MiB in memory, more than the budget of %s "
                       "(--memory-budget, LEAP_MEMORY_BUDGET), and %s", (double)need / (1 << 20),
-                      budget_text(budget, text), why);
+                      leap__bytes_text(budget, text), why);
     }
     return r;
 }
@@ -228,7 +219,7 @@ static leap_result share_budget(leap_scene *s, const char *path, leap_error *err
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "%s: a memory budget of %s is too small for this grid read on "
                          "demand: its topology, tables and bookkeeping take %.2f MiB; give --memory-budget (or "
                          "LEAP_MEMORY_BUDGET) at least %.2f MiB%s", path ? path : "the volume",
-                         budget_text(s->memory_budget, text), (double)held / (1 << 20),
+                         leap__bytes_text(s->memory_budget, text), (double)held / (1 << 20),
                          ceil((double)(in_memory ? s->index.in_memory_bytes : least) / (1 << 20) * 100) / 100, /* enough */
                          in_memory ? " (the grid is then read into memory)" : "");
     s->gpu_cache_bytes = s->memory_budget - held;
@@ -524,10 +515,11 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *in, leap_e
     if (s->march.mip)
         return leap_fail(err, LEAP_ERR_USAGE, "shading (--shade) does not apply to %s: a projected pixel has no "
                          "surface to light", s->march.mip > 0 ? "MIP (--mip)" : "minIP (--minip)");
+    char text[32];
     if (s->grid && leap_grid_on_demand(s->grid))
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "shading (--shade) needs the whole volume in memory; this grid "
-                         "is read on demand under a memory budget of %.2f MiB (--memory-budget)",
-                         (double)s->memory_budget / (1 << 20));
+                         "is read on demand under a memory budget of %s (--memory-budget)",
+                         leap__bytes_text(s->memory_budget, text));
     const double terms[4] = {sh.ambient, sh.diffuse, sh.specular, sh.shininess};
     static const char *const names[4] = {"ambient", "diffuse", "specular", "shininess"};
     for (int i = 0; i < 4; ++i)
