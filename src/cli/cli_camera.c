@@ -102,7 +102,8 @@ const char *cli_camera_options_help =
     "  --up X,Y,Z          the world's up direction (default: 0,0,1 for imports and for .vdb\n"
     "                      files leap wrote from them, else 0,1,0; 'leap info' shows it): the\n"
     "                      orbit turns about it and the picture keeps it upright\n"
-    "  --fov DEG           vertical field of view (default 40)\n"
+    "  --fov DEG           vertical field of view (default 40; with --ortho it only sets how far\n"
+    "                      the eye stands, where each ray's samples start)\n"
     "  --ortho             orthographic projection (framing the bounding sphere)\n"
     "  --ortho-height H    the orthographic view's height in world units (implies --ortho;\n"
     "                      default: the bounding sphere's diameter)\n";
