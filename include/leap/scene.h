@@ -180,6 +180,12 @@ leap_result leap_scene_set_shading(leap_scene *s, const leap_shading *shade, lea
  * hidden), so any image is blank. Writes a one-line reason for the user into msg. */
 int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size);
 
+/* The opacity the transfer function gives the grid's background (its inactive voxels) over
+ * the scene's range; 0 for segmentations and MIP. Above 0, everything between the data and the
+ * volume's box shows: a level set's outside under a ramp, or a --range that starts above the
+ * background. */
+double leap_scene_background_opacity(const leap_scene *s);
+
 /* 1 when the clipping planes keep no point of the box of non-empty cells (so no ray can show
  * anything however the camera looks), else 0 (no planes, or a point kept). */
 int leap_scene_clip_keeps_nothing(const leap_scene *s);

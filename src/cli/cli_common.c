@@ -84,6 +84,12 @@ void cli_warn_scene(const leap_scene *scene, int legend)
                 : scene->labels     ? " (--show, --hide or --objects change that)"
                                     : " (--range or --tf change that)");
     cli_warn_objects(scene);
+    const double background = leap_scene_background_opacity(scene);
+    if (background > 0 && !scene->atlas->empty)
+        fprintf(stderr, "leap: warning: the background value %g has opacity %.3g under '%s' over [%g, %g]: the volume's "
+                        "whole box shows around the data (--range or --tf change that%s)\n",
+                scene->info->background, background, scene->tf.name, scene->march.range_lo, scene->march.range_hi,
+                !strcmp(scene->info->grid_class, "level set") ? "; a level set's preset is level-set" : "");
     if (legend && scene->labels)
         fprintf(stderr, "leap: warning: no legend: a segmentation's colours belong to its objects, not to a value "
                         "scale\n");

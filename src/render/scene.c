@@ -601,6 +601,14 @@ const char *leap_scene_colouring(const leap_scene *s)
     return s->labels ? "object colours" : s->tf.name;
 }
 
+double leap_scene_background_opacity(const leap_scene *s)
+{
+    if (s->labels || s->march.mip) return 0.0;
+    double rgba[4];
+    leap_tf_eval(&s->tf, (s->info->background - s->march.range_lo) / (s->march.range_hi - s->march.range_lo), rgba);
+    return rgba[3];
+}
+
 int leap_scene_shows_nothing(const leap_scene *s, char *msg, size_t size)
 {
     double lo[3], hi[3];
