@@ -150,6 +150,14 @@ static void check_level_set(const char *tmp)
     /* MIP of a level set: the largest value along every ray is its transparent outside */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --mip -q", vdb, png);
     CHECK_MSG(run(args) == 0 && strstr(out_text, "warning: the image is blank"), "%s: %s", args, out_text);
+    /* Under a ramp its outside is opaque: the box shows, and the user is told why (it was an
+     * opaque cube without a word); the default look says nothing. */
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 --tf grey -q", vdb, png);
+    CHECK_MSG(run(args) == 0 && strstr(out_text, "has opacity 1 under 'grey'") &&
+                  strstr(out_text, "a level set's preset is level-set"),
+              "%s: %s", args, out_text);
+    snprintf(args, sizeof args, "render %s -o %s --size 16x16 -q", vdb, png);
+    CHECK_MSG(run(args) == 0 && !strstr(out_text, "warning"), "%s: %s", args, out_text);
 }
 
 int main(void)
