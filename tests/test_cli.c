@@ -150,6 +150,18 @@ static void check_level_set(const char *tmp)
     /* MIP of a level set: the largest value along every ray is its transparent outside */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --mip -q", vdb, png);
     CHECK_MSG(run(args) == 0 && strstr(out_text, "warning: the image is blank"), "%s: %s", args, out_text);
+    /* convert of a file of two grids writes one and names the other (it dropped it unsaid) */
+    {
+        char two[1100], one[1100];
+        snprintf(two, sizeof two, "%s/two_grids.vdb", tmp);
+        snprintf(one, sizeof one, "%s/one_grid.vdb", tmp);
+        snprintf(args, sizeof args, "vdb_tool -sphere dim=32 radius=1 name=a -sphere dim=32 radius=1 name=b -write %s "
+                 "> /dev/null", two);
+        CHECK_MSG(system(args) == 0, "%s failed", args);
+        snprintf(args, sizeof args, "convert %s -o %s -q", two, one);
+        CHECK_MSG(run(args) == 0 && strstr(out_text, "holds 1 other grid ('a'), not written"), "%s: %s", args,
+                  out_text);
+    }
     /* Under a ramp its outside is opaque: the box shows, and the user is told why (it was an
      * opaque cube without a word); the default look says nothing. */
     snprintf(args, sizeof args, "render %s -o %s --size 16x16 --tf grey -q", vdb, png);

@@ -113,6 +113,20 @@ int cli_convert(int argc, char **argv)
                     output, leap_grid_has_labels(grid) ? "int64" : "float", gi->name,
                     (unsigned long long)gi->active_voxels, (unsigned long long)gi->leaf_count,
                     (unsigned long long)tiles, source.format, t_read - t0, t_build - t_read, t_write - t_build);
+        /* One grid is written: the others of a file of several are named, not dropped unsaid. */
+        char others[512] = "";
+        int left = 0;
+        for (int i = 0; i < leap_vdb_grid_count(file); ++i) {
+            leap_grid_info other;
+            leap_error ignore;
+            if (i == index || leap_vdb_grid_info(file, i, &other, &ignore)) continue;
+            if (left++ < 8)
+                snprintf(others + strlen(others), sizeof others - strlen(others), "%s'%.60s'", left > 1 ? ", " : "",
+                         other.name);
+        }
+        if (left)
+            fprintf(stderr, "leap: warning: %s holds %d other grid%s (%s%s), not written: one grid a file (--grid "
+                            "chooses it)\n", input, left, left == 1 ? "" : "s", others, left > 8 ? ", ..." : "");
     }
     leap_grid_destroy(grid);
     leap_vdb_close(file);
