@@ -67,8 +67,9 @@ leap_result guarded(leap_error *err, leap_result code, const std::string &what, 
         return leap_fail(err, LEAP_ERR_OOM, "%s: out of memory", what.c_str());
     } catch (const std::ios_base::failure &) {
         return leap_fail(err, code, "%s: data ends early or cannot be read (truncated or corrupt file)", what.c_str());
-    } catch (const vdb::Exception &e) {
-        return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
+    } catch (const vdb::Exception &e) { // its own wording ("RuntimeError: Expected to decompress ..."), said whose
+        return leap_fail(err, code, "%s: OpenVDB cannot read it (a corrupt or truncated file?): %s", what.c_str(),
+                         one_line(e.what()).c_str());
     } catch (const std::exception &e) {
         return leap_fail(err, code, "%s: %s", what.c_str(), one_line(e.what()).c_str());
     } catch (...) {
