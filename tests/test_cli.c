@@ -10,6 +10,7 @@
 #include "check.h"
 #include "image_diff.h"
 #include "leap/image.h"
+#include "leap/vdb.h"
 
 static char out_text[8192];
 
@@ -161,6 +162,19 @@ static void check_level_set(const char *tmp)
         snprintf(args, sizeof args, "convert %s -o %s -q", two, one);
         CHECK_MSG(run(args) == 0 && strstr(out_text, "holds 1 other grid ('a'), not written"), "%s: %s", args,
                   out_text);
+    }
+    /* An empty grid has no value range to give (info read its background, 0 .. 0, as data) */
+    {
+        char empty[1100];
+        snprintf(empty, sizeof empty, "%s/empty_grid.vdb", tmp);
+        leap_vdb_writer *w = NULL;
+        leap_error werr = {{0}};
+        CHECK_OK(leap_vdb_writer_create(&w, &werr), &werr);
+        CHECK(w && leap_vdb_writer_add_grid(w, "nothing", LEAP_VDB_FLOAT, 0.25, NULL, 1, &werr) >= 0);
+        CHECK_OK(leap_vdb_writer_save(w, empty, &werr), &werr);
+        leap_vdb_writer_destroy(w);
+        snprintf(args, sizeof args, "info %s", empty);
+        CHECK_MSG(run(args) == 0 && strstr(out_text, "values         none (no active voxel)"), "%s: %s", args, out_text);
     }
     /* Under a ramp its outside is opaque: the box shows, and the user is told why (it was an
      * opaque cube without a word); the default look says nothing. */

@@ -116,7 +116,9 @@ static void print_info_text(const leap_grid_info *gi, int loaded)
     printf("  leaves         %llu\n", (unsigned long long)gi->leaf_count);
     printf("  active tiles   %llu (8^3), %llu (128^3), %llu (4096^3)\n", (unsigned long long)gi->active_tiles[0],
            (unsigned long long)gi->active_tiles[1], (unsigned long long)gi->active_tiles[2]);
-    if (gi->labels)
+    if (gi->active_voxels == 0)
+        printf("  values         none (no active voxel)\n");
+    else if (gi->labels)
         printf("  values         %lld .. %lld\n", (long long)gi->label_min, (long long)gi->label_max);
     else
         printf("  values         %g .. %g%s\n", gi->value_min, gi->value_max, gi->nonfinite_values ? " (finite)" : "");

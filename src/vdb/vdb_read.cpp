@@ -896,8 +896,8 @@ leap_result load_grid(leap_vdb_file *file, int index, bool on_demand, bool lazil
     const size_t gi = size_t(index);
     const leap_grid_info &meta = file->infos[gi];
     if (!meta.scalar)
-        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': grid '%s' has value type %s; only float, half, double, "
-                         "int32 and int64 grids can be rendered", file->path.c_str(), meta.name, meta.value_type);
+        return leap_fail(err, LEAP_ERR_UNSUPPORTED, "'%s': grid '%s' has value type %s; leap reads float, half, "
+                         "double, int32 and int64 grids", file->path.c_str(), meta.name, meta.value_type);
 
     const std::string what = "'" + file->path + "', grid '" + file->names[gi] + "'";
     if (on_demand && (file->in_memory || !file->streamed.empty()))
