@@ -307,7 +307,7 @@ int cli_info(int argc, char **argv)
     for (int i = 0; i < ntf; ++i) { /* a bad --tf fails before the report, as render's does */
         leap_tf tf;
         leap_result tr = leap_tf_from_arg(tfs[i], 2, &tf, &err);
-        if (tr) return tr == LEAP_ERR_USAGE ? cli_usage_error("info", "%s", err.msg) : cli_input_error("info", tfs[i], NULL, tr, err.msg);
+        if (tr) return cli_input_error("info", tfs[i], NULL, tr, err.msg);
     }
     leap_vdb_file *file = NULL;
     leap_input_info source;

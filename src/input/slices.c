@@ -44,43 +44,40 @@ static char *without_leading_zeros(const char *name)
     return out;
 }
 
-static int by_text(const void *a, const void *b)
+/* A name without its leading zeros, and where it stands in the stack. */
+typedef struct numbered_name {
+    char *key;
+    size_t at;
+} numbered_name;
+
+static int by_key(const void *a, const void *b)
 {
-    return strcmp(*(const char *const *)a, *(const char *const *)b);
+    const numbered_name *x = a, *y = b;
+    const int c = strcmp(x->key, y->key);
+    return c ? c : (x->at > y->at) - (x->at < y->at);
 }
 
 /* The first two names that differ only in leading zeros (z2.tif, z02.tif): which of them is
  * which slice would be a guess. 1: found; 0: none; -1: no memory to look. */
 static int numbered_twice(char *const *names, size_t count, size_t *first, size_t *second)
 {
-    char **keys = malloc(count * sizeof *keys);
+    numbered_name *keys = malloc(count * sizeof *keys);
     size_t made = 0;
-    int found = keys ? 0 : -1;
     if (keys)
-        for (; made < count && (keys[made] = without_leading_zeros(names[made])); ++made) {}
-    if (keys && made < count) found = -1;
-    if (keys && made == count) {
-        char **sorted = malloc(count * sizeof *sorted);
-        if (!sorted) found = -1;
-        if (sorted) {
-            memcpy(sorted, keys, count * sizeof *keys);
-            qsort(sorted, count, sizeof *sorted, by_text);
-            for (size_t i = 1; i < count && !found; ++i)
-                if (!strcmp(sorted[i - 1], sorted[i])) {
-                    found = 1;
-                    *first = *second = count;
-                    for (size_t k = 0; k < count; ++k)
-                        if (!strcmp(keys[k], sorted[i])) {
-                            if (*first == count) *first = k;
-                            else if (*second == count) *second = k;
-                        }
-                }
-            free(sorted);
-        }
+        for (; made < count && (keys[made].key = without_leading_zeros(names[made])); ++made) keys[made].at = made;
+    int found = keys && made == count ? 0 : -1;
+    if (!found) {
+        qsort(keys, count, sizeof *keys, by_key);
+        for (size_t i = 1; i < count && !found; ++i)
+            if (!strcmp(keys[i - 1].key, keys[i].key)) {
+                found = 1;
+                *first = keys[i - 1].at;
+                *second = keys[i].at;
+            }
     }
-    for (size_t k = 0; k < made; ++k) free(keys[k]);
+    for (size_t k = 0; k < made; ++k) free(keys[k].key);
     free(keys);
-    return found < 0 ? -1 : found && *second < count;
+    return found;
 }
 
 int leap_input_is_slices(const char *path)

@@ -260,7 +260,6 @@ typedef struct objects_load {
     leap_objects_loaded *out;
     uint32_t *listed_at, *looked_at;
     const char *path, *unit; /* "line" or "entry" */
-    int json;
 } objects_load;
 
 /* Shows object `id` (listed at line or entry `at`) with the colour and opacity given (NULL, < 0:
@@ -283,7 +282,7 @@ static leap_result list_object(objects_load *ld, size_t at, int64_t id, const fl
     if (gives_look && ld->looked_at[index] &&
         (memcmp(before.rgb, look->rgb, sizeof look->rgb) || before.opacity != look->opacity))
         return leap_fail(err, LEAP_ERR_FORMAT, "%s%s%s %zu: object %lld has another colour or opacity on %s %u", ld->path,
-                         ld->json ? ": " : ", ", ld->unit, at, (long long)id, ld->unit, ld->looked_at[index]);
+                         ld->out->json ? ": " : ", ", ld->unit, at, (long long)id, ld->unit, ld->looked_at[index]);
     if (gives_look && !ld->looked_at[index]) ld->looked_at[index] = (uint32_t)at;
     if (ld->listed_at[index]) return LEAP_OK;
     ld->listed_at[index] = (uint32_t)at;
@@ -400,7 +399,7 @@ leap_result leap_labels_load_objects(leap_labels *l, const char *path, leap_obje
     const char *first = text + strspn(text, " \t\r\n");
     const int json = *first == '[' || *first == '{';
     ld.unit = json ? "entry" : "line";
-    ld.json = out->json = json;
+    out->json = json;
     r = json ? load_objects_json(&ld, text, err) : load_objects_text(&ld, text, err);
     free(ld.listed_at);
     free(ld.looked_at);
