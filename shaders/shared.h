@@ -69,6 +69,7 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BOX_RECTS_POINTS 0u
 #define LEAP_BOX_RECTS_RECTS 4u
 #define LEAP_BOX_RECTS_HEADER 8u
+#define LEAP_SMALL_BOX_PIXELS 1024 /* boxes over at most this many pixels: events from the rects pass */
 #define LEAP_BOX_RECTS_WORDS(boxes) (LEAP_BOX_RECTS_HEADER + 6u * (boxes))
 
 #define LEAP_COMPOSITE_GROUP 8    /* compute work group is 8 x 8 pixels */

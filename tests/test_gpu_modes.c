@@ -800,10 +800,11 @@ static void check_tight_boxes(leap_renderer *renderer, float *naive, float *img)
     leap_scene_destroy(s);
 }
 
-/* The raster draws a box as a point when its screen rectangle fits the device's largest point
- * (255 pixels on lavapipe) and as two triangles otherwise (events.vert): in an image wider than
- * that, close cameras give boxes of both kinds, some cut by the screen's edges, and sparseleap
- * still equals naive. */
+/* A box's events come from the rects pass when its screen rectangle holds at most
+ * LEAP_SMALL_BOX_PIXELS pixel centres; otherwise the raster draws it as a point when the
+ * rectangle fits the device's largest point (255 pixels on lavapipe), else as two triangles
+ * (events.vert): in an image wider than that, close cameras give boxes of all three kinds, some
+ * cut by the screen's edges, and sparseleap still equals naive. */
 static void check_large_rectangles(leap_renderer *renderer)
 {
     enum { LW = 600, LH = 320 };
@@ -811,6 +812,7 @@ static void check_large_rectangles(leap_renderer *renderer)
     static const char *files[] = {"blobs.vdb", "shell.vdb"};
     static const double dists[] = {0.45, 0.8, 1.4}; /* sphere radii from the centre */
     leap_error err = {{0}};
+    uint64_t small = 0, points = 0, rectangles = 0;
     for (int f = 0; f < 2 && naive && img; ++f) {
         leap_scene *s = load_scene(files[f], NULL, "viridis", 1);
         if (!s) continue;
@@ -826,13 +828,19 @@ static void check_large_rectangles(leap_renderer *renderer)
             CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err),
                      &err);
             image_diff d = compare_rgba(img, naive, (size_t)LW * LH);
-            printf("large rectangles: %s at %.2f radii, %u boxes, max abs %.2e\n", files[f], dists[k], st.boxes,
-                   d.max_abs);
+            printf("large rectangles: %s at %.2f radii, %u boxes (%u points, %u rectangles), max abs %.2e\n",
+                   files[f], dists[k], st.boxes, st.boxes_points, st.boxes_rectangles, d.max_abs);
+            small += st.boxes - st.boxes_points - st.boxes_rectangles;
+            points += st.boxes_points;
+            rectangles += st.boxes_rectangles;
             CHECK_MSG(st.boxes > 1 && d.nonfinite == 0 && d.max_abs <= TOL, "large rectangles: %s at %.2f radii: max "
                       "abs %g vs naive (%u boxes)", files[f], dists[k], d.max_abs, st.boxes);
         }
         leap_scene_destroy(s);
     }
+    CHECK_MSG(small > 0 && points > 0 && rectangles > 0, "large rectangles: boxes of every kind (%llu from the rects "
+              "pass, %llu points, %llu rectangles)", (unsigned long long)small, (unsigned long long)points,
+              (unsigned long long)rectangles);
     free(naive);
     free(img);
 }

@@ -71,6 +71,9 @@ typedef struct leap_frame_stats {
     double samples_mean;
     uint32_t samples_max;
     uint32_t boxes;
+    /* A frame with lists: the boxes the raster drew as points and as rectangles; the events of
+     * the others in front of the eye, small on the screen, came from the rects pass. */
+    uint32_t boxes_points, boxes_rectangles;
     double events_mean, segments_mean;
     uint32_t events_max, segments_max;
     uint32_t overflow_pixels;

@@ -266,6 +266,8 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
         cJSON_AddNumberToObject(l, "segments_per_pixel_mean", fs->segments_mean);
         cJSON_AddNumberToObject(l, "segments_per_pixel_max", fs->segments_max);
         cJSON_AddNumberToObject(l, "overflowed_pixels", fs->overflow_pixels);
+        cJSON_AddNumberToObject(l, "boxes_drawn_as_points", fs->boxes_points);
+        cJSON_AddNumberToObject(l, "boxes_drawn_as_rectangles", fs->boxes_rectangles);
     }
     cJSON *mem = cJSON_AddObjectToObject(root, "memory_bytes");
     cJSON_AddNumberToObject(mem, "gpu_volume", renderer ? (double)leap_renderer_volume_bytes(renderer) : 0);

@@ -239,16 +239,18 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
      * (0, 1, 0, 0) vertices (written as the boxes are, before the frame is submitted). */
     const uint32_t no_boxes[LEAP_BOX_RECTS_HEADER] = {0, 1, 0, 0, 0, 1, 0, 0};
     memcpy(r->box_rects.mapped, no_boxes, sizeof no_boxes);
-    if (box_count) {
-        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->rects);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-        vkCmdDispatch(cmd, (box_count + 63) / 64, 1, 1);
-    }
     vkCmdFillBuffer(cmd, r->event_counts.buffer, 0, event_count_bytes(view), 0);
     /* Every ray list empty: dispatches of (0, 1, 1) work groups. */
     uint32_t no_rays[LEAP_RAYS_HEADER] = {0};
     for (uint32_t list = 0; list < LEAP_RAYS_LISTS; ++list) no_rays[4 * list + 1] = no_rays[4 * list + 2] = 1;
     vkCmdUpdateBuffer(cmd, r->ray_lists.buffer, 0, sizeof no_rays, no_rays);
+    if (box_count) { /* the rects pass appends the events of small boxes: after the counts are cleared */
+        shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
+                       VK_ACCESS_TRANSFER_WRITE_BIT, VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->rects);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
+        vkCmdDispatch(cmd, (box_count + 63) / 64, 1, 1);
+    }
     shader_barrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
                    VK_PIPELINE_STAGE_VERTEX_SHADER_BIT | VK_PIPELINE_STAGE_DRAW_INDIRECT_BIT |
                        VK_PIPELINE_STAGE_FRAGMENT_SHADER_BIT | VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT,
@@ -560,6 +562,11 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
     }
 
     read_outputs(r, view, drawn, listed, march->mip, rgba, depth, samples, &st);
+    if (listed) { /* the draws' vertex counts, as the rects pass wrote them */
+        const uint32_t *counts = r->box_rects.mapped;
+        st.boxes_points = counts[LEAP_BOX_RECTS_POINTS];
+        st.boxes_rectangles = counts[LEAP_BOX_RECTS_RECTS] / 6;
+    }
     r->lists_valid = listed;
     r->drawn = drawn;
     r->last_frame_pixels = pixels;
