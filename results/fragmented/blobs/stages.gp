@@ -1,5 +1,5 @@
 set terminal pngcairo noenhanced size 900,600
-set output '/tmp/frag56/blobs/stages.png'
+set output '/work/scratch/frag-a033/blobs/stages.png'
 set title 'time per stage (step 0.5)'
 set style data histograms
 set style histogram rowstacked
@@ -8,10 +8,10 @@ set ylabel 'ms'
 set key outside
 set grid y
 set xtics rotate by -45 font ',8'
-plot for [c=2:5] '/tmp/frag56/blobs/stages.dat' using c:xtic(1) title columnheader
+plot for [c=2:5] '/work/scratch/frag-a033/blobs/stages.dat' using c:xtic(1) title columnheader
 
 set terminal svg noenhanced size 900,600
-set output '/tmp/frag56/blobs/stages.svg'
+set output '/work/scratch/frag-a033/blobs/stages.svg'
 set title 'time per stage (step 0.5)'
 set style data histograms
 set style histogram rowstacked
@@ -20,5 +20,5 @@ set ylabel 'ms'
 set key outside
 set grid y
 set xtics rotate by -45 font ',8'
-plot for [c=2:5] '/tmp/frag56/blobs/stages.dat' using c:xtic(1) title columnheader
+plot for [c=2:5] '/work/scratch/frag-a033/blobs/stages.dat' using c:xtic(1) title columnheader
 
