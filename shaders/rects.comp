@@ -96,7 +96,8 @@ void main()
     ivec2 first = max(ivec2(ceil((rmin + 1.0) * 0.5 * image - 0.5)), ivec2(0));
     ivec2 last = min(ivec2(floor((rmax + 1.0) * 0.5 * image - 0.5)), ivec2(frame.image.xy) - 1);
     ivec2 span = max(last - first + 1, ivec2(0));
-    bool small = in_front && span.x * span.y <= LEAP_SMALL_BOX_PIXELS;
+    bool small = in_front && max(span.x, span.y) <= LEAP_SMALL_BOX_PIXELS && // the product cannot wrap
+                 span.x * span.y <= LEAP_SMALL_BOX_PIXELS;
     vec2 smin = max(rmin, vec2(-1.0)), smax = min(rmax, vec2(1.0));
     vec2 side = (smax - smin) * 0.5 * vec2(frame.image.xy);
     float size = max(side.x, side.y) + 0.25; // a quarter pixel for the point size's granularity
