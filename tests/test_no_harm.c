@@ -74,6 +74,13 @@ static void outputs_never_replace_inputs(void)
     copy_file(sphere, tf); /* the bytes only matter for the unchanged check */
     expect_clash("--stats = volume", vdb, ARGV("render", vdb, "-o", out_path("s.png"), "--stats", vdb));
     expect_clash("--stats = --tf file", tf, ARGV("render", vdb, "-o", out_path("s.png"), "--tf", tf, "--stats", tf));
+    const char *objects = in_path("objects.txt");
+    copy_file(sphere, objects);
+    expect_clash("--stats = --objects file", objects,
+                 ARGV("render", vdb, "-o", out_path("s.png"), "--objects", objects, "--stats", objects));
+    snprintf(text, sizeof text, "tfsave %s\n", tf);
+    write_text(script, text);
+    expect_clash("view script tfsave = --tf file", tf, ARGV("view", vdb, "--tf", tf, "--script", script));
 
     /* 3. Dump and bench folders holding an input under a name they write. */
     char dir[1200];

@@ -608,6 +608,24 @@ int main(void)
             out_text = strdup(session);
             renders_back(tmp, looks[k], expect, "objects with their own looks");
         }
+        /* A screenshot whose objects file would be the --objects file read: refused, the file
+         * kept (a user opening with the file an earlier screenshot wrote, then shooting again). */
+        char again[1200], before[4096];
+        snprintf(again, sizeof again, "%s/looks-a.objects.txt", tmp);
+        FILE *f = fopen(again, "rb");
+        const size_t n = f ? fread(before, 1, sizeof before - 1, f) : 0;
+        if (f) fclose(f);
+        before[n] = '\0';
+        snprintf(opts, sizeof opts, "--size 128x128 --objects %s", again);
+        rc = view_script(xvfb, tmp, "again", "hide 9870943406\nscreenshot @/looks-a.png\nquit\n", tubes, opts);
+        CHECK_MSG(rc == 1 && strstr(out_text, "its objects file") && strstr(out_text, "nothing written"),
+                  "screenshot onto its --objects file: exit %d: %s", rc, out_text);
+        char after[4096];
+        f = fopen(again, "rb");
+        const size_t m = f ? fread(after, 1, sizeof after - 1, f) : 0;
+        if (f) fclose(f);
+        after[m] = '\0';
+        CHECK_MSG(n > 0 && m == n && !strcmp(before, after), "the --objects file changed: '%s' -> '%s'", before, after);
     }
 
     /* Clipping planes given to leap view are in its line as --clip-plane. */

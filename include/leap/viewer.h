@@ -434,6 +434,11 @@ typedef struct leap_viewer_session_desc {
     const char *grid;         /* the grid the volume was opened with (NULL: the default) */
     const char *open_options; /* options that open the volume the same way (" --raw ..."), or NULL */
     const char *script_path;  /* names the script in messages (NULL: none) */
+    const char *const *inputs; /* files the session never writes (screenshots, their objects
+                                  files, saved transfer functions): the volume (a folder or
+                                  pattern of slices covers its slices), --tf, --objects, the
+                                  script; NULL entries are skipped */
+    int input_count;
     const char *device_name;  /* as leap_renderer_desc */
     uint32_t max_segments;    /* as leap_renderer_desc */
     uint64_t cache_bytes;     /* as leap_renderer_desc */

@@ -179,6 +179,13 @@ int cli_parse_pixel(const char *v, long long xy[2])
     return 1;
 }
 
+void cli_scene_inputs(const cli_camera_options *o, const char *inputs[CLI_SCENE_INPUTS])
+{
+    inputs[0] = o->input;
+    inputs[1] = o->scene.tf;
+    inputs[2] = o->scene.objects;
+}
+
 int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs, const char *const *outputs,
                       int n_outputs)
 {

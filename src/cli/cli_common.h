@@ -83,6 +83,10 @@ typedef struct cli_camera_options {
 /* Help text for the shared options. */
 extern const char *cli_camera_options_help;
 
+/* The files a verb given these options reads, which no output may replace: the volume, the
+ * --tf file and the --objects file (NULL where not given). */
+#define CLI_SCENE_INPUTS 3
+void cli_scene_inputs(const cli_camera_options *o, const char *inputs[CLI_SCENE_INPUTS]);
 void cli_camera_options_init(cli_camera_options *o);
 
 /* Tries to consume argv[*i] as a shared option or the input path. Returns 1 if consumed,

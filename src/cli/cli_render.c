@@ -417,9 +417,9 @@ int cli_render(int argc, char **argv)
     if (stats_to_stdout) stats = NULL;
     if (stats && leap_file_same(stats, output))
         return cli_usage_error("render", "--stats '%s' is the same file as the output image", stats);
-    const char *inputs[] = {o.input, o.scene.tf};
-    const char *outputs[] = {output, stats};
-    if ((rc = cli_check_outputs("render", inputs, 2, outputs, 2))) return rc;
+    const char *inputs[CLI_SCENE_INPUTS], *outputs[] = {output, stats};
+    cli_scene_inputs(&o, inputs);
+    if ((rc = cli_check_outputs("render", inputs, CLI_SCENE_INPUTS, outputs, 2))) return rc;
     if ((rc = cli_output_check(output, 0)) || (stats && strcmp(stats, "-") && (rc = cli_output_check(stats, 1))))
         return rc;
 

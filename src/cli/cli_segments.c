@@ -121,12 +121,13 @@ int cli_segments(int argc, char **argv)
         enum { MAX_FILES = 16 };
         const uint32_t files = leap_dump_dir_file_count();
         char paths[MAX_FILES][4096];
-        const char *outputs[MAX_FILES], *inputs[] = {o.view.input, o.view.scene.tf};
+        const char *outputs[MAX_FILES], *inputs[CLI_SCENE_INPUTS];
+        cli_scene_inputs(&o.view, inputs);
         for (uint32_t i = 0; i < files && i < MAX_FILES; ++i) {
             snprintf(paths[i], sizeof paths[i], "%s/%s", o.outdir, leap_dump_dir_file_name(i));
             outputs[i] = paths[i];
         }
-        if ((rc = cli_check_outputs("segments", inputs, 2, outputs, (int)(files < MAX_FILES ? files : MAX_FILES))))
+        if ((rc = cli_check_outputs("segments", inputs, CLI_SCENE_INPUTS, outputs, (int)(files < MAX_FILES ? files : MAX_FILES))))
             return rc;
     }
     rc = EXIT_RUNTIME;

@@ -41,9 +41,9 @@ int cli_turntable(const cli_camera_options *o, int frames, const char *pattern, 
     /* Every frame's name against every input, before any work. */
     for (int k = 0; k < frames; ++k) {
         frame_path(pattern, k, path, sizeof path);
-        const char *inputs[] = {o->input, o->scene.tf};
-        const char *out = path;
-        int rc = cli_check_outputs("render", inputs, 2, &out, 1);
+        const char *inputs[CLI_SCENE_INPUTS], *out = path;
+        cli_scene_inputs(o, inputs);
+        int rc = cli_check_outputs("render", inputs, CLI_SCENE_INPUTS, &out, 1);
         if (rc) return rc;
     }
     frame_path(pattern, 0, path, sizeof path);

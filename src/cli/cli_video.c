@@ -50,8 +50,9 @@ static void remove_frames(const char *dir)
 
 int cli_turntable_video(const cli_camera_options *o, int frames, const char *output, int quiet)
 {
-    const char *inputs[] = {o->input, o->scene.tf};
-    int rc = cli_check_outputs("render", inputs, 2, &output, 1);
+    const char *inputs[CLI_SCENE_INPUTS];
+    cli_scene_inputs(o, inputs);
+    int rc = cli_check_outputs("render", inputs, CLI_SCENE_INPUTS, &output, 1);
     if (rc) return rc;
     if (!on_path("ffmpeg"))
         return cli_runtime_error("%s: writing a video needs ffmpeg, which is not on PATH (Debian: apt-get install "

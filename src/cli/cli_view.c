@@ -48,6 +48,14 @@ typedef struct view_options {
 
 /* ---- option parsing --------------------------------------------------------------------- */
 
+/* The files the session reads, which it never writes: those of the scene and the script. */
+#define VIEW_INPUTS (CLI_SCENE_INPUTS + 1)
+static void view_inputs(const view_options *o, const char *inputs[VIEW_INPUTS])
+{
+    cli_scene_inputs(&o->view, inputs);
+    inputs[CLI_SCENE_INPUTS] = o->script;
+}
+
 static int parse_args(int argc, char **argv, view_options *o, int *done)
 {
     *done = 0;
@@ -117,8 +125,9 @@ static int parse_args(int argc, char **argv, view_options *o, int *done)
     if (rc) return rc;
     if (o->script && (o->frames || o->screenshot))
         return cli_usage_error("view", "--script cannot be combined with --frames or --screenshot");
-    const char *inputs[] = {o->view.input, o->view.scene.tf, o->script};
-    if (o->screenshot && (rc = cli_check_outputs("view", inputs, 3, &o->screenshot, 1))) return rc;
+    const char *inputs[VIEW_INPUTS];
+    view_inputs(o, inputs);
+    if (o->screenshot && (rc = cli_check_outputs("view", inputs, VIEW_INPUTS, &o->screenshot, 1))) return rc;
     if (o->screenshot && (rc = cli_output_check(o->screenshot, 0))) return rc;
     return 0;
 }
@@ -169,7 +178,7 @@ static void print_note(void *user, leap_viewer_note kind, const char *text)
 }
 
 /* Loads --script, or makes the script for --frames / --screenshot (none: interactive); the
- * screenshots a script asks for are outputs too, none may replace an input. */
+ * screenshots and transfer functions a script saves are outputs too, none may replace an input. */
 static int load_script(const view_options *o, leap_viewer_script *script)
 {
     leap_error err = {{0}};
@@ -177,11 +186,12 @@ static int load_script(const view_options *o, leap_viewer_script *script)
     if (o->script) r = leap_viewer_script_load(o->script, script, &err);
     else if (o->frames || o->screenshot) r = leap_viewer_script_frames(o->frames, o->screenshot, script, &err);
     if (r) return cli_runtime_error("%s", err.msg);
-    const char *inputs[] = {o->view.input, o->view.scene.tf, o->script};
+    const char *inputs[VIEW_INPUTS];
+    view_inputs(o, inputs);
     for (size_t i = 0; i < script->count; ++i)
-        if (script->cmds[i].op == LEAP_VIEWER_OP_SCREENSHOT) {
+        if (script->cmds[i].op == LEAP_VIEWER_OP_SCREENSHOT || script->cmds[i].op == LEAP_VIEWER_OP_TF_SAVE) {
             const char *shot = script->cmds[i].text;
-            int rc = cli_check_outputs("view", inputs, 3, &shot, 1);
+            int rc = cli_check_outputs("view", inputs, VIEW_INPUTS, &shot, 1);
             if (rc) return rc;
         }
     return 0;
@@ -210,8 +220,12 @@ static int run_session(const view_options *o, leap_scene *scene, const leap_view
     if (o->view.gpu_cache_bytes)
         snprintf(open_options + len, sizeof open_options - (size_t)len, " --gpu-cache %llu",
                  (unsigned long long)o->view.gpu_cache_bytes);
+    const char *inputs[VIEW_INPUTS];
+    view_inputs(o, inputs);
     leap_viewer_session_desc d = {
         .volume_path = o->view.input,
+        .inputs = inputs,
+        .input_count = VIEW_INPUTS,
         .open_options = open_options,
         .grid = o->view.scene.grid,
         .script_path = o->script,

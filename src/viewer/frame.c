@@ -611,10 +611,10 @@ static void objects_args(const leap_scene *scene, char *out, size_t size)
 }
 
 /* Segmentations whose objects do not all have their default looks (--objects FILE colours or
- * opacities, --label-opacity): the visible objects and their looks, written beside the
+ * opacities, --label-opacity) get the visible objects and their looks written beside a
  * screenshot (SHOT without its extension + ".objects.txt") for `--objects` of the render line,
- * since no --show or --hide list carries a look. Returns 1 and " --objects FILE" in `arg`. */
-static int objects_file(const leap_scene *scene, const char *shot, char *arg, size_t size)
+ * since no --show or --hide list carries a look. Returns 1 and that file's path when needed. */
+static int objects_file_path(const leap_scene *scene, const char *shot, char *path, size_t size)
 {
     const leap_labels *l = scene->labels;
     if (!l) return 0;
@@ -630,10 +630,20 @@ static int objects_file(const leap_scene *scene, const char *shot, char *arg, si
                   (rgba[3] > 0 && (float)rgba[3] != (float)LEAP_LABEL_OPACITY);
     }
     if (!changed) return 0;
-    char path[1100];
     const char *dot = strrchr(shot, '.'), *slash = strrchr(shot, '/');
     const int stem = dot && (!slash || dot > slash) ? (int)(dot - shot) : (int)strlen(shot);
-    snprintf(path, sizeof path, "%.*s.objects.txt", stem, shot);
+    snprintf(path, size, "%.*s.objects.txt", stem, shot);
+    return 1;
+}
+
+/* Writes that file; returns 1 and " --objects FILE" in `arg`. */
+static int objects_file(const leap_scene *scene, const char *shot, char *arg, size_t size)
+{
+    char path[1100];
+    if (!objects_file_path(scene, shot, path, sizeof path)) return 0;
+    const leap_labels *l = scene->labels;
+    const size_t n = leap_labels_count(l);
+    const leap_label_object *o = leap_labels_objects(l);
     size_t cap = 64 + n * 96, len = 0;
     char *text = malloc(cap);
     if (!text) return 0;
@@ -787,7 +797,11 @@ void *session_render_thread(void *arg)
                          "were loaded", shot_path);
             shot_failed = 1;
         } else if (shot_id) {
-            if (save_presented(s, shot_panel ? presented : shown_rgb, shot_path, &err)) {
+            char objects_path[1100]; /* the screenshot's objects file, written with it (not when quiet) */
+            const int objects = !s->desc.quiet && objects_file_path(s->scene, shot_path, objects_path, sizeof objects_path);
+            if (session_refuse_input(s, "file", shot_path, &err) ||
+                (objects && session_refuse_input(s, "its objects file", objects_path, &err)) ||
+                save_presented(s, shot_panel ? presented : shown_rgb, shot_path, &err)) {
                 session_note(s, LEAP_VIEWER_NOTE_STATUS, "screenshot: %s", err.msg);
                 shot_failed = 1;
             } else if (!s->desc.quiet) {

@@ -30,6 +30,7 @@ leap_result session_save_tf(leap_viewer_session *s, const char *path)
     leap_result r = s->v.labels ? leap_fail(&err, LEAP_ERR_USAGE, "a segmentation's objects have their own colours, "
                                             "not a transfer function (--objects FILE sets them)")
                                 : leap_viewer_tf(&s->v, &tf, &err);
+    if (!r) r = session_refuse_input(s, "file", path, &err);
     if (!r)
         r = leap_tf_save_json(&tf, (const double (*)[2])s->v.tf_points, s->v.tf_point_count, path, &err);
     if (r) {

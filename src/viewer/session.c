@@ -11,6 +11,8 @@
 #include <sys/stat.h>
 #include <time.h>
 
+#include "leap/files.h"
+#include "leap/input.h"
 #include "session.h"
 #include "util.h"
 
@@ -19,6 +21,19 @@ static char glfw_error_text[512];
 static void on_glfw_error(int code, const char *text)
 {
     snprintf(glfw_error_text, sizeof glfw_error_text, "%s (GLFW error 0x%x)", text ? text : "?", code);
+}
+
+leap_result session_refuse_input(const leap_viewer_session *s, const char *what, const char *path, leap_error *err)
+{
+    for (int i = 0; i < s->desc.input_count; ++i) {
+        const char *input = s->desc.inputs[i];
+        struct stat st;
+        const int same = input && stat(input, &st) == 0 && leap_file_same(path, input);
+        if (same || (input && leap_input_slices_hold(input, path)))
+            return leap_fail(err, LEAP_ERR_USAGE, "%s '%s' is %s '%s'; it would be overwritten (nothing written)",
+                             what, path, same ? "the input" : "a slice of the input", input);
+    }
+    return LEAP_OK;
 }
 
 void session_note(leap_viewer_session *s, leap_viewer_note kind, const char *fmt, ...)

@@ -162,6 +162,9 @@ uint64_t session_request_hover(leap_viewer_session *s, double x, double y);
 leap_result session_list_objects(leap_viewer_session *s, leap_error *err);
 /* A screenshot under the next free leap-view-NNN.png (key s, the panel's buttons). */
 void session_key_screenshot(leap_viewer_session *s, int with_panel);
+/* LEAP_ERR_USAGE when writing `path` (`what`, for the message) would replace one of the
+ * session's inputs (leap_viewer_session_desc.inputs); nothing is written then. */
+leap_result session_refuse_input(const leap_viewer_session *s, const char *what, const char *path, leap_error *err);
 /* Saves the transfer function as applied (script tfsave, the panel's button); a failure is
  * reported through the note callback and the panel. */
 leap_result session_save_tf(leap_viewer_session *s, const char *path);
