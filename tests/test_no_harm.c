@@ -102,9 +102,30 @@ static void outputs_never_replace_inputs(void)
     expect_clash("bench input = results.csv", csv, ARGV("bench", csv, "-o", dir, "--views", "1", "--no-reference"));
     expect_clash("bench input = second volume's plot", report,
                  ARGV("bench", sphere, report, "-o", dir, "--views", "1", "--no-reference"));
+    /* a plot name beyond this run's volumes: a bench removes an earlier run's plots */
+    char stale[1300];
+    snprintf(stale, sizeof stale, "%s/speed_error_7.png", dir);
+    copy_file(sphere, stale);
+    expect_clash("bench input = an earlier run's plot", stale,
+                 ARGV("bench", stale, "-o", dir, "--views", "1", "--no-reference"));
     char left[2048];
-    const char *const kept[] = {"segments.bin", "boxes.obj", "results.csv", "speed_error_1.svg", NULL};
+    const char *const kept[] = {"segments.bin", "boxes.obj", "results.csv", "speed_error_1.svg", "speed_error_7.png",
+                                NULL};
     CHECK_MSG(unexpected_entries(dir, kept, left, sizeof left) == 0, "dump folder left behind: %s", left);
+
+    /* A directory where the bench writes its report: refused before any frame, the previous
+     * results kept. */
+    char way[1300], way_csv[1400], way_report[1400];
+    snprintf(way, sizeof way, "%s/W", in_dir);
+    snprintf(way_csv, sizeof way_csv, "%s/results.csv", way);
+    snprintf(way_report, sizeof way_report, "%s/report.md", way);
+    mkdir(way, 0755);
+    mkdir(way_report, 0755);
+    copy_file(sphere, way_csv);
+    FAIL("bench: a directory named report.md", 1, "report.md", "in the way", "bench", sphere, "-o", way, "--views", "1",
+         "--no-reference");
+    CHECK_MSG(same_bytes(way_csv, sphere), "bench replaced results.csv before failing on report.md");
+    rmdir(way_report);
 
     /* The same output twice is still refused, and distinct names still render. */
     FAIL("--stats = -o", 2, "s.png", "same file", "render", sphere, "-o", out_path("s.png"), "--stats",

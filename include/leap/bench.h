@@ -80,8 +80,9 @@ leap_result leap_bench_load_config(leap_bench_desc *d, const char *path, leap_er
 /* Full path of vdb_render on PATH into out; 0 if it is not there. */
 int leap_bench_find_vdb_render(char *out, size_t n);
 
-/* Every file the bench writes into d->out; returns the count (at most max), each path
- * into paths[i]. */
+/* Every file the bench writes or removes in d->out (it removes the plots an earlier run left
+ * there, up to LEAP_BENCH_MAX_ITEMS volumes); returns the count (at most max), each path into
+ * paths[i]. */
 int leap_bench_output_paths(const leap_bench_desc *d, char (*paths)[4096], int max);
 
 /* Runs the bench: creates d->out (and its parents), writes results.csv (published whole

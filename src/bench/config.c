@@ -230,7 +230,7 @@ int leap_bench_output_paths(const leap_bench_desc *o, char (*paths)[4096], int m
     int n = 0;
     const char *fixed[] = {"results.csv", "report.md"};
     for (int i = 0; i < 2 && n < max; ++i) snprintf(paths[n++], sizeof paths[0], "%s/%s", o->out, fixed[i]);
-    for (int plot = -2; plot < o->nvolumes; ++plot)
+    for (int plot = -2; plot < MAX_ITEMS; ++plot) /* as remove_old_plots */
         for (int e = 0; e < BENCH_PLOT_FILES && n < max; ++e) bench_plot_file(o->out, plot, e, paths[n++]);
     return n;
 }

@@ -102,7 +102,9 @@ static int bench_error(leap_result r, const char *msg)
 }
 
 /* Every file the bench writes into o->out (results, report, plot data, plots) against
- * every input (volumes, transfer function, config): a clash is a usage error. */
+ * every input (volumes, transfer function, config): a clash is a usage error. A directory or
+ * device in one's place fails before any frame (it failed the write at the end, after
+ * results.csv had replaced the previous run's). */
 static int check_outputs(const leap_bench_desc *o, const char *config_path)
 {
     enum { MAX_OUT = 2 + 4 * (LEAP_BENCH_MAX_ITEMS + 2) };
@@ -114,7 +116,14 @@ static int check_outputs(const leap_bench_desc *o, const char *config_path)
     inputs[ni++] = o->tf;
     inputs[ni++] = o->objects;
     inputs[ni++] = config_path;
-    return cli_check_outputs("bench", inputs, ni, outputs, n);
+    int rc = cli_check_outputs("bench", inputs, ni, outputs, n);
+    for (int i = 0; i < n && !rc; ++i) {
+        struct stat st;
+        if (stat(outputs[i], &st) == 0 && !S_ISREG(st.st_mode))
+            rc = cli_runtime_error("%s: in the way of the bench's file of that name (%s); nothing was replaced",
+                                   outputs[i], S_ISDIR(st.st_mode) ? "a directory" : "not a regular file");
+    }
+    return rc;
 }
 
 /* Reads argv into o; returns 0, or the exit code after printing the error. -1: --help. */
