@@ -266,7 +266,7 @@ void leap_box_events(uvec2 pix, uint box_index)
         atomicOr(event_counts[leap_tile_word(pix / LEAP_PIXEL_TILE) + bit / 32u], 1u << (bit % 32u));
     }
     if (n + 2u > frame.lists.x) return;
-    uint slot = pixel * uint(LEAP_PIXEL_EVENTS) + n;
+    uint slot = pixel * frame.lists.x + n;
     event_t[slot] = t0;
     event_key[slot] = (b.info.x << 2) | b.info.z;
     event_t[slot + 1u] = t1;

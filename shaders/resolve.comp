@@ -41,7 +41,7 @@ uint resolve_pixel(uint pixel)
         ts[s] = 1.0 / 0.0;
         keys[s] = 0xffffffffu;
     }
-    uint base = pixel * uint(LEAP_PIXEL_EVENTS);
+    uint base = pixel * frame.lists.x;
     for (uint e = 0u; e < n; ++e) {
         float t = event_t[base + e];
         uint key = event_key[base + e];

@@ -35,9 +35,9 @@ typedef struct leap_uvec4 { uint32_t x, y, z, w; } leap_uvec4;
 #define LEAP_BINDING_BOXES 6      /* storage leap_box_gpu[] in view DFS order */
 #define LEAP_BINDING_EVENT_COUNTS 7 /* storage uint[] per pixel: events appended (may exceed the
                                        capacity); then the event mask (LEAP_PIXEL_TILE) */
-#define LEAP_BINDING_EVENT_T 8    /* storage float[] per pixel, LEAP_PIXEL_EVENTS each: event t */
-#define LEAP_BINDING_EVENT_KEY 9  /* storage uint[] per pixel, LEAP_PIXEL_EVENTS each: order << 2 | class after */
-#define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel max_segments (t0, t1) */
+#define LEAP_BINDING_EVENT_T 8    /* storage float[] per pixel, frame.lists.x each: event t */
+#define LEAP_BINDING_EVENT_KEY 9  /* storage uint[] per pixel, frame.lists.x each: order << 2 | class after */
+#define LEAP_BINDING_SEGMENTS 10  /* storage vec2[] : per pixel frame.lists.y (t0, t1) */
 #define LEAP_BINDING_PIXELS 11    /* storage uvec4[] per pixel: see LEAP_PIXEL_* */
 #define LEAP_BINDING_TREE 12      /* storage uint[]: occupancy tree, 8 words per node */
 #define LEAP_BINDING_OBJECTS 13   /* storage vec4[] per object of a label volume: display RGB and

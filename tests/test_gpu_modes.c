@@ -845,6 +845,35 @@ static void check_large_rectangles(leap_renderer *renderer)
     free(img);
 }
 
+/* An image whose lists at full capacity (16 events, 12 segments a pixel) exceed lavapipe's
+ * 128 MiB per-buffer limit (1.4 megapixels) holds fewer per pixel; more of its pixels overflow
+ * and walk the tree, and sparseleap still equals naive. */
+static void check_large_image(leap_renderer *renderer)
+{
+    enum { LW = 1800, LH = 1000 };
+    float *naive = malloc((size_t)LW * LH * 4 * sizeof(float)), *img = malloc((size_t)LW * LH * 4 * sizeof(float));
+    leap_error err = {{0}};
+    leap_scene *s = naive && img ? load_scene("blobs.vdb", NULL, "viridis", 0) : NULL;
+    if (s) {
+        CHECK_OK(leap_renderer_bind_scene(renderer, s, &err), &err);
+        leap_camera cam;
+        CHECK_OK(leap_camera_orbit(s->center, s->radius, 30, 20, 1.2, 40, 0, &cam, &err), &err);
+        leap_rays view;
+        CHECK_OK(leap_scene_rays(s, &cam, LW, LH, &view, &err), &err);
+        leap_frame_stats st;
+        CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_NAIVE, naive, NULL, NULL, NULL, &err), &err);
+        CHECK_OK(leap_renderer_render(renderer, &view, &s->march, LEAP_RENDER_SPARSELEAP, img, NULL, NULL, &st, &err),
+                 &err);
+        image_diff d = compare_rgba(img, naive, (size_t)LW * LH);
+        printf("large image: %dx%d, %u boxes, %u overflowed pixels, max abs %.2e\n", LW, LH, st.boxes,
+               st.overflow_pixels, d.max_abs);
+        CHECK_MSG(d.nonfinite == 0 && d.max_abs <= TOL, "large image: max abs %g vs naive", d.max_abs);
+        leap_scene_destroy(s);
+    }
+    free(naive);
+    free(img);
+}
+
 /* Local maxima of brightness (r + g + b, premultiplied) among the pixels with opacity above
  * 0.3: pixels brighter than every other pixel within 2 pixels. */
 static int bright_peaks(const float *rgba, int w, int h)
@@ -1038,6 +1067,7 @@ int main(void)
     check_cloud_structure(renderer);
     check_box_pixels(renderer);
     check_large_rectangles(renderer);
+    check_large_image(renderer);
     check_empty_slots(renderer, naive, img);
     check_tight_boxes(renderer, naive, img);
     leap_renderer_destroy(renderer);

@@ -396,7 +396,7 @@ void renderer_fill_frame(const leap_renderer *r, const leap_rays *view_in, const
     if (r->occupancy) leap_occupancy_nonempty_bounds(r->occupancy, lo, hi);
     f->bbox_min = v4(lo, 0);
     f->bbox_max = v4(hi, 0);
-    f->lists = (leap_uvec4){r->pixel_events, r->max_segments, box_count, 0};
+    f->lists = (leap_uvec4){r->frame_events, r->frame_segments, box_count, 0};
     f->tree_top = (leap_uvec4){r->tree_top[0], r->tree_top[1], r->tree_top[2], r->tree_top[3]};
     f->labels = (leap_uvec4){r->label_base, r->object_count, r->objects_hidden, 0};
     if (m->shade.on) shade_frame(&m->shade, view->index_to_world_linear, scale, f);

@@ -40,16 +40,20 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
 {
     size_t pixels = (size_t)view->width * view->height;
     const uint64_t limit = r->gpu->storage_buffer_range;
-    if ((uint64_t)pixels * 16 > limit || (uint64_t)pixels * r->max_segments * 8 > limit ||
-        (uint64_t)pixels * LEAP_PIXEL_EVENTS * 4 > limit)
+    if ((uint64_t)pixels * 16 > limit) /* out_rgba, out_aux, pixel_lists: 16 bytes a pixel */
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "image of %dx%d pixels exceeds the device's %llu MiB per-buffer limit (at most %u pixels)",
+                         "image of %dx%d pixels exceeds the device's %llu MiB per-buffer limit (at most %llu pixels)",
                          view->width, view->height, (unsigned long long)(limit >> 20),
-                         (unsigned)(limit / (8 * r->max_segments)));
+                         (unsigned long long)(limit / 16));
+    /* Lists per pixel that fit (at least 4 events and 2 segments, as 16 bytes a pixel do). */
+    const uint64_t events_fit = limit / ((uint64_t)pixels * 4) & ~(uint64_t)1, segments_fit = limit / ((uint64_t)pixels * 8);
+    const uint32_t events = events_fit < r->pixel_events ? (uint32_t)events_fit : r->pixel_events;
+    const uint32_t segments = segments_fit < r->max_segments ? (uint32_t)segments_fit : r->max_segments;
     if ((uint32_t)view->width > LEAP_RAYS_MAX_SIDE || (uint32_t)view->height > LEAP_RAYS_MAX_SIDE)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED, "image of %dx%d pixels: at most %u pixels per side", view->width,
                          view->height, LEAP_RAYS_MAX_SIDE);
-    if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width && r->fb_height == (uint32_t)view->height)
+    if (r->pixels_allocated >= pixels && r->fb_width == (uint32_t)view->width &&
+        r->fb_height == (uint32_t)view->height && r->frame_events == events && r->frame_segments == segments)
         return LEAP_OK;
     LEAP_VK_CHECK(vkDeviceWaitIdle(r->gpu->device));
     renderer_destroy_frame_buffers(r);
@@ -57,9 +61,11 @@ static leap_result ensure_frame_buffers(leap_renderer *r, const leap_rays *view,
     leap_result lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_rgba, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->out_aux, err);
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, event_count_bytes(view), usage, &r->event_counts, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_t, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * LEAP_PIXEL_EVENTS * 4, usage, &r->event_key, err);
-    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * r->max_segments * 8, usage, &r->segments, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * events * 4, usage, &r->event_t, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * events * 4, usage, &r->event_key, err);
+    if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * segments * 8, usage, &r->segments, err);
+    r->frame_events = events;
+    r->frame_segments = segments;
     if (!lr) lr = leap_gpu_buffer_create(r->gpu, pixels * 16, usage, &r->pixel_lists, err);
     r->lists_all_dirty = 1; /* list facts of new buffers: unknown */
     if (!lr && !(r->lists_mask = calloc(event_count_bytes(view) / 4 - pixels, sizeof *r->lists_mask)))

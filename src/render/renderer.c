@@ -547,9 +547,9 @@ uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_e
     if (!r->lists_valid || x < 0 || y < 0 || (uint32_t)x >= r->fb_width || (uint32_t)y >= r->fb_height) return 0;
     size_t pixel = (size_t)y * r->fb_width + x;
     const uint32_t total = ((const uint32_t *)r->event_counts.mapped)[pixel];
-    const float *t = (const float *)r->event_t.mapped + pixel * LEAP_PIXEL_EVENTS;
-    const uint32_t *key = (const uint32_t *)r->event_key.mapped + pixel * LEAP_PIXEL_EVENTS;
-    const uint32_t stored = total < r->pixel_events ? total : r->pixel_events;
+    const float *t = (const float *)r->event_t.mapped + pixel * r->frame_events;
+    const uint32_t *key = (const uint32_t *)r->event_key.mapped + pixel * r->frame_events;
+    const uint32_t stored = total < r->frame_events ? total : r->frame_events;
     for (uint32_t n = 0; n < stored && n < cap; ++n) out[n] = (leap_event){t[n], key[n] >> 2, key[n] & 3u};
     return stored;
 }
@@ -561,7 +561,7 @@ uint32_t leap_renderer_pixel_segments(const leap_renderer *r, int x, int y, leap
     if (!r->lists_valid || x < 0 || y < 0 || (uint32_t)x >= r->fb_width || (uint32_t)y >= r->fb_height) return 0;
     size_t pixel = (size_t)y * r->fb_width + x;
     const uint32_t *pl = (const uint32_t *)r->pixel_lists.mapped + 4 * pixel;
-    const float *seg = (const float *)r->segments.mapped + 2 * pixel * r->max_segments;
+    const float *seg = (const float *)r->segments.mapped + 2 * pixel * r->frame_segments;
     if (overflow) *overflow = (pl[0] & LEAP_PIXEL_OVERFLOW) != 0;
     uint32_t n = pl[0] & LEAP_PIXEL_COUNT_MASK;
     for (uint32_t i = 0; i < n && i < cap; ++i)

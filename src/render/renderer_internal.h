@@ -71,6 +71,10 @@ struct leap_renderer {
     leap_gpu *gpu;
     char driver[2 * VK_MAX_DRIVER_NAME_SIZE];
     uint32_t pixel_events, max_segments;
+    /* The frame buffers' lists per pixel: pixel_events and max_segments, fewer in an image whose
+     * lists would not fit the device's per-buffer limit (more of its pixels overflow and walk
+     * the tree: the same image). Strides of event_t, event_key and segments. */
+    uint32_t frame_events, frame_segments;
     VkDescriptorSetLayout set_layout;
     VkPipelineLayout pipeline_layout;
     int count_naive; /* leap_renderer_count_naive */
