@@ -799,6 +799,12 @@ int main(void)
     }
     snprintf(args, sizeof args, "render %s -o %s --size 8x8 -q --eye 0,10,0 --target 0,0,0", sphere, out);
     CHECK_MSG(run(args) == 0, "a top view of a Y-up volume: %s", out_text);
+    /* The bench's --eye/--target view likewise (it pointed at a --up it does not have). */
+    char bench_dir[1100];
+    snprintf(bench_dir, sizeof bench_dir, "%s/top-bench", tmp);
+    snprintf(args, sizeof args, "bench %s -o %s --eye 0,10,0 --target 0,0,0 --modes naive --sizes 8x8 --steps 1 "
+             "--no-reference", sphere, bench_dir);
+    CHECK_MSG(run(args) == 0, "bench, a top view of a Y-up volume: %s", out_text);
     snprintf(args, sizeof args, "info %s --raw 4x4x4:float32 --labels --objects", frac_path);
     CHECK_MSG(run(args) == 2 && strstr(out_text, "not an integer"), "%s", out_text);
     /* A file name that is not UTF-8 (byte 0xFF) comes out of JSON as U+FFFD, valid UTF-8

@@ -37,6 +37,11 @@ leap_result leap_camera_orbit_about(const double center[3], double radius, const
                                     double el_deg, double dist_radii, double fov_deg, int ortho,
                                     leap_camera *out, leap_error *err);
 
+/* A camera from eye to target that looks along `up` (straight down or up a volume's up axis)
+ * has no level horizon: up becomes the up of leap_camera_orbit_about's camera at that pole
+ * (elevation -90 or 90). Any other up is left as it is. */
+void leap_camera_up_off_view(const double eye[3], const double target[3], double up[3]);
+
 /* The frame leap_camera_orbit_about turns in: ey = up normalised, ex = the reference axis
  * made normal to it, ez = ex x ey (for up = +Y: the world axes). Returns 0 for a zero or
  * non-finite up. An eye direction d has elevation asin(d.ey) and azimuth atan2(d.ex, d.ez). */

@@ -237,7 +237,8 @@ static leap_result run_view(bench_state *b, leap_scene *s, int vi, int si, int v
         cam = (leap_camera){.fov_deg = 40};
         memcpy(cam.eye, o->eye, sizeof cam.eye);
         memcpy(cam.target, o->target, sizeof cam.target);
-        memcpy(cam.up, s->input.up, sizeof cam.up); /* as the orbit's */
+        memcpy(cam.up, s->input.up, sizeof cam.up); /* as the orbit's, or its pole's along the view */
+        leap_camera_up_off_view(cam.eye, cam.target, cam.up);
     } else if ((lr = leap_camera_orbit_about(s->center, s->radius, s->input.up, az, o->elevation, 0, 40, 0, &cam, err))) {
         return lr;
     }

@@ -353,22 +353,7 @@ int cli_camera_option(int argc, char **argv, int *i, const char *verb, cli_camer
  * by the test leap_rays_make refuses it with. */
 static void eye_up(const cli_camera_options *o, double up[3])
 {
-    if (o->has_up) return;
-    double d[3], c[3];
-    for (int a = 0; a < 3; ++a) d[a] = o->target[a] - o->eye[a];
-    const double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), ul = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
-    if (!(dl > 0)) return; /* eye == target: refused by the camera */
-    for (int a = 0; a < 3; ++a) d[a] /= dl;
-    c[0] = d[1] * up[2] - d[2] * up[1];
-    c[1] = d[2] * up[0] - d[0] * up[2];
-    c[2] = d[0] * up[1] - d[1] * up[0];
-    if (sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * ul) return;
-    const double along = d[0] * up[0] + d[1] * up[1] + d[2] * up[2]; /* < 0: looking down from above */
-    leap_camera pole;
-    leap_error ignore;
-    if (leap_camera_orbit_about(o->target, 1.0, up, 0.0, along < 0 ? 90.0 : -90.0, 1.0, 40.0, 0, &pole, &ignore) ==
-        LEAP_OK)
-        memcpy(up, pole.up, sizeof pole.up);
+    if (!o->has_up) leap_camera_up_off_view(o->eye, o->target, up);
 }
 
 int cli_camera_options_check(const char *verb, const cli_camera_options *o, int allow_reference)
