@@ -219,8 +219,9 @@ leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, 
                 "are rendered as a user gets them, without the statistics' naive count; one more frame per "
                 "configuration, untimed, gives the samples, events and segments. ",
             device, views, o->repeats, o->warmup);
-    fprintf(md, "Transfer function: %s%s%s. ", o->tf ? o->tf : "each volume's default (segmentations: object colours)",
-            o->objects ? "; objects: " : "", o->objects ? o->objects : "");
+    fprintf(md, "Transfer function: %s%s (segmentations: object colours)", o->tf ? o->tf : "each volume's default",
+            o->tf ? " for scalar volumes" : "");
+    fprintf(md, "%s%s. ", o->objects ? "; objects: " : "", o->objects ? o->objects : "");
     if (o->gpu_cache_bytes)
         fprintf(md, "The volume's bricks go through a GPU cache of %.1f MiB (--gpu-cache): a frame whose rays need "
                     "bricks it does not hold takes more passes. ", (double)o->gpu_cache_bytes / (1 << 20));
