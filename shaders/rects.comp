@@ -40,7 +40,8 @@ uint reserve(uint command, uint vertices, bool take)
 // The events of the subgroup's small boxes (`pixels` of them for this invocation's box, from
 // pixel `first`, `width` a row), the pixels dealt out over the lanes: a lane looping over its own
 // box's pixels kept its neighbours waiting for the largest box (lavapipe runs lanes in lock step).
-// Every lane must be active (the shuffles).
+// Every lane must be active (the shuffles): main() has no early return, and its work groups of 64
+// are whole subgroups on every device with subgroups of at most 64 lanes.
 void small_box_events(uint pixels, uvec2 first, uint width)
 {
     uint end = subgroupInclusiveAdd(pixels), total = subgroupAdd(pixels), start = end - pixels;
@@ -53,9 +54,9 @@ void small_box_events(uint pixels, uvec2 first, uint width)
         uint k = item - subgroupShuffle(start, owner), w = subgroupShuffle(width, owner);
         uvec2 at = uvec2(subgroupShuffle(first.x, owner), subgroupShuffle(first.y, owner));
         uint box = subgroupShuffle(gl_GlobalInvocationID.x, owner);
-        // Row and column without an integer division (lavapipe divides lane by lane).
-        uint row = uint(float(k) / float(max(w, 1u)));
-        row -= row * w > k ? 1u : 0u;
+        // Row and column without an integer division (lavapipe divides lane by lane): (k + 0.5) / w
+        // lies at least 0.5 / w from an integer, far more than a float division's error.
+        uint row = uint((float(k) + 0.5) / float(max(w, 1u)));
         if (item < total) leap_box_events(at + uvec2(k - row * w, row), box);
     }
 }

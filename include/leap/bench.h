@@ -84,6 +84,7 @@ int leap_bench_find_vdb_render(char *out, size_t n);
  * there, up to LEAP_BENCH_MAX_ITEMS volumes); returns the count (at most max), each path into
  * paths[i]. */
 int leap_bench_output_paths(const leap_bench_desc *d, char (*paths)[4096], int max);
+#define LEAP_BENCH_OUTPUT_PATHS (2 + 4 * (LEAP_BENCH_MAX_ITEMS + 2)) /* their count: 4 files a plot */
 
 /* Runs the bench: creates d->out (and its parents), writes results.csv (published whole
  * or not at all), report.md and the plots. Failures before the CSV is published leave no

@@ -65,6 +65,10 @@ int leap_input_is_slices(const char *path);
  * file by any name: an output there would overwrite the input. */
 int leap_input_slices_hold(const char *path, const char *file);
 
+/* Whether writing `output` would replace the input `input` (NULL: never): 1 when it is the
+ * input file itself by any name, 2 when it is one of the input's slices, else 0. */
+int leap_input_replaced_by(const char *input, const char *output);
+
 /* Opens `path` as a leap_vdb_file (options may be NULL; options->raw reads a raw file). Errors: LEAP_ERR_IO (missing,
  * unreadable), LEAP_ERR_FORMAT (not a supported format, truncated or inconsistent header;
  * the message names the file and the field), LEAP_ERR_UNSUPPORTED (a data type or shape leap

@@ -77,6 +77,9 @@ typedef struct leap_frame_stats {
     /* A frame with lists: the boxes the raster drew as points and as rectangles; the events of
      * the others in front of the eye, small on the screen, came from the rects pass. */
     uint32_t boxes_points, boxes_rectangles;
+    /* A frame with lists: the events and segments a pixel held (leap_renderer_desc's, fewer in
+     * an image too large for the device's buffers at those). */
+    uint32_t events_capacity, segments_capacity;
     double events_mean, segments_mean;
     uint32_t events_max, segments_max;
     uint32_t overflow_pixels;
@@ -151,8 +154,8 @@ leap_result leap_renderer_set_objects(leap_renderer *r, const leap_labels *label
 void leap_renderer_set_occupancy(leap_renderer *r, const leap_occupancy *occ, const leap_boxes *boxes);
 
 /* Stored segments per pixel from the next frame on (as leap_renderer_desc.max_segments; 0 =
- * maximum); returns the number in use. The images do not change: pixels with more walk the
- * occupancy tree. */
+ * maximum); returns the number set (a large image holds fewer: leap_frame_stats
+ * segments_capacity). The images do not change: pixels with more walk the occupancy tree. */
 uint32_t leap_renderer_set_max_segments(leap_renderer *r, uint32_t max_segments);
 
 /* Bytes of device memory held for the volume (atlas texture + page table). */
@@ -166,7 +169,7 @@ const uint32_t *leap_renderer_pixel_lists(const leap_renderer *r);
 /* The ray events the GPU recorded for pixel (x, y) in the last sparseleap frame, in list order
  * (unsorted): cls is the class after the event, order the box's entry or exit number in the
  * box order of that frame (leap_renderer_boxes). Writes at most cap; returns how many the
- * pixel's slots hold (at most the renderer's pixel_events: a pixel that was cast more is
+ * pixel's slots hold (at most the frame's events_capacity: a pixel that was cast more is
  * flagged as overflowed by leap_renderer_pixel_segments, and its extra events are lost). */
 uint32_t leap_renderer_pixel_events(const leap_renderer *r, int x, int y, leap_event *out, uint32_t cap);
 

@@ -225,12 +225,14 @@ void bench_plot_file(const char *out, int plot, int kind, char path[4096])
     else snprintf(path, 4096, "%s/speed_error_%d.%s", out, plot, ext[kind]);
 }
 
+_Static_assert(LEAP_BENCH_OUTPUT_PATHS == 2 + BENCH_PLOT_FILES * (MAX_ITEMS + 2), "leap_bench_output_paths' count");
+
 int leap_bench_output_paths(const leap_bench_desc *o, char (*paths)[4096], int max)
 {
     int n = 0;
     const char *fixed[] = {"results.csv", "report.md"};
     for (int i = 0; i < 2 && n < max; ++i) snprintf(paths[n++], sizeof paths[0], "%s/%s", o->out, fixed[i]);
-    for (int plot = -2; plot < MAX_ITEMS; ++plot) /* as remove_old_plots */
+    for (int plot = -2; plot < MAX_ITEMS; ++plot) /* every plot an earlier run may have left */
         for (int e = 0; e < BENCH_PLOT_FILES && n < max; ++e) bench_plot_file(o->out, plot, e, paths[n++]);
     return n;
 }

@@ -188,12 +188,9 @@ static int fastest_mode(const leap_bench_desc *o, const bench_row *rows, size_t 
  * run (more volumes, naive among the modes) beside them would not belong to results.csv. */
 static void remove_old_plots(const leap_bench_desc *o)
 {
-    char path[4096];
-    for (int plot = -2; plot < MAX_ITEMS; ++plot)
-        for (int kind = 0; kind < BENCH_PLOT_FILES; ++kind) {
-            bench_plot_file(o->out, plot, kind, path);
-            remove(path);
-        }
+    static char paths[LEAP_BENCH_OUTPUT_PATHS][4096];
+    const int n = leap_bench_output_paths(o, paths, LEAP_BENCH_OUTPUT_PATHS);
+    for (int i = 2; i < n; ++i) remove(paths[i]); /* after results.csv and report.md: the plots' files */
 }
 
 leap_result bench_write_report(const leap_bench_desc *o, const bench_row *rows, size_t nrows,

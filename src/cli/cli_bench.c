@@ -108,7 +108,7 @@ static int bench_error(leap_result r, const char *msg)
  * results.csv had replaced the previous run's). */
 static int check_outputs(const leap_bench_desc *o, const char *config_path)
 {
-    enum { MAX_OUT = 2 + 4 * (LEAP_BENCH_MAX_ITEMS + 2) };
+    enum { MAX_OUT = LEAP_BENCH_OUTPUT_PATHS };
     static char paths[MAX_OUT][4096];
     const char *outputs[MAX_OUT], *inputs[LEAP_BENCH_MAX_ITEMS + 3];
     int n = leap_bench_output_paths(o, paths, MAX_OUT), ni = 0;

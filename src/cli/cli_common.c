@@ -190,13 +190,12 @@ int cli_check_outputs(const char *verb, const char *const *inputs, int n_inputs,
                       int n_outputs)
 {
     for (int o = 0; o < n_outputs; ++o)
-        for (int i = 0; outputs[o] && i < n_inputs; ++i) {
-            struct stat st;
-            if (!inputs[i]) continue;
-            if (stat(inputs[i], &st) == 0 && leap_file_same(outputs[o], inputs[i]))
+        for (int i = 0; i < n_inputs; ++i) {
+            const int replaced = leap_input_replaced_by(inputs[i], outputs[o]);
+            if (replaced == 1)
                 return cli_usage_error(verb, "output '%s' is the input '%s' (the same file); it would be overwritten",
                                        outputs[o], inputs[i]);
-            if (leap_input_slices_hold(inputs[i], outputs[o])) /* a folder's or a pattern's */
+            if (replaced == 2) /* a folder's or a pattern's */
                 return cli_usage_error(verb, "output '%s' is a slice of the input '%s'; it would be overwritten",
                                        outputs[o], inputs[i]);
         }

@@ -268,6 +268,8 @@ static char *stats_json(const cli_camera_options *o, const leap_scene *s, const 
         cJSON_AddNumberToObject(l, "overflowed_pixels", fs->overflow_pixels);
         cJSON_AddNumberToObject(l, "boxes_drawn_as_points", fs->boxes_points);
         cJSON_AddNumberToObject(l, "boxes_drawn_as_rectangles", fs->boxes_rectangles);
+        cJSON_AddNumberToObject(l, "events_capacity", fs->events_capacity);
+        cJSON_AddNumberToObject(l, "segments_capacity", fs->segments_capacity);
     }
     cJSON *mem = cJSON_AddObjectToObject(root, "memory_bytes");
     cJSON_AddNumberToObject(mem, "gpu_volume", renderer ? (double)leap_renderer_volume_bytes(renderer) : 0);

@@ -187,6 +187,14 @@ int leap_input_slices_hold(const char *path, const char *file)
     return held;
 }
 
+int leap_input_replaced_by(const char *input, const char *output)
+{
+    struct stat st;
+    if (!input || !output) return 0;
+    if (stat(input, &st) == 0 && leap_file_same(output, input)) return 1;
+    return leap_input_slices_hold(input, output) ? 2 : 0;
+}
+
 leap_result leap__input_open_slices(const char *path, const leap_input_options *o, leap_vdb_file **out,
                                     leap_input_info *info, leap_error *err)
 {

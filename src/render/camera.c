@@ -32,28 +32,26 @@ static int finite3(const double a[3])
     return isfinite(a[0]) && isfinite(a[1]) && isfinite(a[2]);
 }
 
+/* A view along up has no horizon to level: up becomes the orbit camera's at that pole. */
+void leap_camera_up_off_view(const double eye[3], const double target[3], double up[3])
+{
+    const double d[3] = {target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]};
+    double c[3];
+    cross3(d, up, c);
+    if (!(norm3(d) > 0) || norm3(c) > 1e-9 * norm3(d) * norm3(up)) return; /* eye == target: refused by the camera */
+    leap_camera pole;
+    leap_error ignore;
+    const double el = dot3(d, up) < 0 ? 90.0 : -90.0; /* looking down from above: the upper pole */
+    if (leap_camera_orbit_about(target, 1.0, up, 0.0, el, 1.0, 40.0, 0, &pole, &ignore) == LEAP_OK)
+        memcpy(up, pole.up, sizeof pole.up);
+}
+
 /* Eye on a sphere around the centre. The up vector is the derivative of the eye direction
  * with respect to elevation, (-sin el sin az, cos el, -sin el cos az): for |el| < 90 it
  * lies in the plane of +Y and the view direction, so the camera is exactly the one that
  * "up = +Y" gives, and at the poles it turns continuously into -Z (el = 90, az = 0) or
  * the matching horizontal direction for other azimuths. It is always a unit vector
  * orthogonal to the view direction, so it is never parallel to it. */
-void leap_camera_up_off_view(const double eye[3], const double target[3], double up[3])
-{
-    double d[3];
-    for (int a = 0; a < 3; ++a) d[a] = target[a] - eye[a];
-    const double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), ul = sqrt(up[0] * up[0] + up[1] * up[1] + up[2] * up[2]);
-    if (!(dl > 0)) return; /* eye == target: refused by the camera */
-    for (int a = 0; a < 3; ++a) d[a] /= dl;
-    const double c[3] = {d[1] * up[2] - d[2] * up[1], d[2] * up[0] - d[0] * up[2], d[0] * up[1] - d[1] * up[0]};
-    if (sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > 1e-9 * ul) return;
-    const double along = d[0] * up[0] + d[1] * up[1] + d[2] * up[2]; /* < 0: looking down from above */
-    leap_camera pole;
-    leap_error ignore;
-    if (leap_camera_orbit_about(target, 1.0, up, 0.0, along < 0 ? 90.0 : -90.0, 1.0, 40.0, 0, &pole, &ignore) == LEAP_OK)
-        memcpy(up, pole.up, sizeof pole.up);
-}
-
 int leap_camera_orbit_frame(const double up[3], double ex[3], double ey[3], double ez[3])
 {
     if (!finite3(up)) return 0;

@@ -71,12 +71,13 @@ static leap_result pick_device(leap_gpu *gpu, const char *want, leap_error *err)
     VkPhysicalDeviceProperties2 props2 = {.sType = VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2,
                                           .pNext = &driver};
     vkGetPhysicalDeviceProperties2(gpu->physical, &props2);
-    /* the resolve pass lists rays with one atomic per subgroup (resolve.comp) */
-    const VkSubgroupFeatureFlags needed =
-        VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT | VK_SUBGROUP_FEATURE_BALLOT_BIT;
+    /* the resolve pass lists rays with one atomic per subgroup (resolve.comp); the rects pass deals
+     * small boxes' pixels out over the lanes (rects.comp) */
+    const VkSubgroupFeatureFlags needed = VK_SUBGROUP_FEATURE_BASIC_BIT | VK_SUBGROUP_FEATURE_ARITHMETIC_BIT |
+                                          VK_SUBGROUP_FEATURE_BALLOT_BIT | VK_SUBGROUP_FEATURE_SHUFFLE_BIT;
     if (!(subgroup.supportedStages & VK_SHADER_STAGE_COMPUTE_BIT) || (subgroup.supportedOperations & needed) != needed)
         return leap_fail(err, LEAP_ERR_UNSUPPORTED,
-                         "Vulkan: %s lacks subgroup basic, arithmetic and ballot operations in compute shaders; "
+                         "Vulkan: %s lacks subgroup basic, arithmetic, ballot and shuffle operations in compute shaders; "
                          "choose another device with LEAP_DEVICE",
                          gpu->props.deviceName);
     snprintf(gpu->driver_name, sizeof gpu->driver_name, "%s", driver.driverName);

@@ -274,7 +274,7 @@ static void record_lists(leap_renderer *r, const leap_rays *view, uint32_t box_c
     vkCmdSetViewport(cmd, 0, 1, &vp);
     vkCmdSetScissor(cmd, 0, 1, &sc);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->pipeline_layout, 0, 1, &r->set, 0, NULL);
-    if (box_count) { /* each box is drawn by one of the two, as rects.comp listed it */
+    if (box_count) { /* each box not small is drawn by one of the two, as rects.comp listed it */
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events[1]);
         vkCmdDrawIndirect(cmd, r->box_rects.buffer, 4 * LEAP_BOX_RECTS_POINTS, 1, 16);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, r->events[0]);
@@ -572,6 +572,8 @@ leap_result leap_renderer_render(leap_renderer *r, const leap_rays *view, const 
         const uint32_t *counts = r->box_rects.mapped;
         st.boxes_points = counts[LEAP_BOX_RECTS_POINTS];
         st.boxes_rectangles = counts[LEAP_BOX_RECTS_RECTS] / 6;
+        st.events_capacity = r->frame_events;
+        st.segments_capacity = r->frame_segments;
     }
     r->lists_valid = listed;
     r->drawn = drawn;

@@ -11,7 +11,6 @@
 #include <sys/stat.h>
 #include <time.h>
 
-#include "leap/files.h"
 #include "leap/input.h"
 #include "session.h"
 #include "util.h"
@@ -26,12 +25,10 @@ static void on_glfw_error(int code, const char *text)
 leap_result session_refuse_input(const leap_viewer_session *s, const char *what, const char *path, leap_error *err)
 {
     for (int i = 0; i < s->desc.input_count; ++i) {
-        const char *input = s->desc.inputs[i];
-        struct stat st;
-        const int same = input && stat(input, &st) == 0 && leap_file_same(path, input);
-        if (same || (input && leap_input_slices_hold(input, path)))
+        const int replaced = leap_input_replaced_by(s->desc.inputs[i], path);
+        if (replaced)
             return leap_fail(err, LEAP_ERR_USAGE, "%s '%s' is %s '%s'; it would be overwritten (nothing written)",
-                             what, path, same ? "the input" : "a slice of the input", input);
+                             what, path, replaced == 1 ? "the input" : "a slice of the input", s->desc.inputs[i]);
     }
     return LEAP_OK;
 }
