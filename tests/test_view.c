@@ -628,6 +628,19 @@ int main(void)
         CHECK_MSG(n > 0 && m == n && !strcmp(before, after), "the --objects file changed: '%s' -> '%s'", before, after);
     }
 
+    /* A volume whose path holds a space and a quote: the line quotes it for the shell, and
+     * renders back through one. */
+    {
+        char spaced[1200], quoted[1300], copy[2600];
+        snprintf(spaced, sizeof spaced, "%s/my vol's.vdb", tmp);
+        snprintf(quoted, sizeof quoted, "\"%s\"", spaced);
+        snprintf(copy, sizeof copy, "cp %s %s", vol, quoted);
+        CHECK(system(copy) == 0);
+        rc = view_script(xvfb, tmp, "spaced", "screenshot @/spaced.png\nquit\n", quoted, "--size 64x64");
+        CHECK_MSG(rc == 0, "spaced session: exit %d: %s", rc, out_text);
+        renders_back(tmp, "spaced", "vol'\\''s.vdb'", "a volume path with a space and a quote");
+    }
+
     /* Clipping planes given to leap view are in its line as --clip-plane. */
     rc = view_script(xvfb, tmp, "clipped", "screenshot @/clipped.png\nquit\n", vol, "--size 96x96 --clip 'x<0'");
     CHECK_MSG(rc == 0, "clipped session: exit %d: %s", rc, out_text);

@@ -1,7 +1,7 @@
 #include "util.h"
 
-#include <errno.h>
 #include <ctype.h>
+#include <errno.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -54,6 +54,26 @@ static size_t utf8_sequence(const unsigned char *s)
     for (size_t i = 2; i < n; ++i)
         if (s[i] < 0x80 || s[i] > 0xBF) return 0;
     return n;
+}
+
+const char *leap__shell_word(const char *s, char *buf, size_t cap)
+{
+    int plain = *s != '\0';
+    for (const char *p = s; *p && plain; ++p) plain = isalnum((unsigned char)*p) || strchr("_-./,:=+@%^", *p);
+    if (plain || cap < 3) return s;
+    size_t o = 0;
+    buf[o++] = '\'';
+    for (const char *p = s; *p && o + 5 < cap; ++p) {
+        if (*p == '\'') {
+            memcpy(buf + o, "'\\''", 4);
+            o += 4;
+        } else {
+            buf[o++] = *p;
+        }
+    }
+    buf[o++] = '\'';
+    buf[o] = '\0';
+    return buf;
 }
 
 const char *leap__utf8_text(const char *s, char *buf, size_t cap)

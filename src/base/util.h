@@ -37,6 +37,11 @@ void leap__run_jobs(void *(*fn)(void *), void *jobs, size_t job_bytes, size_t co
 /* The part of path after its last '/'. */
 const char *leap__base_name(const char *path);
 
+/* s as one word of a POSIX shell command line: s itself when it holds only letters, digits and
+ * _-./,:=+@%^, else in single quotes (a quote inside as '\''); "''" when empty. Cut to cap
+ * (a cut word is not quoted whole). Returns s or buf. */
+const char *leap__shell_word(const char *s, char *buf, size_t cap);
+
 /* s as valid UTF-8 for JSON (a file name may hold any bytes): each byte that does not belong to
  * a well-formed sequence becomes U+FFFD; cut to cap. Returns buf. */
 const char *leap__utf8_text(const char *s, char *buf, size_t cap);

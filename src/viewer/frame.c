@@ -659,7 +659,8 @@ static int objects_file(const leap_scene *scene, const char *shot, char *arg, si
     const leap_result r = leap_file_publish_text(path, text, &err);
     free(text);
     if (r) return 0;
-    snprintf(arg, size, "%s --objects %s", scene->info->labels ? "" : " --labels", path);
+    char word[1200];
+    snprintf(arg, size, "%s --objects %s", scene->info->labels ? "" : " --labels", leap__shell_word(path, word, sizeof word));
     return 1;
 }
 
@@ -674,9 +675,12 @@ static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char 
                            : st->show_heat                 ? " (overlay: heat map)"
                                                            : "";
     const char *grid = s->desc.grid;
+    char volume[1200], grid_word[600]; /* the line is pasted into a shell */
     session_note(s, LEAP_VIEWER_NOTE_RESULT, "wrote %s%s; same frame: leap render %s%s%s%s --size %ux%u %s%s%s", path,
-                 overlays, s->desc.volume_path, s->desc.open_options ? s->desc.open_options : "", grid ? " --grid " : "",
-                 grid ? grid : "", (unsigned)s->width, (unsigned)s->height, args, objects,
+                 overlays, leap__shell_word(s->desc.volume_path, volume, sizeof volume),
+                 s->desc.open_options ? s->desc.open_options : "", grid ? " --grid " : "",
+                 grid ? leap__shell_word(grid, grid_word, sizeof grid_word) : "", (unsigned)s->width, (unsigned)s->height,
+                 args, objects,
                  !st->labels && !leap_viewer_tf_arg(st) ? " (with the edited opacity curve: save it with tfsave or the panel, then give "
                                       "that file to --tf)" : "");
 }

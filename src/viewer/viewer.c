@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "leap/tf.h"
+#include "util.h"
 
 #define DEG2RAD (3.14159265358979323846 / 180.0)
 #define RAD2DEG (180.0 / 3.14159265358979323846)
@@ -595,7 +596,10 @@ int leap_viewer_render_args(const leap_viewer *v, char *buf, size_t size)
     }
     char look[640] = ""; /* a segmentation's objects have their own colours: no TF, no range */
     const char *tf = leap_viewer_tf_arg(v);
-    if (!v->labels) snprintf(look, sizeof look, " --tf %s --range %.17g,%.17g", tf ? tf : v->tf, v->range[0], v->range[1]);
+    char tf_word[1200];
+    if (!v->labels)
+        snprintf(look, sizeof look, " --tf %s --range %.17g,%.17g", leap__shell_word(tf ? tf : v->tf, tf_word, sizeof tf_word),
+                 v->range[0], v->range[1]);
     return snprintf(buf, size,
                     "--mode %s%s --step %.17g --eye %.17g,%.17g,%.17g "
                     "--target %.17g,%.17g,%.17g --up %.17g,%.17g,%.17g --fov %.17g%s%s%s",
