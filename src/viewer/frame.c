@@ -636,11 +636,9 @@ static int objects_file_path(const leap_scene *scene, const char *shot, char *pa
     return 1;
 }
 
-/* Writes that file; returns 1 and " --objects FILE" in `arg`. */
-static int objects_file(const leap_scene *scene, const char *shot, char *arg, size_t size)
+/* Writes that file at `path` for screenshot `shot`; returns 1 and " --objects FILE" in `arg`. */
+static int objects_file(const leap_scene *scene, const char *shot, const char *path, char *arg, size_t size)
 {
-    char path[1100];
-    if (!objects_file_path(scene, shot, path, sizeof path)) return 0;
     const leap_labels *l = scene->labels;
     const size_t n = leap_labels_count(l);
     const leap_label_object *o = leap_labels_objects(l);
@@ -664,12 +662,14 @@ static int objects_file(const leap_scene *scene, const char *shot, char *arg, si
     return 1;
 }
 
-/* Reports a screenshot written, with the `leap render` line that reproduces it. */
-static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char *path)
+/* Reports a screenshot written, with the `leap render` line that reproduces it; objects_path: where
+ * its objects file goes (objects_file_path), or NULL. */
+static void note_shot(leap_viewer_session *s, const leap_viewer *st, const char *path, const char *objects_path)
 {
     char args[1024], objects[1200];
     leap_viewer_render_args(st, args, sizeof args);
-    if (!objects_file(s->scene, path, objects, sizeof objects)) objects_args(s->scene, objects, sizeof objects);
+    if (!objects_path || !objects_file(s->scene, path, objects_path, objects, sizeof objects))
+        objects_args(s->scene, objects, sizeof objects);
     const char *overlays = st->show_boxes && st->show_heat ? " (overlays: boxes, heat map)"
                            : st->show_boxes                ? " (overlay: boxes)"
                            : st->show_heat                 ? " (overlay: heat map)"
@@ -809,7 +809,7 @@ void *session_render_thread(void *arg)
                 session_note(s, LEAP_VIEWER_NOTE_STATUS, "screenshot: %s", err.msg);
                 shot_failed = 1;
             } else if (!s->desc.quiet) {
-                note_shot(s, &st, shot_path);
+                note_shot(s, &st, shot_path, objects ? objects_path : NULL);
             }
         }
         char title[1024], blank_why[sizeof s->pub.blank];
